@@ -1,0 +1,40 @@
+//! # pgm-datasets
+//!
+//! Everything between raw laser data and the models: scan pairs with ground truth
+//! ([`pair`]), the real-log readers ([`carmen`] for CARMEN logs, [`relations`] for
+//! Kümmerle-style relation files, [`leigh`] for the leigh-gtm1 text logs), the
+//! builders that turn logs into pairs with ground truth ([`builders`]), the on-disk
+//! pair format ([`format`], specified in `datasets/FORMAT.md`), the evaluation
+//! metrics of both papers ([`metrics`]) and the shared-data lookup for real-data
+//! tests ([`testdata`]). The simulator lives in its own module (see the workspace
+//! README for the current state).
+//!
+//! ```no_run
+//! use pgm_datasets::{builders, carmen, relations};
+//!
+//! # fn main() -> pgm_datasets::Result<()> {
+//! let log = carmen::read_carmen("mit-csail.clf")?;
+//! let rels = relations::read_relations("mit-csail.relations")?;
+//! let built = builders::relation_pairs(&log, &rels, &Default::default());
+//! pgm_datasets::write_pairs("out/mit-csail", &built.pairs)?;
+//! let again = pgm_datasets::read_pairs("out/mit-csail")?;
+//! assert_eq!(again.len(), built.pairs.len());
+//! # Ok(())
+//! # }
+//! ```
+
+pub mod builders;
+pub mod carmen;
+pub mod error;
+pub mod format;
+pub mod leigh;
+pub mod metrics;
+pub mod pair;
+pub mod relations;
+pub mod testdata;
+mod text;
+pub mod sim;
+
+pub use error::{Error, Result};
+pub use format::{read_pairs, write_pairs};
+pub use pair::{Association, ClusterMotion, GroundTruth, PairViolation, ScanPair};

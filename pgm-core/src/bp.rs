@@ -1,0 +1,680 @@
+//! The loopy belief-propagation engine, in log space, for max-product and sum-product.
+//!
+//! Messages are factor-to-variable log-vectors, normalised after every update (maximum
+//! 0 for max-product, log-sum-exp 0 for sum-product). Variable-to-factor messages are
+//! computed on demand as leave-one-out sums, so −∞ entries (hard zeros) never meet a
+//! subtraction and never produce NaN. Damping mixes the new and the old message in log
+//! space, `(1 − λ) new + λ old`; the convergence test uses the *undamped* change
+//! `|new − old|`, the fixed-point residual, so a heavily damped run is not declared
+//! converged merely because each step moves little.
+//!
+//! ```
+//! use pgm_core::{BeliefPropagation, FactorGraph, Mode, PottsFactor, Sequential, TableFactor, VariableId};
+//! let mut g = FactorGraph::with_variables(&[2, 2, 2]).unwrap();
+//! g.add_factor(TableFactor::new(vec![VariableId(0)], vec![2], vec![0.0, 2.0]).unwrap()).unwrap();
+//! g.add_factor(PottsFactor::new(VariableId(0), VariableId(1), 2, 1.0, 0.0).unwrap()).unwrap();
+//! g.add_factor(PottsFactor::new(VariableId(1), VariableId(2), 2, 1.0, 0.0).unwrap()).unwrap();
+//! let result = BeliefPropagation::new(Mode::MaxProduct).run(&g, &mut Sequential::default()).unwrap();
+//! assert_eq!(result.assignment, vec![1, 1, 1]);
+//! assert!(result.converged);
+//! ```
+
+use crate::error::{Error, Result};
+use crate::factor::{Incoming, Mode};
+use crate::graph::{EdgeId, FactorGraph, FactorId, VariableId};
+use crate::hook::{Potentials, UpdateHook};
+use crate::logspace::{self, Normalisation};
+use crate::schedule::{MessagePasser, Schedule, Visit};
+use rayon::prelude::*;
+use std::time::{Duration, Instant};
+
+/// Factor-to-variable messages of one graph, normalised; the state of a run, returned
+/// in its result and accepted back for a warm start.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Messages {
+    values: Vec<f64>,
+    num_edges: usize,
+}
+
+impl Messages {
+    /// Uniform messages for a graph.
+    pub fn uniform(graph: &FactorGraph, mode: Mode) -> Self {
+        let mut values = vec![0.0; graph.message_len()];
+        if mode == Mode::SumProduct {
+            for e in 0..graph.num_edges() {
+                let r = graph.message_range(EdgeId(e));
+                let u = -(r.len() as f64).ln();
+                values[r].iter_mut().for_each(|x| *x = u);
+            }
+        }
+        Self {
+            values,
+            num_edges: graph.num_edges(),
+        }
+    }
+
+    fn check_layout(&self, graph: &FactorGraph) -> Result<()> {
+        if self.values.len() != graph.message_len() || self.num_edges != graph.num_edges() {
+            return Err(Error::InvalidParameter {
+                name: "warm-start messages",
+                value: format!("{} edges, {} entries", self.num_edges, self.values.len()),
+                expected: "messages from a graph with the same structure",
+            });
+        }
+        Ok(())
+    }
+
+    /// The message of edge `e` (factor to variable).
+    pub fn message(&self, graph: &FactorGraph, e: EdgeId) -> &[f64] {
+        &self.values[graph.message_range(e)]
+    }
+
+    /// The unnormalised log-belief of a variable: the sum of its incoming messages.
+    pub fn log_belief(&self, graph: &FactorGraph, v: VariableId) -> Vec<f64> {
+        let mut b = vec![0.0; graph.cardinality(v)];
+        for &e in graph.variable_edges(v) {
+            for (x, m) in b.iter_mut().zip(self.message(graph, e)) {
+                *x += m;
+            }
+        }
+        b
+    }
+
+    /// The belief of a variable as probabilities summing to one (uniform when its
+    /// incoming messages contradict each other).
+    pub fn belief(&self, graph: &FactorGraph, v: VariableId) -> Vec<f64> {
+        logspace::to_probabilities(&self.log_belief(graph, v))
+    }
+
+    /// The state with the largest belief (lowest index among ties).
+    pub fn argmax(&self, graph: &FactorGraph, v: VariableId) -> usize {
+        first_argmax(&self.log_belief(graph, v))
+    }
+
+    /// The raw buffer (for advanced users and tests).
+    pub fn as_slice(&self) -> &[f64] {
+        &self.values
+    }
+}
+
+/// The outcome of a run.
+#[derive(Clone, Debug)]
+pub struct BpResult {
+    /// The semiring used.
+    pub mode: Mode,
+    /// MAP assignment (max-product, decoded consistently: see [`decode_map`]) or the
+    /// assignment of most probable states (sum-product).
+    pub assignment: Vec<usize>,
+    /// Log-score of `assignment` (sum of log-potentials).
+    pub log_score: f64,
+    /// Normalised beliefs (probabilities) per variable: marginals (sum-product) or
+    /// max-marginals rescaled to sum to one (max-product).
+    pub beliefs: Vec<Vec<f64>>,
+    /// Iterations performed.
+    pub iterations: usize,
+    /// True when the last iteration's residual was within tolerance (and the hook, if
+    /// any, reported its state stable).
+    pub converged: bool,
+    /// The last iteration's fixed-point residual (largest undamped message change).
+    pub residual: f64,
+    /// True when the run stopped because its time budget was spent.
+    pub out_of_time: bool,
+    /// Number of message updates whose every entry was −∞ (contradictory evidence);
+    /// such messages are replaced by uniform ones.
+    pub contradictions: usize,
+    /// The final messages, for a warm start.
+    pub messages: Messages,
+}
+
+/// Loopy belief propagation with a pluggable [`Schedule`].
+#[derive(Clone, Debug)]
+pub struct BeliefPropagation {
+    mode: Mode,
+    damping: f64,
+    tolerance: f64,
+    max_iterations: usize,
+    time_budget: Option<Duration>,
+}
+
+impl BeliefPropagation {
+    /// Defaults: no damping, tolerance 1e-9, at most 100 iterations, no time budget.
+    pub fn new(mode: Mode) -> Self {
+        Self {
+            mode,
+            damping: 0.0,
+            tolerance: 1e-9,
+            max_iterations: 100,
+            time_budget: None,
+        }
+    }
+
+    /// Damping λ in [0, 1): messages become `(1 − λ) new + λ old` (in log space).
+    pub fn damping(mut self, damping: f64) -> Self {
+        self.damping = damping;
+        self
+    }
+
+    /// Convergence tolerance on the largest undamped message change (≥ 0).
+    pub fn tolerance(mut self, tolerance: f64) -> Self {
+        self.tolerance = tolerance;
+        self
+    }
+
+    /// Maximum number of iterations (≥ 1).
+    pub fn max_iterations(mut self, n: usize) -> Self {
+        self.max_iterations = n;
+        self
+    }
+
+    /// Stop after the iteration during which this much wall-clock time was spent.
+    pub fn time_budget(mut self, budget: Duration) -> Self {
+        self.time_budget = Some(budget);
+        self
+    }
+
+    /// The semiring.
+    pub fn mode(&self) -> Mode {
+        self.mode
+    }
+
+    fn check(&self) -> Result<()> {
+        if !(0.0..1.0).contains(&self.damping) {
+            return Err(Error::InvalidParameter {
+                name: "damping",
+                value: self.damping.to_string(),
+                expected: "a number in [0, 1)",
+            });
+        }
+        if !(self.tolerance >= 0.0) {
+            return Err(Error::InvalidParameter {
+                name: "tolerance",
+                value: self.tolerance.to_string(),
+                expected: "a number >= 0",
+            });
+        }
+        if self.max_iterations == 0 {
+            return Err(Error::InvalidParameter {
+                name: "max_iterations",
+                value: "0".into(),
+                expected: "at least 1",
+            });
+        }
+        Ok(())
+    }
+
+    /// Runs from uniform messages.
+    pub fn run<S: Schedule + ?Sized>(&self, graph: &FactorGraph, schedule: &mut S) -> Result<BpResult> {
+        self.run_from(graph, schedule, Messages::uniform(graph, self.mode))
+    }
+
+    /// Runs from the given messages (a warm start, e.g. `previous.messages`).
+    pub fn run_from<S: Schedule + ?Sized>(
+        &self,
+        graph: &FactorGraph,
+        schedule: &mut S,
+        messages: Messages,
+    ) -> Result<BpResult> {
+        self.drive(GraphRef::Shared(graph), None, schedule, messages)
+    }
+
+    /// Runs with a hook called between updates (see [`UpdateHook`]); `start` gives a
+    /// warm start. The hook may refresh potentials, so the graph is borrowed mutably.
+    pub fn run_with_hook<S: Schedule + ?Sized>(
+        &self,
+        graph: &mut FactorGraph,
+        schedule: &mut S,
+        hook: &mut dyn UpdateHook,
+        start: Option<Messages>,
+    ) -> Result<BpResult> {
+        let messages = match start {
+            Some(m) => m,
+            None => Messages::uniform(graph, self.mode),
+        };
+        self.drive(GraphRef::Exclusive(graph), Some(hook), schedule, messages)
+    }
+
+    fn drive<S: Schedule + ?Sized>(
+        &self,
+        graph: GraphRef<'_>,
+        hook: Option<&mut dyn UpdateHook>,
+        schedule: &mut S,
+        messages: Messages,
+    ) -> Result<BpResult> {
+        self.check()?;
+        messages.check_layout(graph.get())?;
+        schedule.prepare(graph.get())?;
+        let start = Instant::now();
+        let mut passer = Passer {
+            graph,
+            hook,
+            state: PassState {
+                mode: self.mode,
+                normalisation: match self.mode {
+                    Mode::MaxProduct => Normalisation::Max,
+                    Mode::SumProduct => Normalisation::Sum,
+                },
+                damping: self.damping,
+                messages,
+                candidates: Vec::new(),
+                flood_buffer: Vec::new(),
+                scratch: Scratch::default(),
+                residual: 0.0,
+                contradictions: 0,
+            },
+            tolerance: self.tolerance,
+            deadline: self.time_budget.map(|b| start + b),
+        };
+        let mut iterations = 0;
+        let mut converged = false;
+        let mut residual = f64::INFINITY;
+        let mut out_of_time = false;
+        while iterations < self.max_iterations {
+            passer.state.residual = 0.0;
+            let reported = schedule.iteration(&mut passer);
+            iterations += 1;
+            residual = reported.unwrap_or(passer.state.residual);
+            let hook_stable = passer.after_iteration(iterations);
+            if residual <= self.tolerance && hook_stable {
+                converged = true;
+                break;
+            }
+            if passer.out_of_time() {
+                out_of_time = true;
+                break;
+            }
+        }
+        let Passer { graph, state, .. } = passer;
+        let graph = graph.get();
+        let messages = state.messages;
+        let assignment = match self.mode {
+            Mode::MaxProduct => decode_map(graph, &messages),
+            Mode::SumProduct => (0..graph.num_variables())
+                .map(|v| messages.argmax(graph, VariableId(v)))
+                .collect(),
+        };
+        let beliefs = (0..graph.num_variables())
+            .map(|v| messages.belief(graph, VariableId(v)))
+            .collect();
+        Ok(BpResult {
+            mode: self.mode,
+            log_score: graph.log_score_unchecked(&assignment),
+            assignment,
+            beliefs,
+            iterations,
+            converged,
+            residual,
+            out_of_time,
+            contradictions: state.contradictions,
+            messages,
+        })
+    }
+}
+
+enum GraphRef<'a> {
+    Shared(&'a FactorGraph),
+    Exclusive(&'a mut FactorGraph),
+}
+
+impl GraphRef<'_> {
+    fn get(&self) -> &FactorGraph {
+        match self {
+            GraphRef::Shared(g) => g,
+            GraphRef::Exclusive(g) => g,
+        }
+    }
+}
+
+/// Per-run buffers for gathering incoming messages of one factor.
+#[derive(Default)]
+struct Scratch {
+    incoming: Vec<f64>,
+    offsets: Vec<usize>,
+    out: Vec<f64>,
+}
+
+struct PassState {
+    mode: Mode,
+    normalisation: Normalisation,
+    damping: f64,
+    messages: Messages,
+    candidates: Vec<f64>,
+    flood_buffer: Vec<f64>,
+    scratch: Scratch,
+    /// Largest undamped change of a message committed in this iteration.
+    residual: f64,
+    contradictions: usize,
+}
+
+struct Passer<'g, 'h> {
+    graph: GraphRef<'g>,
+    hook: Option<&'h mut dyn UpdateHook>,
+    state: PassState,
+    tolerance: f64,
+    deadline: Option<Instant>,
+}
+
+impl Passer<'_, '_> {
+    fn before(&mut self, visit: Visit) {
+        if let (Some(hook), GraphRef::Exclusive(g)) = (self.hook.as_deref_mut(), &mut self.graph) {
+            hook.before_visit(visit, &mut Potentials::new(g), &self.state.messages);
+        }
+    }
+
+    fn after(&mut self, visit: Visit) {
+        if let (Some(hook), GraphRef::Exclusive(g)) = (self.hook.as_deref_mut(), &mut self.graph) {
+            hook.after_visit(visit, &mut Potentials::new(g), &self.state.messages);
+        }
+    }
+
+    fn after_iteration(&mut self, iteration: usize) -> bool {
+        if let (Some(hook), GraphRef::Exclusive(g)) = (self.hook.as_deref_mut(), &mut self.graph) {
+            hook.after_iteration(iteration, &mut Potentials::new(g), &self.state.messages)
+        } else {
+            true
+        }
+    }
+}
+
+/// Fills `scratch.incoming` with the variable-to-factor messages into factor `a`, for
+/// every scope position except `skip`: `q_{j→a} = Σ_{b ∋ j, b ≠ a} r_{b→j}`.
+fn gather(graph: &FactorGraph, messages: &[f64], a: FactorId, skip: Option<usize>, scratch: &mut Scratch) {
+    let edges = graph.factor_edges(a);
+    scratch.offsets.clear();
+    scratch.offsets.push(0);
+    let mut total = 0;
+    for e in edges.clone() {
+        total += graph.cardinality(graph.edge_variable(EdgeId(e)));
+        scratch.offsets.push(total);
+    }
+    scratch.incoming.clear();
+    scratch.incoming.resize(total, 0.0);
+    for (slot, e) in edges.enumerate() {
+        if Some(slot) == skip {
+            continue;
+        }
+        let dst = &mut scratch.incoming[scratch.offsets[slot]..scratch.offsets[slot + 1]];
+        let v = graph.edge_variable(EdgeId(e));
+        for &other in graph.variable_edges(v) {
+            if other.0 == e {
+                continue;
+            }
+            let src = &messages[graph.message_range(other)];
+            for (d, s) in dst.iter_mut().zip(src) {
+                *d += s;
+            }
+        }
+    }
+}
+
+/// Computes the normalised message of scope position `slot` of factor `a` into
+/// `scratch.out`, assuming `gather` was called. Returns false on a contradiction.
+fn compute(graph: &FactorGraph, a: FactorId, slot: usize, mode: Mode, how: Normalisation, scratch: &mut Scratch) -> bool {
+    let factor = graph.factor(a);
+    let k = factor.shape()[slot];
+    scratch.out.clear();
+    scratch.out.resize(k, 0.0);
+    let incoming = Incoming::new(&scratch.incoming, &scratch.offsets);
+    factor.message(slot, &incoming, mode, &mut scratch.out);
+    logspace::normalise(&mut scratch.out, how)
+}
+
+/// Writes `new` over `old` with damping; returns the undamped change.
+fn commit(old: &mut [f64], new: &[f64], damping: f64, how: Normalisation) -> f64 {
+    let residual = logspace::distance(new, old);
+    if damping == 0.0 {
+        old.copy_from_slice(new);
+    } else {
+        for (o, &n) in old.iter_mut().zip(new) {
+            *o = if o.is_finite() && n.is_finite() {
+                (1.0 - damping) * n + damping * *o
+            } else {
+                n
+            };
+        }
+        logspace::normalise(old, how);
+    }
+    residual
+}
+
+impl PassState {
+    /// Updates the messages of factor `a` to every scope position except `except`.
+    fn update_factor_except(&mut self, graph: &FactorGraph, a: FactorId, except: Option<usize>) {
+        let skip = match (except, graph.factor(a).scope().len()) {
+            // A single-target update only needs the other positions' messages.
+            (_, 1) => Some(0),
+            _ => None,
+        };
+        gather(graph, &self.messages.values, a, skip, &mut self.scratch);
+        for (slot, e) in graph.factor_edges(a).enumerate() {
+            if Some(slot) == except {
+                continue;
+            }
+            if !compute(graph, a, slot, self.mode, self.normalisation, &mut self.scratch) {
+                self.contradictions += 1;
+            }
+            let range = graph.message_range(EdgeId(e));
+            let r = commit(&mut self.messages.values[range], &self.scratch.out, self.damping, self.normalisation);
+            self.residual = self.residual.max(r);
+        }
+    }
+
+    fn update_edge(&mut self, graph: &FactorGraph, e: EdgeId) {
+        let a = graph.edge_factor(e);
+        let slot = graph.edge_slot(e);
+        gather(graph, &self.messages.values, a, Some(slot), &mut self.scratch);
+        if !compute(graph, a, slot, self.mode, self.normalisation, &mut self.scratch) {
+            self.contradictions += 1;
+        }
+        let range = graph.message_range(e);
+        let r = commit(&mut self.messages.values[range], &self.scratch.out, self.damping, self.normalisation);
+        self.residual = self.residual.max(r);
+    }
+
+    fn visit_variable(&mut self, graph: &FactorGraph, v: VariableId) {
+        for i in 0..graph.variable_edges(v).len() {
+            let e = graph.variable_edges(v)[i];
+            let a = graph.edge_factor(e);
+            if graph.factor(a).scope().len() == 1 {
+                self.update_factor_except(graph, a, None);
+            } else {
+                self.update_factor_except(graph, a, Some(graph.edge_slot(e)));
+            }
+        }
+    }
+
+    fn compute_candidate(&mut self, graph: &FactorGraph, e: EdgeId) -> f64 {
+        if self.candidates.len() != self.messages.values.len() {
+            self.candidates = self.messages.values.clone();
+        }
+        let a = graph.edge_factor(e);
+        let slot = graph.edge_slot(e);
+        gather(graph, &self.messages.values, a, Some(slot), &mut self.scratch);
+        if !compute(graph, a, slot, self.mode, self.normalisation, &mut self.scratch) {
+            self.contradictions += 1;
+        }
+        let range = graph.message_range(e);
+        self.candidates[range.clone()].copy_from_slice(&self.scratch.out);
+        logspace::distance(&self.scratch.out, &self.messages.values[range])
+    }
+
+    fn commit_candidate(&mut self, graph: &FactorGraph, e: EdgeId) {
+        if self.candidates.len() != self.messages.values.len() {
+            return;
+        }
+        let range = graph.message_range(e);
+        let r = commit(
+            &mut self.messages.values[range.clone()],
+            &self.candidates[range],
+            self.damping,
+            self.normalisation,
+        );
+        self.residual = self.residual.max(r);
+    }
+
+    fn flood(&mut self, graph: &FactorGraph) {
+        let len = self.messages.values.len();
+        let mut next = std::mem::take(&mut self.flood_buffer);
+        next.resize(len, 0.0);
+        // Chunks of consecutive factors own consecutive message ranges.
+        let num_factors = graph.num_factors();
+        let per_chunk = (num_factors / (8 * rayon::current_num_threads().max(1))).clamp(64, 4096);
+        let mut chunks: Vec<(std::ops::Range<usize>, &mut [f64])> = Vec::new();
+        let mut rest: &mut [f64] = &mut next;
+        let mut start_factor = 0;
+        while start_factor < num_factors {
+            let end_factor = (start_factor + per_chunk).min(num_factors);
+            let begin = graph.factor_message_range(FactorId(start_factor)).start;
+            let end = graph.factor_message_range(FactorId(end_factor - 1)).end;
+            let (head, tail) = std::mem::take(&mut rest).split_at_mut(end - begin);
+            chunks.push((start_factor..end_factor, head));
+            rest = tail;
+            start_factor = end_factor;
+        }
+        let old = &self.messages.values;
+        let (mode, how, damping) = (self.mode, self.normalisation, self.damping);
+        let (residual, contradictions) = chunks
+            .into_par_iter()
+            .map(|(factors, out)| {
+                let mut scratch = Scratch::default();
+                let base = graph.factor_message_range(FactorId(factors.start)).start;
+                let mut residual = 0.0f64;
+                let mut contradictions = 0usize;
+                for a in factors {
+                    let a = FactorId(a);
+                    gather(graph, old, a, None, &mut scratch);
+                    for (slot, e) in graph.factor_edges(a).enumerate() {
+                        if !compute(graph, a, slot, mode, how, &mut scratch) {
+                            contradictions += 1;
+                        }
+                        let range = graph.message_range(EdgeId(e));
+                        let dst = &mut out[range.start - base..range.end - base];
+                        dst.copy_from_slice(&old[range]);
+                        residual = residual.max(commit(dst, &scratch.out, damping, how));
+                    }
+                }
+                (residual, contradictions)
+            })
+            .reduce(|| (0.0, 0), |x, y| (x.0.max(y.0), x.1 + y.1));
+        self.residual = self.residual.max(residual);
+        self.contradictions += contradictions;
+        self.flood_buffer = std::mem::replace(&mut self.messages.values, next);
+    }
+}
+
+impl MessagePasser for Passer<'_, '_> {
+    fn graph(&self) -> &FactorGraph {
+        self.graph.get()
+    }
+
+    fn visit_variable(&mut self, v: VariableId) {
+        self.before(Visit::Variable(v));
+        self.state.visit_variable(self.graph.get(), v);
+        self.after(Visit::Variable(v));
+    }
+
+    fn update_factor(&mut self, a: FactorId) {
+        self.before(Visit::Factor(a));
+        self.state.update_factor_except(self.graph.get(), a, None);
+        self.after(Visit::Factor(a));
+    }
+
+    fn update_edge(&mut self, e: EdgeId) {
+        self.before(Visit::Edge(e));
+        self.state.update_edge(self.graph.get(), e);
+        self.after(Visit::Edge(e));
+    }
+
+    fn flood(&mut self) {
+        self.before(Visit::Flood);
+        self.state.flood(self.graph.get());
+        self.after(Visit::Flood);
+    }
+
+    fn compute_candidate(&mut self, e: EdgeId) -> f64 {
+        self.state.compute_candidate(self.graph.get(), e)
+    }
+
+    fn commit_candidate(&mut self, e: EdgeId) {
+        self.before(Visit::Edge(e));
+        self.state.commit_candidate(self.graph.get(), e);
+        self.after(Visit::Edge(e));
+    }
+
+    fn out_of_time(&self) -> bool {
+        self.deadline.is_some_and(|d| Instant::now() >= d)
+    }
+
+    fn tolerance(&self) -> f64 {
+        self.tolerance
+    }
+}
+
+/// Index of the first maximum (lowest index among ties); 0 for an empty or all-NaN slice.
+pub fn first_argmax(v: &[f64]) -> usize {
+    let mut best = 0;
+    for (i, &x) in v.iter().enumerate() {
+        if x > v[best] {
+            best = i;
+        }
+    }
+    best
+}
+
+/// Decodes a MAP assignment from max-product messages consistently.
+///
+/// Variables are fixed one at a time in breadth-first order ([`FactorGraph::bfs_order`]);
+/// each takes the first maximiser of its max-marginal *conditioned on the variables
+/// already fixed*: a factor with no fixed neighbour contributes its current message, a
+/// factor whose other variables are all fixed contributes its log-potential at their
+/// states, and a partially fixed factor recomputes its message with the fixed
+/// variables' incoming messages replaced by indicators. On a tree at convergence this
+/// returns an exact MAP assignment even when several exist (independent per-variable
+/// argmaxes can mix two different optima); ties go to the lowest state index.
+pub fn decode_map(graph: &FactorGraph, messages: &Messages) -> Vec<usize> {
+    let n = graph.num_variables();
+    let mut assigned: Vec<Option<usize>> = vec![None; n];
+    let mut scratch = Scratch::default();
+    let mut states = Vec::new();
+    for v in graph.bfs_order() {
+        let k = graph.cardinality(v);
+        let mut score = vec![0.0; k];
+        for &e in graph.variable_edges(v) {
+            let a = graph.edge_factor(e);
+            let factor = graph.factor(a);
+            let slot = graph.edge_slot(e);
+            let scope = factor.scope();
+            let fixed = scope
+                .iter()
+                .enumerate()
+                .filter(|&(j, u)| j != slot && assigned[u.0].is_some())
+                .count();
+            if fixed == 0 {
+                for (s, m) in score.iter_mut().zip(messages.message(graph, e)) {
+                    *s += m;
+                }
+            } else if fixed == scope.len() - 1 {
+                states.clear();
+                states.extend(scope.iter().map(|u| assigned[u.0].unwrap_or(0)));
+                for (x, s) in score.iter_mut().enumerate() {
+                    states[slot] = x;
+                    *s += factor.log_potential(&states);
+                }
+            } else {
+                gather(graph, &messages.values, a, Some(slot), &mut scratch);
+                for (j, u) in scope.iter().enumerate() {
+                    if let (true, Some(x)) = (j != slot, assigned[u.0]) {
+                        let dst = &mut scratch.incoming[scratch.offsets[j]..scratch.offsets[j + 1]];
+                        dst.iter_mut().for_each(|d| *d = f64::NEG_INFINITY);
+                        dst[x] = 0.0;
+                    }
+                }
+                compute(graph, a, slot, Mode::MaxProduct, Normalisation::Max, &mut scratch);
+                for (s, m) in score.iter_mut().zip(&scratch.out) {
+                    *s += m;
+                }
+            }
+        }
+        assigned[v.0] = Some(first_argmax(&score));
+    }
+    assigned.into_iter().map(|x| x.unwrap_or(0)).collect()
+}

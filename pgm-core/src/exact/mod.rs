@@ -1,0 +1,24 @@
+//! Exact references: brute-force enumeration for small graphs, Viterbi and
+//! forward-backward on chains, and two-pass elimination on trees. They share no code
+//! with the loopy engine, so tests can hold the engine to them.
+
+mod brute_force;
+mod chain;
+mod tree;
+
+pub use brute_force::{brute_force, BruteForceLimit};
+pub use chain::{chain_order, forward_backward, viterbi};
+pub use tree::{tree_map, tree_marginals};
+
+/// An exact answer.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ExactSolution {
+    /// A MAP assignment (the first in enumeration order among ties for brute force).
+    pub map: Vec<usize>,
+    /// Its log-score.
+    pub map_log_score: f64,
+    /// Natural log of the partition function.
+    pub log_partition: f64,
+    /// Marginal probabilities per variable.
+    pub marginals: Vec<Vec<f64>>,
+}

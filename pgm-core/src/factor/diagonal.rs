@@ -1,0 +1,216 @@
+//! Pairwise factors that are a constant plus a bonus on one "diagonal": the Potts
+//! factor (equal states) and the shifted-identity factor of association chains
+//! (state `j` of the first variable favours state `j + shift` of the second).
+//!
+//! Both send a message in O(K): with `q` the incoming message of the other variable,
+//! the message to state `y` combines `q[partner(y)] + on` with
+//! `off + agg_{x ≠ partner(y)} q[x]`, where the leave-one-out aggregate comes from the
+//! top two entries (max-product) or prefix/suffix log-sum-exp (sum-product), so no
+//! subtraction of large numbers ever happens and −∞ entries stay exact.
+
+use super::{check_log_values, Factor, Incoming, Mode};
+use crate::error::{Error, Result};
+use crate::graph::VariableId;
+use crate::logspace::log_add_exp;
+
+/// Potts factor over two variables with `k` states each: log-potential `same` when the
+/// states are equal, `different` otherwise. Either may be −∞.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PottsFactor {
+    scope: [VariableId; 2],
+    shape: [usize; 2],
+    same: f64,
+    different: f64,
+}
+
+impl PottsFactor {
+    /// A Potts factor between `a` and `b`, both with `k` states.
+    pub fn new(a: VariableId, b: VariableId, k: usize, same: f64, different: f64) -> Result<Self> {
+        check_log_values(&[same, different])?;
+        if k == 0 {
+            return Err(Error::ZeroCardinality { variable: a.0 });
+        }
+        Ok(Self {
+            scope: [a, b],
+            shape: [k, k],
+            same,
+            different,
+        })
+    }
+
+    /// Log-potential for equal states.
+    pub fn same(&self) -> f64 {
+        self.same
+    }
+
+    /// Log-potential for different states.
+    pub fn different(&self) -> f64 {
+        self.different
+    }
+}
+
+impl Factor for PottsFactor {
+    fn scope(&self) -> &[VariableId] {
+        &self.scope
+    }
+
+    fn shape(&self) -> &[usize] {
+        &self.shape
+    }
+
+    fn log_potential(&self, s: &[usize]) -> f64 {
+        if s[0] == s[1] {
+            self.same
+        } else {
+            self.different
+        }
+    }
+
+    fn message(&self, target: usize, incoming: &Incoming<'_>, mode: Mode, out: &mut [f64]) {
+        let q = incoming.slot(1 - target);
+        diagonal_message(q, out, 0, self.same, self.different, mode);
+    }
+
+    fn kind(&self) -> &'static str {
+        "potts"
+    }
+
+    fn as_any_mut(&mut self) -> Option<&mut dyn std::any::Any> {
+        Some(self)
+    }
+}
+
+/// Shifted-identity factor between `first` (`k_first` states) and `second`
+/// (`k_second` states): log-potential `on` when `second = first + shift`, `off`
+/// otherwise. With `shift = 1` it is the association-chain factor of scan matching:
+/// point `i` matched to point `j` of the other scan makes point `i + 1` likely to
+/// match `j + 1`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ShiftedIdentityFactor {
+    scope: [VariableId; 2],
+    shape: [usize; 2],
+    shift: isize,
+    on: f64,
+    off: f64,
+}
+
+impl ShiftedIdentityFactor {
+    /// A shifted-identity factor; `on`/`off` may be −∞.
+    pub fn new(
+        first: VariableId,
+        second: VariableId,
+        k_first: usize,
+        k_second: usize,
+        shift: isize,
+        on: f64,
+        off: f64,
+    ) -> Result<Self> {
+        check_log_values(&[on, off])?;
+        if k_first == 0 {
+            return Err(Error::ZeroCardinality { variable: first.0 });
+        }
+        if k_second == 0 {
+            return Err(Error::ZeroCardinality { variable: second.0 });
+        }
+        Ok(Self {
+            scope: [first, second],
+            shape: [k_first, k_second],
+            shift,
+            on,
+            off,
+        })
+    }
+
+    /// The shift between the favoured states.
+    pub fn shift(&self) -> isize {
+        self.shift
+    }
+}
+
+impl Factor for ShiftedIdentityFactor {
+    fn scope(&self) -> &[VariableId] {
+        &self.scope
+    }
+
+    fn shape(&self) -> &[usize] {
+        &self.shape
+    }
+
+    fn log_potential(&self, s: &[usize]) -> f64 {
+        if s[1] as isize == s[0] as isize + self.shift {
+            self.on
+        } else {
+            self.off
+        }
+    }
+
+    fn message(&self, target: usize, incoming: &Incoming<'_>, mode: Mode, out: &mut [f64]) {
+        let q = incoming.slot(1 - target);
+        // Message to `second`: partner of y is y - shift; to `first`: partner of x is x + shift.
+        let offset = if target == 1 { -self.shift } else { self.shift };
+        diagonal_message(q, out, offset, self.on, self.off, mode);
+    }
+
+    fn kind(&self) -> &'static str {
+        "shifted-identity"
+    }
+
+    fn as_any_mut(&mut self) -> Option<&mut dyn std::any::Any> {
+        Some(self)
+    }
+}
+
+/// `out[y] = agg(q[y + offset] + on, off + agg_{x ≠ y + offset} q[x])`, with the first
+/// term absent when `y + offset` is out of range.
+pub(crate) fn diagonal_message(q: &[f64], out: &mut [f64], offset: isize, on: f64, off: f64, mode: Mode) {
+    let n = q.len();
+    let partner = |y: usize| -> Option<usize> {
+        let p = y as isize + offset;
+        (p >= 0 && (p as usize) < n).then_some(p as usize)
+    };
+    match mode {
+        Mode::MaxProduct => {
+            // Top two entries give max over x ≠ p for any p.
+            let (mut best, mut best_at, mut second) = (f64::NEG_INFINITY, usize::MAX, f64::NEG_INFINITY);
+            for (x, &v) in q.iter().enumerate() {
+                if v > best || best_at == usize::MAX {
+                    second = best;
+                    best = v;
+                    best_at = x;
+                } else if v > second {
+                    second = v;
+                }
+            }
+            for (y, o) in out.iter_mut().enumerate() {
+                *o = match partner(y) {
+                    Some(p) => {
+                        let rest = if p == best_at { second } else { best };
+                        (q[p] + on).max(off + rest)
+                    }
+                    None => off + best,
+                };
+            }
+        }
+        Mode::SumProduct => {
+            // prefix[x] = lse(q[..x]), suffix[x] = lse(q[x..]).
+            let mut prefix = vec![f64::NEG_INFINITY; n + 1];
+            for x in 0..n {
+                prefix[x + 1] = log_add_exp(prefix[x], q[x]);
+            }
+            let mut suffix = vec![f64::NEG_INFINITY; n + 1];
+            for x in (0..n).rev() {
+                suffix[x] = log_add_exp(suffix[x + 1], q[x]);
+            }
+            let all = prefix[n];
+            for (y, o) in out.iter_mut().enumerate() {
+                *o = match partner(y) {
+                    Some(p) => {
+                        let rest = log_add_exp(prefix[p], suffix[p + 1]);
+                        log_add_exp(q[p] + on, off + rest)
+                    }
+                    None => off + all,
+                };
+            }
+        }
+    }
+}

@@ -1,0 +1,235 @@
+//! Dense log-table factors of any arity.
+
+use super::{check_log_values, Factor, Incoming, LogSumAcc, Mode};
+use crate::error::{Error, Result};
+use crate::graph::VariableId;
+
+/// A factor given by its full log-table, row-major (last scope position fastest, the
+/// UAI order). Messages of unary and pairwise tables use contiguous inner loops; higher
+/// arities use a strided walk over the table.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TableFactor {
+    scope: Vec<VariableId>,
+    shape: Vec<usize>,
+    strides: Vec<usize>,
+    log_table: Vec<f64>,
+}
+
+impl TableFactor {
+    /// A table factor; checks the table size and that entries are finite or −∞.
+    pub fn new(scope: Vec<VariableId>, shape: Vec<usize>, log_table: Vec<f64>) -> Result<Self> {
+        if scope.len() != shape.len() {
+            return Err(Error::InvalidParameter {
+                name: "table factor shape",
+                value: format!("{} scope entries, {} shape entries", scope.len(), shape.len()),
+                expected: "one shape entry per scope variable",
+            });
+        }
+        if let Some(p) = shape.iter().position(|&k| k == 0) {
+            return Err(Error::ZeroCardinality { variable: scope[p].0 });
+        }
+        let expected: usize = shape.iter().product();
+        if expected != log_table.len() {
+            return Err(Error::TableSize {
+                expected,
+                actual: log_table.len(),
+            });
+        }
+        check_log_values(&log_table)?;
+        let mut strides = vec![1usize; shape.len()];
+        for j in (0..shape.len().saturating_sub(1)).rev() {
+            strides[j] = strides[j + 1] * shape[j + 1];
+        }
+        Ok(Self {
+            scope,
+            shape,
+            strides,
+            log_table,
+        })
+    }
+
+    /// A table from potentials (not logs): zeros become −∞; negative or NaN entries are errors.
+    pub fn from_potentials(scope: Vec<VariableId>, shape: Vec<usize>, potentials: &[f64]) -> Result<Self> {
+        let mut logs = Vec::with_capacity(potentials.len());
+        for (index, &p) in potentials.iter().enumerate() {
+            if !(p >= 0.0) || p == f64::INFINITY {
+                return Err(Error::BadLogPotential { index, value: p });
+            }
+            logs.push(p.ln());
+        }
+        Self::new(scope, shape, logs)
+    }
+
+    /// The log-table, row-major.
+    pub fn table(&self) -> &[f64] {
+        &self.log_table
+    }
+
+    /// Mutable access to the log-table for refreshing potentials in place. The caller
+    /// must keep entries finite or −∞ ([`TableFactor::set_table`] checks this).
+    pub fn table_mut(&mut self) -> &mut [f64] {
+        &mut self.log_table
+    }
+
+    /// Replaces the log-table (same size), checking its entries.
+    pub fn set_table(&mut self, log_table: Vec<f64>) -> Result<()> {
+        if log_table.len() != self.log_table.len() {
+            return Err(Error::TableSize {
+                expected: self.log_table.len(),
+                actual: log_table.len(),
+            });
+        }
+        check_log_values(&log_table)?;
+        self.log_table = log_table;
+        Ok(())
+    }
+
+    /// Row-major index of a joint state.
+    #[inline]
+    pub fn index(&self, states: &[usize]) -> usize {
+        states.iter().zip(&self.strides).map(|(s, st)| s * st).sum()
+    }
+}
+
+impl Factor for TableFactor {
+    fn scope(&self) -> &[VariableId] {
+        &self.scope
+    }
+
+    fn shape(&self) -> &[usize] {
+        &self.shape
+    }
+
+    #[inline]
+    fn log_potential(&self, states: &[usize]) -> f64 {
+        self.log_table[self.index(states)]
+    }
+
+    fn log_table(&self) -> Vec<f64> {
+        self.log_table.clone()
+    }
+
+    fn kind(&self) -> &'static str {
+        "table"
+    }
+
+    fn as_any_mut(&mut self) -> Option<&mut dyn std::any::Any> {
+        Some(self)
+    }
+
+    fn message(&self, target: usize, incoming: &Incoming<'_>, mode: Mode, out: &mut [f64]) {
+        match self.shape.len() {
+            1 => out.copy_from_slice(&self.log_table),
+            2 => pairwise_message(&self.log_table, self.shape[0], self.shape[1], target, incoming, mode, out),
+            _ => strided_message(self, target, incoming, mode, out),
+        }
+    }
+}
+
+/// Messages of a dense pairwise table `t[a * k1 + b]`.
+fn pairwise_message(
+    t: &[f64],
+    k0: usize,
+    k1: usize,
+    target: usize,
+    incoming: &Incoming<'_>,
+    mode: Mode,
+    out: &mut [f64],
+) {
+    if target == 1 {
+        // out[b] = agg_a (q0[a] + t[a, b]); row-wise accumulation keeps the inner loop contiguous.
+        let q0 = incoming.slot(0);
+        out.iter_mut().for_each(|x| *x = f64::NEG_INFINITY);
+        for a in 0..k0 {
+            let qa = q0[a];
+            if qa == f64::NEG_INFINITY {
+                continue;
+            }
+            let row = &t[a * k1..(a + 1) * k1];
+            for (o, &v) in out.iter_mut().zip(row) {
+                let s = qa + v;
+                *o = if s > *o { s } else { *o };
+            }
+        }
+        if mode == Mode::SumProduct {
+            // Second pass: Σ_a exp(q0[a] + t[a, b] − max_b), exact for −∞ entries.
+            let maxes: Vec<f64> = out.to_vec();
+            let mut sums = vec![0.0f64; k1];
+            for a in 0..k0 {
+                let qa = q0[a];
+                if qa == f64::NEG_INFINITY {
+                    continue;
+                }
+                let row = &t[a * k1..(a + 1) * k1];
+                for b in 0..k1 {
+                    let m = maxes[b];
+                    if m != f64::NEG_INFINITY {
+                        sums[b] += (qa + row[b] - m).exp();
+                    }
+                }
+            }
+            for b in 0..k1 {
+                if maxes[b] != f64::NEG_INFINITY {
+                    out[b] = maxes[b] + sums[b].ln();
+                }
+            }
+        }
+    } else {
+        // out[a] = agg_b (t[a, b] + q1[b]).
+        let q1 = incoming.slot(1);
+        for (a, o) in out.iter_mut().enumerate().take(k0) {
+            let row = &t[a * k1..(a + 1) * k1];
+            let mut m = f64::NEG_INFINITY;
+            for (&v, &q) in row.iter().zip(q1) {
+                let s = v + q;
+                m = if s > m { s } else { m };
+            }
+            if mode == Mode::SumProduct && m != f64::NEG_INFINITY {
+                let mut sum = 0.0;
+                for (&v, &q) in row.iter().zip(q1) {
+                    sum += (v + q - m).exp();
+                }
+                m += sum.ln();
+            }
+            *o = m;
+        }
+    }
+}
+
+/// Messages of tables of arity three and more: one walk over the table.
+fn strided_message(f: &TableFactor, target: usize, incoming: &Incoming<'_>, mode: Mode, out: &mut [f64]) {
+    let arity = f.shape.len();
+    let mut states = vec![0usize; arity];
+    // Partial sums of incoming messages are recomputed only for changed positions.
+    let mut incoming_sum = 0.0;
+    let others: Vec<usize> = (0..arity).filter(|&j| j != target).collect();
+    let recompute = |states: &[usize]| -> f64 {
+        others.iter().map(|&j| incoming.slot(j)[states[j]]).sum()
+    };
+    incoming_sum += recompute(&states);
+    match mode {
+        Mode::MaxProduct => {
+            out.iter_mut().for_each(|x| *x = f64::NEG_INFINITY);
+            for &v in &f.log_table {
+                let s = v + incoming_sum;
+                let o = &mut out[states[target]];
+                if s > *o {
+                    *o = s;
+                }
+                super::increment(&mut states, &f.shape);
+                incoming_sum = recompute(&states);
+            }
+        }
+        Mode::SumProduct => {
+            let mut acc = vec![LogSumAcc::EMPTY; out.len()];
+            for &v in &f.log_table {
+                acc[states[target]].add(v + incoming_sum);
+                super::increment(&mut states, &f.shape);
+                incoming_sum = recompute(&states);
+            }
+            for (o, a) in out.iter_mut().zip(&acc) {
+                *o = a.value();
+            }
+        }
+    }
+}

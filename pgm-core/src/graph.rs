@@ -1,0 +1,353 @@
+//! The factor graph: discrete variables of any cardinality and factors of any arity.
+//!
+//! Storage is laid out for message passing: every (factor, scope position) pair is an
+//! *edge* with a stable [`EdgeId`]; the edges of one factor are consecutive, and the
+//! factor-to-variable message of edge `e` occupies `message_range(e)` of one flat
+//! buffer, so a factor's outgoing messages are one contiguous slice (which lets the
+//! flooding schedule update factors in parallel without locks).
+
+use crate::error::{Error, Result};
+use crate::factor::Factor;
+use std::fmt;
+use std::ops::Range;
+
+/// Index of a variable in its graph.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct VariableId(pub usize);
+
+/// Index of a factor in its graph.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct FactorId(pub usize);
+
+/// Index of an edge (a factor and one position of its scope).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct EdgeId(pub usize);
+
+impl fmt::Display for VariableId {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "x{}", self.0)
+    }
+}
+
+impl fmt::Display for FactorId {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "f{}", self.0)
+    }
+}
+
+/// A factor graph over discrete variables.
+///
+/// ```
+/// use pgm_core::{FactorGraph, TableFactor, PottsFactor};
+/// let mut graph = FactorGraph::new();
+/// let a = graph.add_variable(2).unwrap();
+/// let b = graph.add_variable(2).unwrap();
+/// graph.add_factor(TableFactor::new(vec![a], vec![2], vec![0.0, 1.0]).unwrap()).unwrap();
+/// graph.add_factor(PottsFactor::new(a, b, 2, 0.5, 0.0).unwrap()).unwrap();
+/// assert_eq!(graph.log_score(&[1, 1]).unwrap(), 1.5);
+/// ```
+#[derive(Debug, Default)]
+pub struct FactorGraph {
+    cardinalities: Vec<usize>,
+    factors: Vec<Box<dyn Factor>>,
+    /// First edge of each factor; `num_factors + 1` entries.
+    factor_edge_start: Vec<usize>,
+    edge_variable: Vec<VariableId>,
+    edge_factor: Vec<FactorId>,
+    /// Offset of each edge's message; `num_edges + 1` entries.
+    message_offset: Vec<usize>,
+    variable_edges: Vec<Vec<EdgeId>>,
+}
+
+impl FactorGraph {
+    /// An empty graph.
+    pub fn new() -> Self {
+        Self {
+            factor_edge_start: vec![0],
+            message_offset: vec![0],
+            ..Default::default()
+        }
+    }
+
+    /// A graph with one variable per entry of `cardinalities`.
+    pub fn with_variables(cardinalities: &[usize]) -> Result<Self> {
+        let mut g = Self::new();
+        for &k in cardinalities {
+            g.add_variable(k)?;
+        }
+        Ok(g)
+    }
+
+    /// Adds a variable with `cardinality` states.
+    pub fn add_variable(&mut self, cardinality: usize) -> Result<VariableId> {
+        if cardinality == 0 {
+            return Err(Error::ZeroCardinality {
+                variable: self.cardinalities.len(),
+            });
+        }
+        self.cardinalities.push(cardinality);
+        self.variable_edges.push(Vec::new());
+        Ok(VariableId(self.cardinalities.len() - 1))
+    }
+
+    /// Adds a factor after checking its scope and shape against the variables.
+    pub fn add_factor<F: Factor + 'static>(&mut self, factor: F) -> Result<FactorId> {
+        self.add_boxed_factor(Box::new(factor))
+    }
+
+    /// Adds a boxed factor after checking its scope and shape against the variables.
+    pub fn add_boxed_factor(&mut self, factor: Box<dyn Factor>) -> Result<FactorId> {
+        let id = FactorId(self.factors.len());
+        self.check_factor(id.0, factor.as_ref())?;
+        let first_edge = self.edge_variable.len();
+        for (slot, &v) in factor.scope().iter().enumerate() {
+            let e = EdgeId(first_edge + slot);
+            self.edge_variable.push(v);
+            self.edge_factor.push(id);
+            let last = *self.message_offset.last().unwrap_or(&0);
+            self.message_offset.push(last + self.cardinalities[v.0]);
+            self.variable_edges[v.0].push(e);
+        }
+        self.factor_edge_start.push(self.edge_variable.len());
+        self.factors.push(factor);
+        Ok(id)
+    }
+
+    /// Replaces a factor by one with the same scope and shape (used by hooks that
+    /// refresh potentials, e.g. factors that depend on continuous nodes).
+    pub fn replace_factor(&mut self, id: FactorId, factor: Box<dyn Factor>) -> Result<()> {
+        let old = self.factors.get(id.0).ok_or_else(|| Error::InvalidParameter {
+            name: "factor id",
+            value: id.0.to_string(),
+            expected: "an existing factor",
+        })?;
+        if old.scope() != factor.scope() || old.shape() != factor.shape() {
+            return Err(Error::InvalidParameter {
+                name: "replacement factor",
+                value: format!("scope {:?} shape {:?}", factor.scope(), factor.shape()),
+                expected: "the same scope and shape as the factor it replaces",
+            });
+        }
+        self.factors[id.0] = factor;
+        Ok(())
+    }
+
+    fn check_factor(&self, index: usize, factor: &dyn Factor) -> Result<()> {
+        let scope = factor.scope();
+        let shape = factor.shape();
+        if scope.len() != shape.len() {
+            return Err(Error::InvalidParameter {
+                name: "factor shape",
+                value: format!("{} scope entries, {} shape entries", scope.len(), shape.len()),
+                expected: "one shape entry per scope variable",
+            });
+        }
+        for (position, (&v, &k)) in scope.iter().zip(shape).enumerate() {
+            if v.0 >= self.cardinalities.len() {
+                return Err(Error::UnknownVariable {
+                    factor: index,
+                    variable: v.0,
+                    num_variables: self.cardinalities.len(),
+                });
+            }
+            if self.cardinalities[v.0] != k {
+                return Err(Error::ShapeMismatch {
+                    factor: index,
+                    position,
+                    variable: v.0,
+                    factor_states: k,
+                    variable_states: self.cardinalities[v.0],
+                });
+            }
+            if scope[..position].contains(&v) {
+                return Err(Error::RepeatedVariable { variable: v.0 });
+            }
+        }
+        Ok(())
+    }
+
+    /// Number of variables.
+    pub fn num_variables(&self) -> usize {
+        self.cardinalities.len()
+    }
+
+    /// Number of factors.
+    pub fn num_factors(&self) -> usize {
+        self.factors.len()
+    }
+
+    /// Number of edges (sum of factor arities).
+    pub fn num_edges(&self) -> usize {
+        self.edge_variable.len()
+    }
+
+    /// Cardinality of a variable.
+    pub fn cardinality(&self, v: VariableId) -> usize {
+        self.cardinalities[v.0]
+    }
+
+    /// All cardinalities, in variable order.
+    pub fn cardinalities(&self) -> &[usize] {
+        &self.cardinalities
+    }
+
+    /// A factor.
+    pub fn factor(&self, a: FactorId) -> &dyn Factor {
+        self.factors[a.0].as_ref()
+    }
+
+    /// Mutable access to a factor (crate-internal: hooks go through `Potentials`).
+    pub(crate) fn factor_mut(&mut self, a: FactorId) -> &mut dyn Factor {
+        self.factors[a.0].as_mut()
+    }
+
+    /// All factors, in factor order.
+    pub fn factors(&self) -> impl ExactSizeIterator<Item = &dyn Factor> + '_ {
+        self.factors.iter().map(|f| f.as_ref())
+    }
+
+    /// The edges of a factor, one per scope position, in scope order.
+    pub fn factor_edges(&self, a: FactorId) -> Range<usize> {
+        self.factor_edge_start[a.0]..self.factor_edge_start[a.0 + 1]
+    }
+
+    /// The edges incident to a variable, in the order their factors were added.
+    pub fn variable_edges(&self, v: VariableId) -> &[EdgeId] {
+        &self.variable_edges[v.0]
+    }
+
+    /// The variable at an edge.
+    pub fn edge_variable(&self, e: EdgeId) -> VariableId {
+        self.edge_variable[e.0]
+    }
+
+    /// The factor at an edge.
+    pub fn edge_factor(&self, e: EdgeId) -> FactorId {
+        self.edge_factor[e.0]
+    }
+
+    /// The scope position of an edge within its factor.
+    pub fn edge_slot(&self, e: EdgeId) -> usize {
+        e.0 - self.factor_edge_start[self.edge_factor[e.0].0]
+    }
+
+    /// Where the message of edge `e` lives in a message buffer.
+    pub fn message_range(&self, e: EdgeId) -> Range<usize> {
+        self.message_offset[e.0]..self.message_offset[e.0 + 1]
+    }
+
+    /// Where the messages of all edges of factor `a` live (one contiguous range).
+    pub fn factor_message_range(&self, a: FactorId) -> Range<usize> {
+        let edges = self.factor_edges(a);
+        self.message_offset[edges.start]..self.message_offset[edges.end]
+    }
+
+    /// Total length of a message buffer.
+    pub fn message_len(&self) -> usize {
+        *self.message_offset.last().unwrap_or(&0)
+    }
+
+    /// Checks that an assignment has one in-range state per variable.
+    pub fn check_assignment(&self, assignment: &[usize]) -> Result<()> {
+        if assignment.len() != self.num_variables() {
+            return Err(Error::BadAssignment(format!(
+                "{} values for {} variables",
+                assignment.len(),
+                self.num_variables()
+            )));
+        }
+        for (i, (&x, &k)) in assignment.iter().zip(&self.cardinalities).enumerate() {
+            if x >= k {
+                return Err(Error::BadAssignment(format!(
+                    "variable {i} has state {x}, but only {k} states"
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// Sum of all factors' log-potentials at a joint assignment (−∞ if any factor is a
+    /// hard zero there).
+    pub fn log_score(&self, assignment: &[usize]) -> Result<f64> {
+        self.check_assignment(assignment)?;
+        Ok(self.log_score_unchecked(assignment))
+    }
+
+    /// [`log_score`](Self::log_score) without the range checks (panics on bad input).
+    pub fn log_score_unchecked(&self, assignment: &[usize]) -> f64 {
+        let mut states = Vec::new();
+        let mut total = 0.0;
+        for f in &self.factors {
+            states.clear();
+            states.extend(f.scope().iter().map(|v| assignment[v.0]));
+            total += f.log_potential(&states);
+        }
+        total
+    }
+
+    /// Variables adjacent to `v` through some factor (without `v`), sorted, unique.
+    pub fn neighbours(&self, v: VariableId) -> Vec<VariableId> {
+        let mut out: Vec<VariableId> = self.variable_edges[v.0]
+            .iter()
+            .flat_map(|&e| self.factor(self.edge_factor(e)).scope().iter().copied())
+            .filter(|&u| u != v)
+            .collect();
+        out.sort_unstable();
+        out.dedup();
+        out
+    }
+
+    /// True when the bipartite variable–factor graph has no cycle (a forest).
+    pub fn is_forest(&self) -> bool {
+        // Union-find over variables and factors as nodes; an edge closing a cycle fails.
+        let n = self.num_variables() + self.num_factors();
+        let mut parent: Vec<usize> = (0..n).collect();
+        fn find(p: &mut [usize], mut x: usize) -> usize {
+            while p[x] != x {
+                p[x] = p[p[x]];
+                x = p[x];
+            }
+            x
+        }
+        for e in 0..self.num_edges() {
+            let v = self.edge_variable[e].0;
+            let a = self.num_variables() + self.edge_factor[e].0;
+            let (rv, ra) = (find(&mut parent, v), find(&mut parent, a));
+            if rv == ra {
+                return false;
+            }
+            parent[rv] = ra;
+        }
+        true
+    }
+
+    /// Variables in breadth-first order over the factor graph, each connected component
+    /// started from its lowest-indexed variable. Used for deterministic decoding and as
+    /// the default sequential order (leaves last, so the reverse sweeps towards roots).
+    pub fn bfs_order(&self) -> Vec<VariableId> {
+        let n = self.num_variables();
+        let mut seen = vec![false; n];
+        let mut order = Vec::with_capacity(n);
+        let mut head = 0;
+        for root in 0..n {
+            if seen[root] {
+                continue;
+            }
+            seen[root] = true;
+            order.push(VariableId(root));
+            while head < order.len() {
+                let v = order[head];
+                head += 1;
+                for &e in &self.variable_edges[v.0] {
+                    for &u in self.factors[self.edge_factor[e.0].0].scope() {
+                        if !seen[u.0] {
+                            seen[u.0] = true;
+                            order.push(u);
+                        }
+                    }
+                }
+            }
+        }
+        order
+    }
+}

@@ -1,0 +1,140 @@
+//! Message schedules: which messages are recomputed in which order.
+//!
+//! A [`Schedule`] is the *solver* of argmin's split: the engine
+//! ([`BeliefPropagation`](crate::BeliefPropagation)) owns the messages and the
+//! convergence test, and calls [`Schedule::iteration`] once per outer iteration with a
+//! [`MessagePasser`], the smallest view of message passing a schedule needs: update one
+//! edge, one factor, visit one variable, flood all factors in parallel, or compute and
+//! commit candidate messages (residual BP). Every update unit raises the
+//! before/after-visit hook of [`UpdateHook`](crate::UpdateHook), so hybrid continuous
+//! nodes can refresh potentials between updates.
+//!
+//! Built in: [`Flooding`] (parallel over factors with rayon), [`Sequential`] (a fixed
+//! order of variable visits or factor updates, forward then backward) and [`Residual`]
+//! (largest message change first). `examples/custom_schedule.rs` writes a new one.
+
+mod flooding;
+mod residual;
+mod sequential;
+
+pub use flooding::Flooding;
+pub use residual::Residual;
+pub use sequential::{Sequential, SequentialUnit};
+
+use crate::error::Result;
+use crate::graph::{EdgeId, FactorGraph, FactorId, VariableId};
+
+/// One unit of message passing, as reported to hooks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Visit {
+    /// A variable visit: its local (single-variable) factors are recomputed, then every
+    /// other factor it touches sends messages to that factor's other variables
+    /// (Algorithm 1, lines 3-9 of the joint-model paper).
+    Variable(VariableId),
+    /// All outgoing messages of one factor.
+    Factor(FactorId),
+    /// One factor-to-variable message.
+    Edge(EdgeId),
+    /// One synchronous (flooding) update of every factor.
+    Flood,
+}
+
+/// What a schedule can do to the messages. Implemented by the engine.
+pub trait MessagePasser {
+    /// The graph messages are passed on.
+    fn graph(&self) -> &FactorGraph;
+
+    /// Visits a variable (see [`Visit::Variable`]).
+    fn visit_variable(&mut self, v: VariableId);
+
+    /// Recomputes all outgoing messages of a factor.
+    fn update_factor(&mut self, a: FactorId);
+
+    /// Recomputes one factor-to-variable message.
+    fn update_edge(&mut self, e: EdgeId);
+
+    /// Recomputes every factor's messages from the current messages at once (a
+    /// synchronous, parallel update).
+    fn flood(&mut self);
+
+    /// Computes the message of edge `e` from the current messages without committing
+    /// it, stores it as the edge's candidate and returns its residual (largest change
+    /// against the current message).
+    fn compute_candidate(&mut self, e: EdgeId) -> f64;
+
+    /// Commits the stored candidate of edge `e` (damped), raising the edge hooks.
+    fn commit_candidate(&mut self, e: EdgeId);
+
+    /// True once the run's time budget is spent; long iterations should stop early.
+    fn out_of_time(&self) -> bool;
+
+    /// The run's convergence tolerance on message changes.
+    fn tolerance(&self) -> f64;
+}
+
+/// A message schedule.
+pub trait Schedule {
+    /// A short name for reports.
+    fn name(&self) -> &str;
+
+    /// Called once before the first iteration of a run.
+    fn prepare(&mut self, graph: &FactorGraph) -> Result<()> {
+        let _ = graph;
+        Ok(())
+    }
+
+    /// Performs one iteration. Returns `Some(residual)` when the schedule knows the
+    /// fixed-point residual better than the engine's default (the largest change of a
+    /// message updated in this iteration), as residual BP does.
+    fn iteration(&mut self, passer: &mut dyn MessagePasser) -> Option<f64>;
+}
+
+/// The schedules the CLI and benches can choose by name.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ScheduleKind {
+    /// [`Flooding`].
+    Flooding,
+    /// [`Sequential`] over variables in breadth-first order, forward then backward.
+    Sequential,
+    /// [`Residual`].
+    Residual,
+}
+
+impl ScheduleKind {
+    /// A boxed schedule of this kind with default settings.
+    pub fn build(self) -> Box<dyn Schedule + Send> {
+        match self {
+            ScheduleKind::Flooding => Box::new(Flooding::default()),
+            ScheduleKind::Sequential => Box::new(Sequential::default()),
+            ScheduleKind::Residual => Box::new(Residual::default()),
+        }
+    }
+}
+
+impl std::str::FromStr for ScheduleKind {
+    type Err = crate::Error;
+    fn from_str(s: &str) -> Result<Self> {
+        match s {
+            "flooding" | "parallel" => Ok(ScheduleKind::Flooding),
+            "sequential" => Ok(ScheduleKind::Sequential),
+            "residual" => Ok(ScheduleKind::Residual),
+            other => Err(crate::Error::InvalidParameter {
+                name: "schedule",
+                value: other.to_string(),
+                expected: "one of flooding, sequential, residual",
+            }),
+        }
+    }
+}
+
+impl<S: Schedule + ?Sized> Schedule for Box<S> {
+    fn name(&self) -> &str {
+        (**self).name()
+    }
+    fn prepare(&mut self, graph: &FactorGraph) -> Result<()> {
+        (**self).prepare(graph)
+    }
+    fn iteration(&mut self, passer: &mut dyn MessagePasser) -> Option<f64> {
+        (**self).iteration(passer)
+    }
+}

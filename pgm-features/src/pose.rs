@@ -1,0 +1,164 @@
+//! Rigid motions of the plane, SE(2), on top of [`nalgebra::Isometry2`].
+//!
+//! Convention used everywhere in this project: a motion `m` of a cluster (the paper's
+//! rotation `R` and translation `T`, eq. 2-3 of the CRF-Clustering paper) maps a point
+//! of the **current** scan `s_i` onto its partner in the **reference** scan `g_i`:
+//! `g_i ≈ R s_i + T = m * s_i`. For the static background that motion is the pose of
+//! the current sensor frame expressed in the reference sensor frame, the ego-motion.
+
+use nalgebra::{Isometry2, Point2, Vector2};
+use serde::{Deserialize, Serialize};
+
+/// A rigid motion of the plane (rotation `theta` in radians, then translation `x`, `y`).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(from = "PoseRecord", into = "PoseRecord")]
+pub struct Pose2 {
+    iso: Isometry2<f64>,
+}
+
+#[derive(Clone, Copy, Debug, Serialize, Deserialize)]
+struct PoseRecord {
+    x: f64,
+    y: f64,
+    theta: f64,
+}
+
+impl From<PoseRecord> for Pose2 {
+    fn from(r: PoseRecord) -> Self {
+        Pose2::new(r.x, r.y, r.theta)
+    }
+}
+
+impl From<Pose2> for PoseRecord {
+    fn from(p: Pose2) -> Self {
+        PoseRecord {
+            x: p.x(),
+            y: p.y(),
+            theta: p.theta(),
+        }
+    }
+}
+
+impl Default for Pose2 {
+    fn default() -> Self {
+        Self::identity()
+    }
+}
+
+impl Pose2 {
+    /// The pose with translation `(x, y)` and heading `theta` (radians).
+    pub fn new(x: f64, y: f64, theta: f64) -> Self {
+        Self {
+            iso: Isometry2::new(Vector2::new(x, y), theta),
+        }
+    }
+
+    /// The identity motion.
+    pub fn identity() -> Self {
+        Self {
+            iso: Isometry2::identity(),
+        }
+    }
+
+    /// Wraps an [`Isometry2`].
+    pub fn from_isometry(iso: Isometry2<f64>) -> Self {
+        Self { iso }
+    }
+
+    /// The underlying [`Isometry2`].
+    pub fn isometry(&self) -> &Isometry2<f64> {
+        &self.iso
+    }
+
+    /// Translation along x.
+    pub fn x(&self) -> f64 {
+        self.iso.translation.vector.x
+    }
+
+    /// Translation along y.
+    pub fn y(&self) -> f64 {
+        self.iso.translation.vector.y
+    }
+
+    /// Rotation angle in radians, in (-π, π].
+    pub fn theta(&self) -> f64 {
+        self.iso.rotation.angle()
+    }
+
+    /// The translation as a vector (the paper's `T`).
+    pub fn translation(&self) -> Vector2<f64> {
+        self.iso.translation.vector
+    }
+
+    /// Composition `self ∘ other` (apply `other` first).
+    pub fn compose(&self, other: &Pose2) -> Pose2 {
+        Pose2 {
+            iso: self.iso * other.iso,
+        }
+    }
+
+    /// The inverse motion.
+    pub fn inverse(&self) -> Pose2 {
+        Pose2 {
+            iso: self.iso.inverse(),
+        }
+    }
+
+    /// `inverse(self) ∘ other`: `other` expressed in the frame of `self`.
+    pub fn between(&self, other: &Pose2) -> Pose2 {
+        self.inverse().compose(other)
+    }
+
+    /// Applies the motion to a point (`R p + T`).
+    pub fn transform_point(&self, p: &Point2<f64>) -> Point2<f64> {
+        self.iso.transform_point(p)
+    }
+
+    /// Euclidean norm of the translation difference to `other`, in metres.
+    pub fn translation_error(&self, other: &Pose2) -> f64 {
+        (self.translation() - other.translation()).norm()
+    }
+
+    /// Absolute rotation difference to `other`, wrapped to [0, π].
+    pub fn rotation_error(&self, other: &Pose2) -> f64 {
+        wrap_angle(self.theta() - other.theta()).abs()
+    }
+
+    /// True when all three parameters are finite.
+    pub fn is_finite(&self) -> bool {
+        self.x().is_finite() && self.y().is_finite() && self.theta().is_finite()
+    }
+}
+
+/// Wraps an angle to (-π, π].
+pub fn wrap_angle(a: f64) -> f64 {
+    let two_pi = 2.0 * std::f64::consts::PI;
+    let mut r = a % two_pi;
+    if r <= -std::f64::consts::PI {
+        r += two_pi;
+    } else if r > std::f64::consts::PI {
+        r -= two_pi;
+    }
+    r
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn compose_then_inverse_is_identity() {
+        let a = Pose2::new(1.0, -2.0, 0.7);
+        let b = Pose2::new(-0.3, 0.5, -2.9);
+        let c = a.compose(&b);
+        let back = a.between(&c);
+        assert!(back.translation_error(&b) < 1e-12);
+        assert!(back.rotation_error(&b) < 1e-12);
+    }
+
+    #[test]
+    fn wrap_angle_range() {
+        assert!((wrap_angle(3.0 * std::f64::consts::PI) - std::f64::consts::PI).abs() < 1e-12);
+        assert!((wrap_angle(-0.5) + 0.5).abs() < 1e-15);
+    }
+}

@@ -1,0 +1,38 @@
+//! The `pgm` command-line tool. Results go to stdout, diagnostics to stderr; every
+//! error names the file, line and value it came from and exits with status 2.
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+mod cli;
+
+/// Conditional random fields and hybrid factor graphs for 2D laser data.
+#[derive(Parser)]
+#[command(name = "pgm", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// MAP (MPE) assignment of a UAI model by loopy max-product belief propagation.
+    Map(cli::infer::InferArgs),
+    /// Single-variable marginals of a UAI model by loopy sum-product belief propagation.
+    Marginals(cli::infer::InferArgs),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let outcome = match cli.command {
+        Command::Map(args) => cli::infer::run(args, cli::infer::Task::Map),
+        Command::Marginals(args) => cli::infer::run(args, cli::infer::Task::Marginals),
+    };
+    match outcome {
+        Ok(code) => code,
+        Err(err) => {
+            eprintln!("pgm: error: {err}");
+            ExitCode::from(2)
+        }
+    }
+}
