@@ -1,0 +1,319 @@
+//! Property tests of the inference engine against the exact references.
+
+use pgm_core::exact::{brute_force, forward_backward, tree_marginals, viterbi, BruteForceLimit};
+use pgm_core::strategies::{self, GraphSpec};
+use pgm_core::uai::UaiModel;
+use pgm_core::{
+    BeliefPropagation, Factor, FactorGraph, Flooding, Incoming, Mode, PottsFactor, Residual, Schedule, Sequential,
+    ShiftedIdentityFactor, TableFactor, VariableId,
+};
+use proptest::prelude::*;
+
+const MAX_STATES: u64 = 1 << 17;
+
+fn schedules() -> Vec<(&'static str, Box<dyn Schedule>)> {
+    vec![
+        ("flooding", Box::new(Flooding)),
+        ("sequential", Box::new(Sequential::default())),
+        ("residual", Box::new(Residual::default())),
+    ]
+}
+
+fn close(a: f64, b: f64, tol: f64) -> bool {
+    (a == b) || (a - b).abs() <= tol * (1.0 + b.abs())
+}
+
+/// Checks max-product and sum-product on a tree-structured graph with every schedule.
+fn check_exact_on_tree(spec: &GraphSpec) -> Result<(), TestCaseError> {
+    let graph = spec.build();
+    let Ok(exact) = brute_force(&graph, BruteForceLimit(MAX_STATES)) else {
+        // Every assignment has probability zero: nothing to compare.
+        return Ok(());
+    };
+    let mut first_marginals: Option<Vec<Vec<f64>>> = None;
+    for (name, mut schedule) in schedules() {
+        let map = BeliefPropagation::new(Mode::MaxProduct)
+            .max_iterations(200)
+            .run(&graph, &mut schedule)
+            .unwrap();
+        prop_assert!(map.converged, "{name}: max-product did not converge ({} iterations)", map.iterations);
+        prop_assert!(
+            close(map.log_score, exact.map_log_score, 1e-9),
+            "{name}: MAP score {} vs exact {}",
+            map.log_score,
+            exact.map_log_score
+        );
+        let mar = BeliefPropagation::new(Mode::SumProduct)
+            .max_iterations(200)
+            .run(&graph, &mut schedule)
+            .unwrap();
+        prop_assert!(mar.converged, "{name}: sum-product did not converge");
+        for (v, (b, e)) in mar.beliefs.iter().zip(&exact.marginals).enumerate() {
+            for (x, (p, q)) in b.iter().zip(e).enumerate() {
+                prop_assert!((p - q).abs() <= 1e-9, "{name}: P(x{v} = {x}) = {p}, exact {q}");
+            }
+        }
+        match &first_marginals {
+            None => first_marginals = Some(mar.beliefs.clone()),
+            Some(m) => {
+                for (b, c) in mar.beliefs.iter().zip(m) {
+                    for (p, q) in b.iter().zip(c) {
+                        prop_assert!((p - q).abs() <= 1e-9, "{name} disagrees with flooding");
+                    }
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 200, ..ProptestConfig::default() })]
+
+    #[test]
+    fn bp_is_exact_on_random_trees(spec in strategies::tree(12, 4, 50.0, 0.1)
+        .prop_filter("small enough to enumerate", |s| s.joint_states() <= MAX_STATES)) {
+        check_exact_on_tree(&spec)?;
+    }
+
+    #[test]
+    fn bp_is_exact_on_random_chains(spec in strategies::chain(12, 4, 50.0, 0.1)
+        .prop_filter("small enough to enumerate", |s| s.joint_states() <= MAX_STATES)) {
+        check_exact_on_tree(&spec)?;
+    }
+
+    #[test]
+    fn exact_references_agree(spec in strategies::tree(9, 3, 20.0, 0.1)) {
+        let graph = spec.build();
+        let Ok(bf) = brute_force(&graph, BruteForceLimit(MAX_STATES)) else { return Ok(()); };
+        let tree = tree_marginals(&graph).unwrap();
+        prop_assert!(close(tree.map_log_score, bf.map_log_score, 1e-9));
+        prop_assert!(close(tree.log_partition, bf.log_partition, 1e-9));
+        for (a, b) in tree.marginals.iter().zip(&bf.marginals) {
+            for (p, q) in a.iter().zip(b) {
+                prop_assert!((p - q).abs() < 1e-9);
+            }
+        }
+    }
+
+    #[test]
+    fn chain_references_agree(spec in strategies::chain(10, 4, 20.0, 0.1)
+        .prop_filter("small enough to enumerate", |s| s.joint_states() <= MAX_STATES)) {
+        let graph = spec.build();
+        let Ok(bf) = brute_force(&graph, BruteForceLimit(MAX_STATES)) else { return Ok(()); };
+        let (_, score) = viterbi(&graph).unwrap();
+        prop_assert!(close(score, bf.map_log_score, 1e-9));
+        let fb = forward_backward(&graph).unwrap();
+        prop_assert!(close(fb.log_partition, bf.log_partition, 1e-9));
+        for (a, b) in fb.marginals.iter().zip(&bf.marginals) {
+            for (p, q) in a.iter().zip(b) {
+                prop_assert!((p - q).abs() < 1e-9);
+            }
+        }
+    }
+
+    #[test]
+    fn loopy_beliefs_are_finite_and_normalised(
+        spec in strategies::loopy(10, 4, 6, 1e6, 0.1),
+        damping in prop_oneof![Just(0.0), Just(0.5), Just(0.9)],
+    ) {
+        let graph = spec.build();
+        for mode in [Mode::MaxProduct, Mode::SumProduct] {
+            for (name, mut schedule) in schedules() {
+                let r = BeliefPropagation::new(mode).damping(damping).max_iterations(30)
+                    .run(&graph, &mut schedule).unwrap();
+                prop_assert!(!r.residual.is_nan(), "{name}: NaN residual");
+                for (v, b) in r.beliefs.iter().enumerate() {
+                    let sum: f64 = b.iter().sum();
+                    prop_assert!(b.iter().all(|p| p.is_finite() && *p >= 0.0), "{name} {mode:?}: belief of x{v} = {b:?}");
+                    prop_assert!((sum - 1.0).abs() < 1e-9, "{name} {mode:?}: belief of x{v} sums to {sum}");
+                }
+                prop_assert!(r.messages.as_slice().iter().all(|m| !m.is_nan()));
+                prop_assert!(r.assignment.iter().zip(graph.cardinalities()).all(|(x, k)| x < k));
+            }
+        }
+    }
+
+    #[test]
+    fn potts_grids_give_normalised_beliefs(spec in strategies::potts_grid(5, 4, 5.0)) {
+        let graph = spec.build();
+        for (_, mut schedule) in schedules() {
+            let r = BeliefPropagation::new(Mode::SumProduct).damping(0.3).max_iterations(50)
+                .run(&graph, &mut schedule).unwrap();
+            for b in &r.beliefs {
+                prop_assert!((b.iter().sum::<f64>() - 1.0).abs() < 1e-9);
+            }
+        }
+    }
+
+    /// Dyadic log-potentials keep max-product arithmetic exact, so adding a constant to
+    /// a table must leave every decision and every belief bit-for-bit unchanged (up to
+    /// the reported score, which moves by the constant).
+    #[test]
+    fn constant_shift_changes_nothing(
+        spec in strategies::loopy(8, 3, 3, 8.0, 0.1),
+        which in any::<prop::sample::Index>(),
+        shift in -16i32..16,
+    ) {
+        let round = |x: f64| if x.is_finite() { (x * 4.0).round() / 4.0 } else { x };
+        let mut spec = spec;
+        for f in &mut spec.factors {
+            if let strategies::FactorSpec::Table { log_table, .. } = f {
+                log_table.iter_mut().for_each(|x| *x = round(*x));
+            }
+        }
+        let base = spec.build();
+        let mut shifted_spec = spec.clone();
+        let k = which.index(shifted_spec.factors.len());
+        if let strategies::FactorSpec::Table { log_table, .. } = &mut shifted_spec.factors[k] {
+            log_table.iter_mut().for_each(|x| *x += shift as f64);
+        }
+        let shifted = shifted_spec.build();
+        for (name, mut schedule) in schedules() {
+            let bp = BeliefPropagation::new(Mode::MaxProduct).max_iterations(20);
+            let a = bp.run(&base, &mut schedule).unwrap();
+            let b = bp.run(&shifted, &mut schedule).unwrap();
+            prop_assert_eq!(&a.assignment, &b.assignment, "{}", name);
+            prop_assert_eq!(a.messages.as_slice(), b.messages.as_slice());
+            let sp = BeliefPropagation::new(Mode::SumProduct).max_iterations(20);
+            let a = sp.run(&base, &mut schedule).unwrap();
+            let b = sp.run(&shifted, &mut schedule).unwrap();
+            for (x, y) in a.beliefs.iter().flatten().zip(b.beliefs.iter().flatten()) {
+                prop_assert!((x - y).abs() < 1e-12, "{name}: {x} vs {y}");
+            }
+        }
+    }
+
+    #[test]
+    fn uai_write_then_read_is_identity(spec in strategies::loopy(8, 4, 4, 30.0, 0.1)) {
+        let model = UaiModel::from_factor_graph(&spec.build());
+        let text = model.to_uai_string();
+        let back = UaiModel::parse_str("roundtrip.uai", &text).unwrap();
+        prop_assert_eq!(&back, &model);
+        prop_assert_eq!(back.to_uai_string(), text);
+    }
+
+    /// The O(K) structured factors send exactly the messages of their dense tables.
+    #[test]
+    fn structured_factors_match_dense_tables(
+        k0 in 1usize..7, k1 in 1usize..7, shift in -3isize..4,
+        on in strategies::log_potential(30.0, 0.2), off in strategies::log_potential(30.0, 0.2),
+        q0 in proptest::collection::vec(strategies::log_potential(30.0, 0.2), 7),
+        q1 in proptest::collection::vec(strategies::log_potential(30.0, 0.2), 7),
+    ) {
+        let (a, b) = (VariableId(0), VariableId(1));
+        let shifted = ShiftedIdentityFactor::new(a, b, k0, k1, shift, on, off).unwrap();
+        let potts = PottsFactor::new(a, b, k0, on, off).unwrap();
+        let dense_shifted = TableFactor::new(vec![a, b], vec![k0, k1], shifted.log_table()).unwrap();
+        let dense_potts = TableFactor::new(vec![a, b], vec![k0, k0], potts.log_table()).unwrap();
+        for (structured, dense, k1) in [
+            (&shifted as &dyn Factor, &dense_shifted, k1),
+            (&potts as &dyn Factor, &dense_potts, k0),
+        ] {
+            let mut values: Vec<f64> = q0[..k0].to_vec();
+            values.extend_from_slice(&q1[..k1]);
+            let offsets = [0, k0, k0 + k1];
+            let incoming = Incoming::new(&values, &offsets);
+            for mode in [Mode::MaxProduct, Mode::SumProduct] {
+                for (target, k) in [(0usize, k0), (1, k1)] {
+                    let mut x = vec![0.0; k];
+                    let mut y = vec![0.0; k];
+                    structured.message(target, &incoming, mode, &mut x);
+                    dense.message(target, &incoming, mode, &mut y);
+                    for (p, q) in x.iter().zip(&y) {
+                        prop_assert!(close(*p, *q, 1e-12), "{} {mode:?} target {target}: {x:?} vs {y:?}", structured.kind());
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn warm_start_from_converged_messages_converges_at_once() {
+    let mut g = FactorGraph::with_variables(&[3; 6]).unwrap();
+    for v in 0..6 {
+        g.add_factor(TableFactor::new(vec![VariableId(v)], vec![3], vec![0.1 * v as f64, 0.0, -0.2]).unwrap())
+            .unwrap();
+    }
+    for (a, b) in [(0, 1), (1, 2), (2, 3), (3, 4), (4, 5), (5, 0)] {
+        g.add_factor(PottsFactor::new(VariableId(a), VariableId(b), 3, 0.7, 0.0).unwrap()).unwrap();
+    }
+    let bp = BeliefPropagation::new(Mode::SumProduct).tolerance(1e-12).max_iterations(500);
+    let first = bp.run(&g, &mut Flooding).unwrap();
+    assert!(first.converged && first.iterations > 2);
+    let second = bp.run_from(&g, &mut Flooding, first.messages.clone()).unwrap();
+    assert!(second.converged);
+    assert_eq!(second.iterations, 1);
+}
+
+#[test]
+fn ties_decode_to_one_consistent_map() {
+    // Two equally good labellings of a repulsive chain: independent argmaxes of the
+    // max-marginals would mix them; consistent decoding must pick one.
+    let mut g = FactorGraph::with_variables(&[2; 5]).unwrap();
+    for v in 0..4 {
+        g.add_factor(PottsFactor::new(VariableId(v), VariableId(v + 1), 2, 0.0, 1.0).unwrap()).unwrap();
+    }
+    for (_, mut s) in schedules() {
+        let r = BeliefPropagation::new(Mode::MaxProduct).run(&g, &mut s).unwrap();
+        assert_eq!(r.log_score, 4.0, "{:?}", r.assignment);
+        assert_eq!(r.assignment, vec![0, 1, 0, 1, 0]);
+    }
+}
+
+#[test]
+fn damping_slows_but_does_not_fake_convergence() {
+    let mut g = FactorGraph::with_variables(&[2; 4]).unwrap();
+    for v in 0..4 {
+        g.add_factor(TableFactor::new(vec![VariableId(v)], vec![2], vec![0.3, -0.1 * v as f64]).unwrap()).unwrap();
+    }
+    for (a, b) in [(0, 1), (1, 2), (2, 3), (3, 0)] {
+        g.add_factor(PottsFactor::new(VariableId(a), VariableId(b), 2, 0.4, 0.0).unwrap()).unwrap();
+    }
+    let tol = 1e-10;
+    let undamped = BeliefPropagation::new(Mode::SumProduct).tolerance(tol).max_iterations(1000).run(&g, &mut Flooding).unwrap();
+    let damped = BeliefPropagation::new(Mode::SumProduct)
+        .tolerance(tol)
+        .damping(0.9)
+        .max_iterations(1000)
+        .run(&g, &mut Flooding)
+        .unwrap();
+    assert!(undamped.converged && damped.converged);
+    assert!(damped.iterations > undamped.iterations);
+    for (a, b) in undamped.beliefs.iter().flatten().zip(damped.beliefs.iter().flatten()) {
+        assert!((a - b).abs() < 1e-8, "{a} vs {b}");
+    }
+}
+
+#[test]
+fn invalid_parameters_are_errors() {
+    let g = FactorGraph::with_variables(&[2]).unwrap();
+    let err = BeliefPropagation::new(Mode::MaxProduct).damping(1.0).run(&g, &mut Flooding).unwrap_err();
+    assert!(err.to_string().contains("damping = 1"), "{err}");
+    let err = TableFactor::new(vec![VariableId(0)], vec![2], vec![0.0, f64::NAN]).unwrap_err();
+    assert!(err.to_string().contains("NaN"), "{err}");
+    let err = TableFactor::new(vec![VariableId(0)], vec![2], vec![0.0]).unwrap_err();
+    assert!(err.to_string().contains("expected 2"), "{err}");
+}
+
+#[test]
+fn uai_errors_name_file_line_and_expectation() {
+    let bad = "MARKOV\n2\n2 2\n1\n2 0 1\n\n4\n1 2 x 4\n";
+    let err = UaiModel::parse_str("m.uai", bad).unwrap_err().to_string();
+    assert!(err.starts_with("m.uai:8:"), "{err}");
+    assert!(err.contains("entry 2 of the table of function 0"), "{err}");
+    let short = "MARKOV\n2\n2 2\n1\n2 0 1\n\n4\n1 2 3\n";
+    let err = UaiModel::parse_str("m.uai", short).unwrap_err().to_string();
+    assert!(err.contains("unexpected end of file"), "{err}");
+    let wrong_size = "MARKOV\n2\n2 2\n1\n2 0 1\n\n3\n1 2 3\n";
+    let err = UaiModel::parse_str("m.uai", wrong_size).unwrap_err().to_string();
+    assert!(err.contains("m.uai:7:") && err.contains("4 joint states"), "{err}");
+    let scope = "MARKOV\n2\n2 2\n1\n2 0 2\n";
+    let err = UaiModel::parse_str("m.uai", scope).unwrap_err().to_string();
+    assert!(err.contains("m.uai:5:") && err.contains("outside [0, 1]"), "{err}");
+    let err = pgm_core::uai::Evidence::parse_str("e.evid", "1 0 5", &[2, 2]).unwrap_err().to_string();
+    assert!(err.contains("e.evid:1:") && err.contains("state 5 of variable 0"), "{err}");
+    let ev = pgm_core::uai::Evidence::parse_str("e.evid", "1\n1 1 0\n", &[2, 2]).unwrap();
+    assert_eq!(ev.0, vec![(1, 0)]);
+}
