@@ -91,6 +91,11 @@ impl Messages {
         first_argmax(&self.log_belief(graph, v))
     }
 
+    /// Overwrites the message of edge `e` (which must be normalised).
+    pub(crate) fn set_message(&mut self, graph: &FactorGraph, e: EdgeId, message: &[f64]) {
+        self.values[graph.message_range(e)].copy_from_slice(message);
+    }
+
     /// The raw buffer (for advanced users and tests).
     pub fn as_slice(&self) -> &[f64] {
         &self.values
@@ -177,6 +182,11 @@ impl BeliefPropagation {
         self.mode
     }
 
+    /// The convergence tolerance.
+    pub fn tolerance_value(&self) -> f64 {
+        self.tolerance
+    }
+
     fn check(&self) -> Result<()> {
         if !(0.0..1.0).contains(&self.damping) {
             return Err(Error::InvalidParameter {
@@ -240,6 +250,25 @@ impl BeliefPropagation {
         schedule: &mut S,
         messages: Messages,
     ) -> Result<BpResult> {
+        match graph {
+            GraphRef::Shared(g) => {
+                let p = self.drive_messages(GraphRef::Shared(g), hook, schedule, messages)?;
+                Ok(self.finish(g, p))
+            }
+            GraphRef::Exclusive(g) => {
+                let p = self.drive_messages(GraphRef::Exclusive(&mut *g), hook, schedule, messages)?;
+                Ok(self.finish(g, p))
+            }
+        }
+    }
+
+    fn drive_messages<S: Schedule + ?Sized>(
+        &self,
+        graph: GraphRef<'_>,
+        hook: Option<&mut dyn UpdateHook>,
+        schedule: &mut S,
+        messages: Messages,
+    ) -> Result<Propagation> {
         self.check()?;
         messages.check_layout(graph.get())?;
         schedule.prepare(graph.get())?;
@@ -283,9 +312,30 @@ impl BeliefPropagation {
                 break;
             }
         }
-        let Passer { graph, state, .. } = passer;
-        let graph = graph.get();
-        let messages = state.messages;
+        Ok(Propagation {
+            messages: passer.state.messages,
+            iterations,
+            converged,
+            residual,
+            out_of_time,
+            contradictions: passer.state.contradictions,
+        })
+    }
+
+    /// Message passing only, without decoding: for callers that decode themselves or
+    /// continue later (and for benchmarks of the iterations alone).
+    pub fn propagate<S: Schedule + ?Sized>(
+        &self,
+        graph: &FactorGraph,
+        schedule: &mut S,
+        messages: Messages,
+    ) -> Result<Propagation> {
+        self.drive_messages(GraphRef::Shared(graph), None, schedule, messages)
+    }
+
+    /// Decodes the assignment and beliefs of a finished propagation.
+    pub fn finish(&self, graph: &FactorGraph, p: Propagation) -> BpResult {
+        let messages = p.messages;
         let assignment = match self.mode {
             Mode::MaxProduct => decode_map(graph, &messages),
             Mode::SumProduct => (0..graph.num_variables())
@@ -295,19 +345,36 @@ impl BeliefPropagation {
         let beliefs = (0..graph.num_variables())
             .map(|v| messages.belief(graph, VariableId(v)))
             .collect();
-        Ok(BpResult {
+        BpResult {
             mode: self.mode,
             log_score: graph.log_score_unchecked(&assignment),
             assignment,
             beliefs,
-            iterations,
-            converged,
-            residual,
-            out_of_time,
-            contradictions: state.contradictions,
+            iterations: p.iterations,
+            converged: p.converged,
+            residual: p.residual,
+            out_of_time: p.out_of_time,
+            contradictions: p.contradictions,
             messages,
-        })
+        }
     }
+}
+
+/// The outcome of message passing before decoding.
+#[derive(Clone, Debug)]
+pub struct Propagation {
+    /// The final messages.
+    pub messages: Messages,
+    /// Iterations performed.
+    pub iterations: usize,
+    /// Whether the run converged (see [`BpResult::converged`]).
+    pub converged: bool,
+    /// The last iteration's fixed-point residual.
+    pub residual: f64,
+    /// Whether the time budget stopped the run.
+    pub out_of_time: bool,
+    /// Number of all-zero message updates.
+    pub contradictions: usize,
 }
 
 enum GraphRef<'a> {
@@ -376,9 +443,13 @@ impl Passer<'_, '_> {
 }
 
 /// Fills `scratch.incoming` with the variable-to-factor messages into factor `a`, for
-/// every scope position except `skip`: `q_{j→a} = Σ_{b ∋ j, b ≠ a} r_{b→j}`.
+/// every scope position except `skip`: `q_{j→a} = Σ_{b ∋ j, b ≠ a} r_{b→j}`, read from
+/// the variable's contiguous block of incoming messages. A single-variable factor's
+/// message ignores its input, so nothing is gathered for it.
+#[inline]
 fn gather(graph: &FactorGraph, messages: &[f64], a: FactorId, skip: Option<usize>, scratch: &mut Scratch) {
     let edges = graph.factor_edges(a);
+    let arity = edges.len();
     scratch.offsets.clear();
     scratch.offsets.push(0);
     let mut total = 0;
@@ -388,19 +459,31 @@ fn gather(graph: &FactorGraph, messages: &[f64], a: FactorId, skip: Option<usize
     }
     scratch.incoming.clear();
     scratch.incoming.resize(total, 0.0);
+    if arity == 1 {
+        return;
+    }
     for (slot, e) in edges.enumerate() {
         if Some(slot) == skip {
             continue;
         }
-        let dst = &mut scratch.incoming[scratch.offsets[slot]..scratch.offsets[slot + 1]];
+        let (lo, hi) = (scratch.offsets[slot], scratch.offsets[slot + 1]);
+        let k = hi - lo;
+        let dst = &mut scratch.incoming[lo..hi];
         let v = graph.edge_variable(EdgeId(e));
-        for &other in graph.variable_edges(v) {
-            if other.0 == e {
+        let block = &messages[graph.variable_message_range(v)];
+        let own = graph.message_range(EdgeId(e)).start - graph.variable_message_range(v).start;
+        let mut first = true;
+        for (i, src) in block.chunks_exact(k).enumerate() {
+            if i * k == own {
                 continue;
             }
-            let src = &messages[graph.message_range(other)];
-            for (d, s) in dst.iter_mut().zip(src) {
-                *d += s;
+            if first {
+                dst.copy_from_slice(src);
+                first = false;
+            } else {
+                for (d, s) in dst.iter_mut().zip(src) {
+                    *d += s;
+                }
             }
         }
     }
@@ -410,7 +493,7 @@ fn gather(graph: &FactorGraph, messages: &[f64], a: FactorId, skip: Option<usize
 /// `scratch.out`, assuming `gather` was called. Returns false on a contradiction.
 fn compute(graph: &FactorGraph, a: FactorId, slot: usize, mode: Mode, how: Normalisation, scratch: &mut Scratch) -> bool {
     let factor = graph.factor(a);
-    let k = factor.shape()[slot];
+    let k = scratch.offsets[slot + 1] - scratch.offsets[slot];
     scratch.out.clear();
     scratch.out.resize(k, 0.0);
     let incoming = Incoming::new(&scratch.incoming, &scratch.offsets);
@@ -515,38 +598,39 @@ impl PassState {
         let len = self.messages.values.len();
         let mut next = std::mem::take(&mut self.flood_buffer);
         next.resize(len, 0.0);
-        // Chunks of consecutive factors own consecutive message ranges.
-        let num_factors = graph.num_factors();
-        let per_chunk = (num_factors / (8 * rayon::current_num_threads().max(1))).clamp(64, 4096);
+        // Chunks of consecutive variables own consecutive message blocks.
+        let n = graph.num_variables();
+        let per_chunk = (n / (8 * rayon::current_num_threads().max(1))).clamp(32, 4096);
         let mut chunks: Vec<(std::ops::Range<usize>, &mut [f64])> = Vec::new();
         let mut rest: &mut [f64] = &mut next;
-        let mut start_factor = 0;
-        while start_factor < num_factors {
-            let end_factor = (start_factor + per_chunk).min(num_factors);
-            let begin = graph.factor_message_range(FactorId(start_factor)).start;
-            let end = graph.factor_message_range(FactorId(end_factor - 1)).end;
+        let mut first = 0;
+        while first < n {
+            let last = (first + per_chunk).min(n);
+            let begin = graph.variable_message_range(VariableId(first)).start;
+            let end = graph.variable_message_range(VariableId(last - 1)).end;
             let (head, tail) = std::mem::take(&mut rest).split_at_mut(end - begin);
-            chunks.push((start_factor..end_factor, head));
+            chunks.push((first..last, head));
             rest = tail;
-            start_factor = end_factor;
+            first = last;
         }
         let old = &self.messages.values;
         let (mode, how, damping) = (self.mode, self.normalisation, self.damping);
         let (residual, contradictions) = chunks
             .into_par_iter()
-            .map(|(factors, out)| {
+            .map(|(variables, out)| {
                 let mut scratch = Scratch::default();
-                let base = graph.factor_message_range(FactorId(factors.start)).start;
+                let base = graph.variable_message_range(VariableId(variables.start)).start;
                 let mut residual = 0.0f64;
                 let mut contradictions = 0usize;
-                for a in factors {
-                    let a = FactorId(a);
-                    gather(graph, old, a, None, &mut scratch);
-                    for (slot, e) in graph.factor_edges(a).enumerate() {
+                for v in variables {
+                    for &e in graph.variable_edges(VariableId(v)) {
+                        let a = graph.edge_factor(e);
+                        let slot = graph.edge_slot(e);
+                        gather(graph, old, a, Some(slot), &mut scratch);
                         if !compute(graph, a, slot, mode, how, &mut scratch) {
                             contradictions += 1;
                         }
-                        let range = graph.message_range(EdgeId(e));
+                        let range = graph.message_range(e);
                         let dst = &mut out[range.start - base..range.end - base];
                         dst.copy_from_slice(&old[range]);
                         residual = residual.max(commit(dst, &scratch.out, damping, how));

@@ -1,15 +1,19 @@
 //! The factor graph: discrete variables of any cardinality and factors of any arity.
 //!
 //! Storage is laid out for message passing: every (factor, scope position) pair is an
-//! *edge* with a stable [`EdgeId`]; the edges of one factor are consecutive, and the
+//! *edge* with a stable [`EdgeId`] (the edges of one factor are consecutive), and the
 //! factor-to-variable message of edge `e` occupies `message_range(e)` of one flat
-//! buffer, so a factor's outgoing messages are one contiguous slice (which lets the
-//! flooding schedule update factors in parallel without locks).
+//! buffer. That buffer is *variable-major*: all messages into one variable are one
+//! contiguous slice ([`FactorGraph::variable_message_range`]). Gathering a
+//! variable-to-factor message then reads one cache-friendly block, and the flooding
+//! schedule can compute the messages into disjoint blocks of variables in parallel
+//! without locks.
 
 use crate::error::{Error, Result};
 use crate::factor::Factor;
 use std::fmt;
 use std::ops::Range;
+use std::sync::OnceLock;
 
 /// Index of a variable in its graph.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -54,9 +58,18 @@ pub struct FactorGraph {
     factor_edge_start: Vec<usize>,
     edge_variable: Vec<VariableId>,
     edge_factor: Vec<FactorId>,
-    /// Offset of each edge's message; `num_edges + 1` entries.
-    message_offset: Vec<usize>,
     variable_edges: Vec<Vec<EdgeId>>,
+    /// Message layout, computed on first use after the last structural change.
+    layout: OnceLock<Layout>,
+}
+
+/// Variable-major message layout.
+#[derive(Debug, Default)]
+struct Layout {
+    /// Offset of each edge's message.
+    edge_offset: Vec<usize>,
+    /// Start of each variable's block; `num_variables + 1` entries.
+    variable_start: Vec<usize>,
 }
 
 impl FactorGraph {
@@ -64,7 +77,6 @@ impl FactorGraph {
     pub fn new() -> Self {
         Self {
             factor_edge_start: vec![0],
-            message_offset: vec![0],
             ..Default::default()
         }
     }
@@ -87,6 +99,7 @@ impl FactorGraph {
         }
         self.cardinalities.push(cardinality);
         self.variable_edges.push(Vec::new());
+        self.layout = OnceLock::new();
         Ok(VariableId(self.cardinalities.len() - 1))
     }
 
@@ -104,10 +117,9 @@ impl FactorGraph {
             let e = EdgeId(first_edge + slot);
             self.edge_variable.push(v);
             self.edge_factor.push(id);
-            let last = *self.message_offset.last().unwrap_or(&0);
-            self.message_offset.push(last + self.cardinalities[v.0]);
             self.variable_edges[v.0].push(e);
         }
+        self.layout = OnceLock::new();
         self.factor_edge_start.push(self.edge_variable.len());
         self.factors.push(factor);
         Ok(id)
@@ -231,20 +243,44 @@ impl FactorGraph {
         e.0 - self.factor_edge_start[self.edge_factor[e.0].0]
     }
 
-    /// Where the message of edge `e` lives in a message buffer.
-    pub fn message_range(&self, e: EdgeId) -> Range<usize> {
-        self.message_offset[e.0]..self.message_offset[e.0 + 1]
+    fn layout(&self) -> &Layout {
+        self.layout.get_or_init(|| {
+            let mut edge_offset = vec![0; self.num_edges()];
+            let mut variable_start = Vec::with_capacity(self.num_variables() + 1);
+            let mut next = 0;
+            for (v, edges) in self.variable_edges.iter().enumerate() {
+                variable_start.push(next);
+                for e in edges {
+                    edge_offset[e.0] = next;
+                    next += self.cardinalities[v];
+                }
+            }
+            variable_start.push(next);
+            Layout {
+                edge_offset,
+                variable_start,
+            }
+        })
     }
 
-    /// Where the messages of all edges of factor `a` live (one contiguous range).
-    pub fn factor_message_range(&self, a: FactorId) -> Range<usize> {
-        let edges = self.factor_edges(a);
-        self.message_offset[edges.start]..self.message_offset[edges.end]
+    /// Where the message of edge `e` lives in a message buffer.
+    #[inline]
+    pub fn message_range(&self, e: EdgeId) -> Range<usize> {
+        let start = self.layout().edge_offset[e.0];
+        start..start + self.cardinalities[self.edge_variable[e.0].0]
+    }
+
+    /// Where all messages into variable `v` live: one contiguous block holding the
+    /// messages of `variable_edges(v)` in that order.
+    #[inline]
+    pub fn variable_message_range(&self, v: VariableId) -> Range<usize> {
+        let l = self.layout();
+        l.variable_start[v.0]..l.variable_start[v.0 + 1]
     }
 
     /// Total length of a message buffer.
     pub fn message_len(&self) -> usize {
-        *self.message_offset.last().unwrap_or(&0)
+        self.layout().variable_start.last().copied().unwrap_or(0)
     }
 
     /// Checks that an assignment has one in-range state per variable.

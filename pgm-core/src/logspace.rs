@@ -11,10 +11,14 @@ pub fn log_add_exp(a: f64, b: f64) -> f64 {
     hi + (lo - hi).exp().ln_1p()
 }
 
-/// Maximum entry (−∞ for an empty or all −∞ slice).
+/// Maximum entry (−∞ for an empty or all −∞ slice; NaN entries are skipped).
 #[inline]
 pub fn max(v: &[f64]) -> f64 {
-    v.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+    let mut m = f64::NEG_INFINITY;
+    for &x in v {
+        m = if x > m { x } else { m };
+    }
+    m
 }
 
 /// `log Σ exp(v)`, stable; −∞ when every entry is −∞.
@@ -60,13 +64,11 @@ pub fn normalise(v: &mut [f64], how: Normalisation) -> bool {
 /// −∞ entries are equal and −∞ against a finite value is +∞.
 #[inline]
 pub fn distance(a: &[f64], b: &[f64]) -> f64 {
+    // −∞ − −∞ is NaN, and NaN never compares greater: equal hard zeros count as 0.
     let mut d = 0.0f64;
     for (x, y) in a.iter().zip(b) {
-        if x == y {
-            continue;
-        }
         let diff = (x - y).abs();
-        d = d.max(if diff.is_nan() { f64::INFINITY } else { diff });
+        d = if diff > d { diff } else { d };
     }
     d
 }

@@ -163,17 +163,17 @@ impl Factor for ShiftedIdentityFactor {
 /// `out[y] = agg(q[y + offset] + on, off + agg_{x ≠ y + offset} q[x])`, with the first
 /// term absent when `y + offset` is out of range.
 pub(crate) fn diagonal_message(q: &[f64], out: &mut [f64], offset: isize, on: f64, off: f64, mode: Mode) {
-    let n = q.len();
-    let partner = |y: usize| -> Option<usize> {
-        let p = y as isize + offset;
-        (p >= 0 && (p as usize) < n).then_some(p as usize)
-    };
+    let n = q.len() as isize;
+    let n_out = out.len() as isize;
+    // Targets y whose partner y + offset is a valid state of the other variable.
+    let lo = (-offset).clamp(0, n_out) as usize;
+    let hi = (n - offset).clamp(lo as isize, n_out) as usize;
     match mode {
         Mode::MaxProduct => {
             // Top two entries give max over x ≠ p for any p.
-            let (mut best, mut best_at, mut second) = (f64::NEG_INFINITY, usize::MAX, f64::NEG_INFINITY);
+            let (mut best, mut best_at, mut second) = (f64::NEG_INFINITY, 0usize, f64::NEG_INFINITY);
             for (x, &v) in q.iter().enumerate() {
-                if v > best || best_at == usize::MAX {
+                if v > best {
                     second = best;
                     best = v;
                     best_at = x;
@@ -181,17 +181,26 @@ pub(crate) fn diagonal_message(q: &[f64], out: &mut [f64], offset: isize, on: f6
                     second = v;
                 }
             }
-            for (y, o) in out.iter_mut().enumerate() {
-                *o = match partner(y) {
-                    Some(p) => {
-                        let rest = if p == best_at { second } else { best };
-                        (q[p] + on).max(off + rest)
-                    }
-                    None => off + best,
-                };
+            let all = off + best;
+            out[..lo].iter_mut().for_each(|o| *o = all);
+            out[hi..].iter_mut().for_each(|o| *o = all);
+            if lo < hi {
+                let partners = &q[(lo as isize + offset) as usize..(hi as isize + offset) as usize];
+                for (o, &qp) in out[lo..hi].iter_mut().zip(partners) {
+                    let d = qp + on;
+                    *o = if d > all { d } else { all };
+                }
+            }
+            // The target paired with the best entry must use the second best instead.
+            let y = best_at as isize - offset;
+            if y >= lo as isize && y < hi as isize {
+                let rest = off + second;
+                let d = q[best_at] + on;
+                out[y as usize] = if d > rest { d } else { rest };
             }
         }
         Mode::SumProduct => {
+            let n = q.len();
             // prefix[x] = lse(q[..x]), suffix[x] = lse(q[x..]).
             let mut prefix = vec![f64::NEG_INFINITY; n + 1];
             for x in 0..n {
@@ -201,15 +210,13 @@ pub(crate) fn diagonal_message(q: &[f64], out: &mut [f64], offset: isize, on: f6
             for x in (0..n).rev() {
                 suffix[x] = log_add_exp(suffix[x + 1], q[x]);
             }
-            let all = prefix[n];
-            for (y, o) in out.iter_mut().enumerate() {
-                *o = match partner(y) {
-                    Some(p) => {
-                        let rest = log_add_exp(prefix[p], suffix[p + 1]);
-                        log_add_exp(q[p] + on, off + rest)
-                    }
-                    None => off + all,
-                };
+            let all = off + prefix[n];
+            out[..lo].iter_mut().for_each(|o| *o = all);
+            out[hi..].iter_mut().for_each(|o| *o = all);
+            for y in lo..hi {
+                let p = (y as isize + offset) as usize;
+                let rest = log_add_exp(prefix[p], suffix[p + 1]);
+                out[y] = log_add_exp(q[p] + on, off + rest);
             }
         }
     }

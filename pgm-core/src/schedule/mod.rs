@@ -19,7 +19,7 @@ mod sequential;
 
 pub use flooding::Flooding;
 pub use residual::Residual;
-pub use sequential::{Sequential, SequentialUnit};
+pub use sequential::{two_pass_edges, Sequential, SequentialUnit};
 
 use crate::error::Result;
 use crate::graph::{EdgeId, FactorGraph, FactorId, VariableId};
@@ -72,8 +72,8 @@ pub trait MessagePasser {
     fn tolerance(&self) -> f64;
 }
 
-/// A message schedule.
-pub trait Schedule {
+/// A message schedule. Schedules are `Send` so a run can move into a thread pool.
+pub trait Schedule: Send {
     /// A short name for reports.
     fn name(&self) -> &str;
 
@@ -94,7 +94,7 @@ pub trait Schedule {
 pub enum ScheduleKind {
     /// [`Flooding`].
     Flooding,
-    /// [`Sequential`] over variables in breadth-first order, forward then backward.
+    /// [`Sequential`] in the two-pass edge order (exact in one iteration on trees).
     Sequential,
     /// [`Residual`].
     Residual,
@@ -102,7 +102,7 @@ pub enum ScheduleKind {
 
 impl ScheduleKind {
     /// A boxed schedule of this kind with default settings.
-    pub fn build(self) -> Box<dyn Schedule + Send> {
+    pub fn build(self) -> Box<dyn Schedule> {
         match self {
             ScheduleKind::Flooding => Box::new(Flooding::default()),
             ScheduleKind::Sequential => Box::new(Sequential::default()),

@@ -2,7 +2,7 @@
 
 use super::{MessagePasser, Schedule};
 use crate::error::{Error, Result};
-use crate::graph::{FactorGraph, FactorId, VariableId};
+use crate::graph::{EdgeId, FactorGraph, FactorId, VariableId};
 
 /// What one step of a sequential order updates.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -11,12 +11,19 @@ pub enum SequentialUnit {
     Variables(Vec<VariableId>),
     /// Factor updates.
     Factors(Vec<FactorId>),
+    /// Single factor-to-variable message updates.
+    Edges(Vec<EdgeId>),
 }
 
-/// Updates in a given order, then (by default) in the reverse order. On a chain in
-/// variable order, or a tree in breadth-first order, one forward-backward iteration
-/// gives exact messages. Without an explicit order, the reverse of the graph's breadth-first
-/// variable order ([`FactorGraph::bfs_order`]) is used: leaves to roots, then back.
+/// Updates in a given order, then (for variable and factor orders, by default) in the
+/// reverse order.
+///
+/// Without an explicit order ([`Sequential::default`]) the schedule is the two-pass
+/// edge order of [`two_pass_edges`]: every factor-to-variable message is computed once
+/// per iteration, leaves to roots and then back, so on a forest (a chain in particular:
+/// a forward-backward sweep) the first iteration is exact and the second confirms it.
+/// On loopy graphs the same order, taken from a breadth-first spanning structure, is a
+/// good fixed order.
 #[derive(Clone, Debug)]
 pub struct Sequential {
     order: Option<SequentialUnit>,
@@ -49,7 +56,16 @@ impl Sequential {
         }
     }
 
-    /// Whether each iteration also sweeps the order backwards (default true).
+    /// Updates single messages in this order (no automatic backward sweep).
+    pub fn edges(order: Vec<EdgeId>) -> Self {
+        Self {
+            order: Some(SequentialUnit::Edges(order)),
+            backward: false,
+        }
+    }
+
+    /// Whether each iteration also sweeps the order backwards (default true for
+    /// variable and factor orders, false for edge orders).
     pub fn with_backward(mut self, backward: bool) -> Self {
         self.backward = backward;
         self
@@ -59,6 +75,7 @@ impl Sequential {
         match unit {
             SequentialUnit::Variables(o) => passer.visit_variable(o[k]),
             SequentialUnit::Factors(o) => passer.update_factor(o[k]),
+            SequentialUnit::Edges(o) => passer.update_edge(o[k]),
         }
     }
 }
@@ -71,11 +88,8 @@ impl Schedule for Sequential {
     fn prepare(&mut self, graph: &FactorGraph) -> Result<()> {
         match &self.order {
             None => {
-                // Leaves first, so the forward sweep carries messages towards the roots
-                // and the backward sweep carries them back out.
-                let mut order = graph.bfs_order();
-                order.reverse();
-                self.order = Some(SequentialUnit::Variables(order));
+                self.order = Some(SequentialUnit::Edges(two_pass_edges(graph)));
+                self.backward = false;
             }
             Some(SequentialUnit::Variables(o)) => {
                 if let Some(v) = o.iter().find(|v| v.0 >= graph.num_variables()) {
@@ -95,6 +109,15 @@ impl Schedule for Sequential {
                     });
                 }
             }
+            Some(SequentialUnit::Edges(o)) => {
+                if let Some(e) = o.iter().find(|e| e.0 >= graph.num_edges()) {
+                    return Err(Error::InvalidParameter {
+                        name: "sequential order",
+                        value: e.0.to_string(),
+                        expected: "edge indices of the graph",
+                    });
+                }
+            }
         }
         Ok(())
     }
@@ -106,6 +129,7 @@ impl Schedule for Sequential {
         let n = match unit {
             SequentialUnit::Variables(o) => o.len(),
             SequentialUnit::Factors(o) => o.len(),
+            SequentialUnit::Edges(o) => o.len(),
         };
         for k in 0..n {
             Self::visit(passer, unit, k);
@@ -117,4 +141,38 @@ impl Schedule for Sequential {
         }
         None
     }
+}
+
+/// The two-pass message order of a graph: root every connected component at its first
+/// variable in breadth-first order ([`FactorGraph::bfs_order`]) and give every factor
+/// the scope variable that comes first in that order as its parent. The upward pass
+/// (variables in reverse breadth-first order) sends each factor's message to its
+/// parent; the downward pass (breadth-first order) sends each factor's messages to its
+/// other variables. Every edge appears exactly once.
+pub fn two_pass_edges(graph: &FactorGraph) -> Vec<EdgeId> {
+    let order = graph.bfs_order();
+    let mut position = vec![0usize; graph.num_variables()];
+    for (i, v) in order.iter().enumerate() {
+        position[v.0] = i;
+    }
+    let parent = |a: FactorId| -> Option<VariableId> {
+        graph.factor(a).scope().iter().copied().min_by_key(|v| position[v.0])
+    };
+    let mut edges = Vec::with_capacity(graph.num_edges());
+    for &v in order.iter().rev() {
+        for &e in graph.variable_edges(v) {
+            if parent(graph.edge_factor(e)) == Some(v) {
+                edges.push(e);
+            }
+        }
+    }
+    for &v in &order {
+        for &e in graph.variable_edges(v) {
+            let a = graph.edge_factor(e);
+            if parent(a) == Some(v) {
+                edges.extend(graph.factor_edges(a).map(EdgeId).filter(|&e2| e2 != e));
+            }
+        }
+    }
+    edges
 }

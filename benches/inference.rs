@@ -1,0 +1,137 @@
+//! Inference speed: one max-product iteration on a 100×100 Potts grid with 5 labels
+//! per schedule (one thread; flooding also on two), and one forward-backward sweep over
+//! a chain of 361 variables with 362 states (dense pairwise tables and the O(K)
+//! shifted-identity factor). The grid is the distribution of
+//! `gen_models.py potts --n 100 --k 5`: unary log-potentials N(0, 1), Potts log-potential
+//! 1 for equal labels (our own seeded draws; timing does not depend on the values).
+//!
+//! Run: `cargo bench --bench inference`. Grid figures are for 10 iterations from
+//! uniform messages (divide by 10 for one iteration).
+
+use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
+use pgm_core::{
+    BeliefPropagation, FactorGraph, Flooding, Messages, Mode, PottsFactor, Residual, Schedule, Sequential,
+    ShiftedIdentityFactor, TableFactor, VariableId,
+};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::StandardNormal;
+use std::time::Duration;
+
+fn potts_grid(n: usize, k: usize, seed: u64) -> FactorGraph {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut g = FactorGraph::with_variables(&vec![k; n * n]).unwrap();
+    for v in 0..n * n {
+        let t: Vec<f64> = (0..k).map(|_| rng.sample(StandardNormal)).collect();
+        g.add_factor(TableFactor::new(vec![VariableId(v)], vec![k], t).unwrap()).unwrap();
+    }
+    for r in 0..n {
+        for c in 0..n - 1 {
+            let v = r * n + c;
+            g.add_factor(PottsFactor::new(VariableId(v), VariableId(v + 1), k, 1.0, 0.0).unwrap()).unwrap();
+        }
+    }
+    for r in 0..n - 1 {
+        for c in 0..n {
+            let v = r * n + c;
+            g.add_factor(PottsFactor::new(VariableId(v), VariableId(v + n), k, 1.0, 0.0).unwrap()).unwrap();
+        }
+    }
+    g
+}
+
+fn chain(len: usize, states: usize, dense: bool, seed: u64) -> FactorGraph {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut g = FactorGraph::with_variables(&vec![states; len]).unwrap();
+    for v in 0..len {
+        let t: Vec<f64> = (0..states).map(|_| rng.sample(StandardNormal)).collect();
+        g.add_factor(TableFactor::new(vec![VariableId(v)], vec![states], t).unwrap()).unwrap();
+    }
+    for v in 0..len - 1 {
+        let (a, b) = (VariableId(v), VariableId(v + 1));
+        if dense {
+            let t: Vec<f64> = (0..states * states).map(|_| rng.sample(StandardNormal)).collect();
+            g.add_factor(TableFactor::new(vec![a, b], vec![states, states], t).unwrap()).unwrap();
+        } else {
+            g.add_factor(ShiftedIdentityFactor::new(a, b, states, states, 1, 2.0, 0.0).unwrap()).unwrap();
+        }
+    }
+    g
+}
+
+fn pool(threads: usize) -> rayon::ThreadPool {
+    rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap()
+}
+
+fn iterations(bp: &BeliefPropagation, graph: &FactorGraph, schedule: &mut dyn Schedule, start: Messages) {
+    let p = bp.propagate(graph, schedule, start).unwrap();
+    assert!(p.iterations >= 1);
+    std::hint::black_box(p);
+}
+
+fn grid(c: &mut Criterion) {
+    let graph = potts_grid(100, 5, 1);
+    let bp = BeliefPropagation::new(Mode::MaxProduct).tolerance(0.0).max_iterations(10);
+    let one = pool(1);
+    let two = pool(2);
+    let mut group = c.benchmark_group("potts_grid_100x100_k5_max_product_10_iterations");
+    group.sample_size(20).measurement_time(Duration::from_secs(8));
+    let runs: Vec<(&str, &rayon::ThreadPool, Box<dyn Fn() -> Box<dyn Schedule>>)> = vec![
+        ("flooding_1_thread", &one, Box::new(|| Box::new(Flooding))),
+        ("flooding_2_threads", &two, Box::new(|| Box::new(Flooding))),
+        ("sequential_1_thread", &one, Box::new(|| Box::new(Sequential::default()))),
+        ("residual_1_thread", &one, Box::new(|| Box::new(Residual::default()))),
+    ];
+    for (name, pool, make) in runs {
+        group.bench_function(name, |b| {
+            b.iter_batched(
+                || (make(), Messages::uniform(&graph, Mode::MaxProduct)),
+                |(mut schedule, start)| pool.install(|| iterations(&bp, &graph, schedule.as_mut(), start)),
+                BatchSize::LargeInput,
+            )
+        });
+    }
+    group.finish();
+}
+
+fn chains(c: &mut Criterion) {
+    let bp = BeliefPropagation::new(Mode::MaxProduct).tolerance(0.0).max_iterations(1);
+    let one = pool(1);
+    let two = pool(2);
+    let mut group = c.benchmark_group("chain_361x362_max_product_one_sweep");
+    group.sample_size(10).measurement_time(Duration::from_secs(10));
+    let shifted = chain(361, 362, false, 2);
+    group.bench_function("shifted_identity_sequential_1_thread", |b| {
+        b.iter_batched(
+            || Messages::uniform(&shifted, Mode::MaxProduct),
+            |start| one.install(|| iterations(&bp, &shifted, &mut Sequential::default(), start)),
+            BatchSize::LargeInput,
+        )
+    });
+    let dense = chain(361, 362, true, 2);
+    group.bench_function("dense_sequential_1_thread", |b| {
+        b.iter_batched(
+            || Messages::uniform(&dense, Mode::MaxProduct),
+            |start| one.install(|| iterations(&bp, &dense, &mut Sequential::default(), start)),
+            BatchSize::LargeInput,
+        )
+    });
+    group.bench_function("dense_flooding_1_thread", |b| {
+        b.iter_batched(
+            || Messages::uniform(&dense, Mode::MaxProduct),
+            |start| one.install(|| iterations(&bp, &dense, &mut Flooding, start)),
+            BatchSize::LargeInput,
+        )
+    });
+    group.bench_function("dense_flooding_2_threads", |b| {
+        b.iter_batched(
+            || Messages::uniform(&dense, Mode::MaxProduct),
+            |start| two.install(|| iterations(&bp, &dense, &mut Flooding, start)),
+            BatchSize::LargeInput,
+        )
+    });
+    group.finish();
+}
+
+criterion_group!(benches, grid, chains);
+criterion_main!(benches);
