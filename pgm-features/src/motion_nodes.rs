@@ -1,0 +1,160 @@
+//! Per-cluster rigid motions as observed-continuous nodes (a
+//! [`ContinuousModel`](pgm_core::hybrid::ContinuousModel) of the inference core).
+//!
+//! Variable `i` labels a point pair `(s_i, g_i)` (current point, its partner in the
+//! reference) with a cluster `l`. Each cluster has a rigid motion `m_l = (R_l, T_l)`,
+//! solved in closed form from the pairs currently labelled `l` (eq. 3 of the
+//! CRF-Clustering paper) through [`RigidAlignment`]'s O(1) sufficient statistics, so a
+//! label change costs O(1) however many points there are. The local factor of variable
+//! `i` is refreshed to `−weight · ‖R_l s_i + T_l − g_i‖²` for every cluster state `l`
+//! (eq. 2, the distance feature); extra states beyond the clusters (for example an
+//! outlier state) get a fixed log-potential.
+
+use crate::alignment::RigidAlignment;
+use crate::pose::Pose2;
+use nalgebra::Point2;
+use pgm_core::hybrid::{ContinuousModel, DiscreteSummary, VariableState};
+use pgm_core::{Error, FactorId, Potentials, Result, TableFactor, VariableId};
+
+/// Rigid motions of `k` clusters over labelled point pairs.
+#[derive(Clone, Debug)]
+pub struct RigidMotionNodes {
+    pairs: Vec<(Point2<f64>, Point2<f64>)>,
+    local_factor: Vec<FactorId>,
+    factor_variable: Vec<Option<usize>>,
+    dependent: Vec<[FactorId; 1]>,
+    stats: Vec<RigidAlignment>,
+    motions: Vec<Pose2>,
+    weight: f64,
+    extra_states: Vec<f64>,
+}
+
+impl RigidMotionNodes {
+    /// `pairs[i]` is the pair of variable `i`, `local_factor[i]` its local
+    /// [`TableFactor`] (with `motions.len() + extra_states.len()` states), `motions`
+    /// the initial motions, `weight > 0` the distance weight, and `extra_states` the
+    /// fixed log-potentials of states after the clusters.
+    pub fn new(
+        pairs: Vec<(Point2<f64>, Point2<f64>)>,
+        local_factor: Vec<FactorId>,
+        motions: Vec<Pose2>,
+        weight: f64,
+        extra_states: Vec<f64>,
+    ) -> Result<Self> {
+        if pairs.len() != local_factor.len() {
+            return Err(Error::InvalidParameter {
+                name: "local factors",
+                value: format!("{} pairs, {} factors", pairs.len(), local_factor.len()),
+                expected: "one local factor per point pair",
+            });
+        }
+        if !(weight.is_finite() && weight > 0.0) {
+            return Err(Error::InvalidParameter {
+                name: "distance weight",
+                value: weight.to_string(),
+                expected: "a positive finite number",
+            });
+        }
+        if let Some(i) = pairs.iter().position(|(s, g)| !(s.x.is_finite() && s.y.is_finite() && g.x.is_finite() && g.y.is_finite())) {
+            return Err(Error::InvalidParameter {
+                name: "point pair",
+                value: i.to_string(),
+                expected: "finite coordinates",
+            });
+        }
+        let max_factor = local_factor.iter().map(|a| a.0 + 1).max().unwrap_or(0);
+        let mut factor_variable = vec![None; max_factor];
+        for (i, a) in local_factor.iter().enumerate() {
+            factor_variable[a.0] = Some(i);
+        }
+        Ok(Self {
+            dependent: local_factor.iter().map(|&a| [a]).collect(),
+            stats: vec![RigidAlignment::new(); motions.len()],
+            pairs,
+            local_factor,
+            factor_variable,
+            motions,
+            weight,
+            extra_states,
+        })
+    }
+
+    /// The current motions.
+    pub fn motions(&self) -> &[Pose2] {
+        &self.motions
+    }
+
+    /// Number of pairs currently labelled with each cluster.
+    pub fn counts(&self) -> Vec<usize> {
+        self.stats.iter().map(|s| s.len()).collect()
+    }
+
+    /// The local factor of each variable.
+    pub fn local_factors(&self) -> &[FactorId] {
+        &self.local_factor
+    }
+
+    /// The local log-potentials of variable `i` under the current motions.
+    pub fn local_log_potentials(&self, i: usize) -> Vec<f64> {
+        let (s, g) = &self.pairs[i];
+        let mut t: Vec<f64> = self
+            .motions
+            .iter()
+            .map(|m| -self.weight * (m.transform_point(s) - g).norm_squared())
+            .collect();
+        t.extend_from_slice(&self.extra_states);
+        t
+    }
+}
+
+impl ContinuousModel for RigidMotionNodes {
+    fn summary(&self) -> DiscreteSummary {
+        DiscreteSummary::MapLabels
+    }
+
+    fn update_variable(&mut self, v: VariableId, old: Option<VariableState<'_>>, new: VariableState<'_>) {
+        let Some((s, g)) = self.pairs.get(v.0).copied() else { return };
+        let k = self.motions.len();
+        if let Some(VariableState::Label(l)) = old {
+            if l < k {
+                self.stats[l].remove(&s, &g, 1.0);
+            }
+        }
+        if let VariableState::Label(l) = new {
+            if l < k {
+                self.stats[l].add(&s, &g, 1.0);
+            }
+        }
+    }
+
+    fn solve(&mut self) -> f64 {
+        let mut change = 0.0f64;
+        for (m, stats) in self.motions.iter_mut().zip(&self.stats) {
+            // An empty cluster keeps its motion.
+            if let Some(a) = stats.solve() {
+                change = change.max(a.motion.translation_error(m)).max(a.motion.rotation_error(m));
+                *m = a.motion;
+            }
+        }
+        change
+    }
+
+    fn dependent_factors(&self, v: VariableId) -> &[FactorId] {
+        self.dependent.get(v.0).map_or(&[], |d| d.as_slice())
+    }
+
+    fn refresh_factor(&self, a: FactorId, potentials: &mut Potentials<'_>) -> Result<()> {
+        let Some(Some(i)) = self.factor_variable.get(a.0) else {
+            return Ok(());
+        };
+        let table = self.local_log_potentials(*i);
+        match potentials.factor_mut(a).as_any_mut().and_then(|f| f.downcast_mut::<TableFactor>()) {
+            Some(t) => t.set_table(table),
+            None => Err(Error::InvalidParameter {
+                name: "local factor",
+                value: a.0.to_string(),
+                expected: "a TableFactor",
+            }),
+        }
+    }
+}
