@@ -100,6 +100,95 @@ pub enum Error {
     /// A learning problem is malformed (bad labels, features, weights).
     #[error("{0}")]
     Learning(String),
+    /// A training instance has a different number of labels than variables.
+    #[error("training instance {instance}: {labels} labels for {variables} variables")]
+    LabelCount {
+        /// Index of the instance in the training set.
+        instance: usize,
+        /// Number of labels given.
+        labels: usize,
+        /// Number of variables of the instance's model.
+        variables: usize,
+    },
+    /// A training label is not a state of its variable.
+    #[error("training instance {instance}, variable {variable}: label {label} is out of range (the variable has {cardinality} states)")]
+    LabelOutOfRange {
+        /// Index of the instance in the training set.
+        instance: usize,
+        /// The variable.
+        variable: usize,
+        /// The offending label.
+        label: usize,
+        /// Number of states of the variable.
+        cardinality: usize,
+    },
+    /// A variable of a training instance is in no clique, so pseudo-likelihood learning
+    /// has nothing to learn from it (usually a model-building mistake).
+    #[error("training instance {instance}, variable {variable}: the variable is in no clique")]
+    VariableWithoutFactors {
+        /// Index of the instance in the training set.
+        instance: usize,
+        /// The variable.
+        variable: usize,
+    },
+    /// A feature value is NaN or infinite.
+    #[error("{}clique {clique} at states {states:?}: feature {feature:?} is {value}; features must be finite", feature_location(.instance, .variable))]
+    BadFeature {
+        /// Index of the instance in the training set, when known.
+        instance: Option<usize>,
+        /// The variable whose local conditional needed the feature, when known.
+        variable: Option<usize>,
+        /// Index of the clique in its model.
+        clique: usize,
+        /// The clique's joint state.
+        states: Vec<usize>,
+        /// Name of the feature (its weight's name).
+        feature: String,
+        /// The offending value.
+        value: f64,
+    },
+    /// A weight is NaN or infinite.
+    #[error("weight {name:?} = {value}: weights must be finite")]
+    BadWeight {
+        /// Name of the weight.
+        name: String,
+        /// The offending value.
+        value: f64,
+    },
+    /// A weight vector's names do not match the model's feature set.
+    #[error("weights for model {model:?} do not match its features: missing {missing:?}, unexpected {extra:?}")]
+    WeightNames {
+        /// The model.
+        model: String,
+        /// Features of the model that have no weight.
+        missing: Vec<String>,
+        /// Weights that name no feature of the model.
+        extra: Vec<String>,
+    },
+    /// Weights or instances belong to a different model or model version.
+    #[error("expected model {expected_model:?} version {expected_version}, found model {found_model:?} version {found_version}")]
+    ModelMismatch {
+        /// The model expected.
+        expected_model: String,
+        /// Its version.
+        expected_version: u32,
+        /// The model found.
+        found_model: String,
+        /// Its version.
+        found_version: u32,
+    },
+    /// The optimiser failed (not: stopped early; that is reported in its result).
+    #[error("L-BFGS: {0}")]
+    Optimiser(String),
+}
+
+fn feature_location(instance: &Option<usize>, variable: &Option<usize>) -> String {
+    match (instance, variable) {
+        (Some(n), Some(v)) => format!("training instance {n}, variable {v}: "),
+        (Some(n), None) => format!("training instance {n}: "),
+        (None, Some(v)) => format!("variable {v}: "),
+        (None, None) => String::new(),
+    }
 }
 
 /// Result type of `pgm-core`.

@@ -39,15 +39,18 @@ pub mod exact;
 pub mod factor;
 pub mod graph;
 pub mod hook;
+pub mod hybrid;
+pub mod learning;
 pub mod logspace;
 pub mod schedule;
 #[cfg(feature = "proptest-strategies")]
 pub mod strategies;
 pub mod uai;
 
-pub use bp::{decode_map, BeliefPropagation, BpResult, Messages};
+pub use bp::{decode_map, BeliefPropagation, BpResult, Messages, Propagation};
 pub use error::{Error, Result};
 pub use factor::{Factor, Incoming, Mode, PottsFactor, ShiftedIdentityFactor, TableFactor};
 pub use graph::{EdgeId, FactorGraph, FactorId, VariableId};
 pub use hook::{Potentials, UpdateHook};
+pub use learning::{FeatureSet, Learner, LearnerParams, LogLinearModel, PseudoLikelihood, Weights};
 pub use schedule::{Flooding, MessagePasser, Residual, Schedule, ScheduleKind, Sequential, SequentialUnit, Visit};

@@ -4,10 +4,12 @@
 
 mod brute_force;
 mod chain;
+mod sample;
 mod tree;
 
 pub use brute_force::{brute_force, BruteForceLimit};
 pub use chain::{chain_order, forward_backward, viterbi};
+pub use sample::{sample_chain, ChainSampler};
 pub use tree::{tree_map, tree_marginals};
 
 /// An exact answer.
