@@ -20,6 +20,14 @@ enum Command {
     Map(cli::infer::InferArgs),
     /// Single-variable marginals of a UAI model by loopy sum-product belief propagation.
     Marginals(cli::infer::InferArgs),
+    /// Build scan-pair data sets from real laser logs and summarise them.
+    Data(cli::data::DataArgs),
+    /// Evaluate methods against ground truth (`pgm eval matching …`).
+    Eval(cli::eval::EvalArgs),
+    /// Simulate urban scan pairs with complete ground truth (`pgm sim --preset mixed --pairs 100 --out DIR`).
+    Sim(cli::sim::SimArgs),
+    /// Draw one pair of a data set as SVG, coloured by ground truth.
+    Plot(cli::plot::PlotArgs),
 }
 
 fn main() -> ExitCode {
@@ -27,6 +35,10 @@ fn main() -> ExitCode {
     let outcome = match cli.command {
         Command::Map(args) => cli::infer::run(args, cli::infer::Task::Map),
         Command::Marginals(args) => cli::infer::run(args, cli::infer::Task::Marginals),
+        Command::Data(args) => cli::data::run(args),
+        Command::Eval(args) => cli::eval::run(args),
+        Command::Sim(args) => cli::sim::run(args),
+        Command::Plot(args) => cli::plot::run(args),
     };
     match outcome {
         Ok(code) => code,

@@ -1,7 +1,11 @@
 //! One module per subcommand family. Each exposes clap `Args` structs and a `run`
 //! function returning `Result<ExitCode, CliError>`.
 
+pub mod data;
+pub mod eval;
 pub mod infer;
+pub mod plot;
+pub mod sim;
 
 use std::fmt;
 

@@ -1,0 +1,94 @@
+//! ICP speed on real 361-beam pairs: the mit-csail relation pairs less than 1.5 s
+//! apart, started from odometry. Skipped (with a note) when ../shared/data is missing.
+//!
+//! `icp/mit-csail-near` aligns a batch of pairs per iteration (k-d tree construction
+//! on the reference scan included); criterion's throughput line gives pairs per
+//! second, and time per pair = reported time / batch size.
+
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use pgm_baselines::icp::{Icp, IcpParams};
+use pgm_datasets::builders::{relation_pairs, RelationPairOptions};
+use pgm_datasets::{carmen, relations, testdata, ScanPair};
+use std::hint::black_box;
+
+const BATCH: usize = 100;
+
+fn near_pairs() -> Option<Vec<ScanPair>> {
+    let dir = testdata::shared_data_dir()?.join("mit-csail");
+    let log = carmen::read_carmen(dir.join("mit-csail.clf")).ok()?;
+    let rels = relations::read_relations(dir.join("mit-csail.relations")).ok()?;
+    let built = relation_pairs(&log, &rels, &RelationPairOptions::default());
+    let near: Vec<ScanPair> = built
+        .pairs
+        .into_iter()
+        .filter(|p| p.time_gap().abs() < 1.5)
+        .take(BATCH)
+        .collect();
+    (near.len() == BATCH).then_some(near)
+}
+
+fn bench_icp(c: &mut Criterion) {
+    let Some(pairs) = near_pairs() else {
+        eprintln!("note: mit-csail pairs unavailable; ICP bench skipped");
+        return;
+    };
+    let params = IcpParams::default();
+    let iterations: usize = pairs
+        .iter()
+        .map(|p| {
+            let icp = Icp::new(&p.reference, params).expect("valid reference");
+            icp.align(&p.current, p.odometry.unwrap_or_default())
+                .expect("valid current")
+                .iterations
+        })
+        .sum();
+    eprintln!(
+        "note: {} pairs, mean {:.1} ICP iterations per pair",
+        pairs.len(),
+        iterations as f64 / pairs.len() as f64
+    );
+    let mut group = c.benchmark_group("icp");
+    group.throughput(Throughput::Elements(BATCH as u64));
+    group.bench_function("mit-csail-near", |b| {
+        b.iter(|| {
+            for p in &pairs {
+                let icp = Icp::new(&p.reference, params).expect("valid reference");
+                let r = icp
+                    .align(&p.current, p.odometry.unwrap_or_default())
+                    .expect("valid current");
+                black_box(r.motion);
+            }
+        })
+    });
+    let trees: Vec<Icp> = pairs
+        .iter()
+        .map(|p| Icp::new(&p.reference, params).expect("valid reference"))
+        .collect();
+    group.bench_function("mit-csail-near-align-only", |b| {
+        b.iter(|| {
+            for (icp, p) in trees.iter().zip(&pairs) {
+                let r = icp
+                    .align(&p.current, p.odometry.unwrap_or_default())
+                    .expect("valid current");
+                black_box(r.motion);
+            }
+        })
+    });
+    // One nearest-neighbour query per current return against one reference tree.
+    let (queries, _) = pairs[0].current.points();
+    let icp = Icp::new(&pairs[0].reference, params).expect("valid reference");
+    group.throughput(Throughput::Elements(queries.len() as u64));
+    group.bench_function("nearest-reference-one-scan", |b| {
+        b.iter(|| {
+            let mut sum = 0.0;
+            for q in &queries {
+                sum += icp.nearest_reference(q, 0.1).map_or(0.0, |x| x.1);
+            }
+            black_box(sum)
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, bench_icp);
+criterion_main!(benches);

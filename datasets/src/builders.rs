@@ -1,0 +1,432 @@
+//! Builders of [`ScanPair`]s with ground truth from the real logs.
+//!
+//! - [`relation_pairs`] (mit-csail): one pair per relation of a Kümmerle-style
+//!   `.relations` file, reference = the scan at `t1`, current = the scan at `t2`
+//!   (matched to laser time stamps within a tolerance, default 1e-4 s). The scene is
+//!   taken as static: the true ego-motion is the relation carried into the laser
+//!   frames, `inverse(L₁) ∘ relation ∘ L₂`, every valid return of both scans has
+//!   label 0 (background), and the background's [`ClusterMotion`] is the ego-motion.
+//! - [`consecutive_pairs`] (intel-lab): consecutive laser scans that both follow a
+//!   `VERTEX2` pose; true ego-motion `inverse(V_i ∘ L_i) ∘ (V_{i+1} ∘ L_{i+1})`, static
+//!   labels as above. In the FLIRT logs the robot pose of each ROBOTLASER1 line *is*
+//!   the corrected vertex pose, so it is not an independent odometry: when more than
+//!   half of the scans have odometry equal to their vertex pose (within 1e-6; in
+//!   intel-lab all but the first, whose vertex is rounded), the builder removes the
+//!   odometry from the scans and gives no odometry prior, so no method can read the
+//!   ground truth through it ([`ConsecutivePairs::odometry_was_ground_truth`]).
+//! - [`leigh_pairs`] (leigh-gtm1): pairs of scans `k` indices apart, labels from the
+//!   annotated people (rule below).
+//!
+//! In every builder the odometry prior is the motion of the laser between the scans
+//! as the odometry sees it, `inverse(odo_i ∘ L) ∘ (odo_j ∘ L)`, in the reference
+//! laser frame; pairs are built without it when a scan has no odometry.
+//!
+//! # leigh-gtm1 pairs and labels
+//!
+//! **Which pairs.** For every annotated scan `i` (at least one `PERSON` line) such that
+//! scan `j = i + k` exists and is annotated too, one pair (reference `i`, current `j`).
+//! Scans without annotations are not "scans without people" — most of the log was
+//! never annotated — so a pair is only built when both scans are annotated and the
+//! labels mean something. With the published annotations (123 annotated scans in
+//! 133–404) that gives 106 pairs at `k = 1`.
+//!
+//! **Which people move.** A person annotated in both scans moved by the distance
+//! between its centre in scan `j` and its centre in scan `i` carried into scan `j`'s
+//! laser frame by the odometry prior. The person is *moving* when that distance is at
+//! least [`LeighPairOptions::moving_threshold`] (default 0.2 m). A person annotated
+//! in only one of the two scans has no known displacement and is not moving. With a
+//! threshold of 0 every person annotated in scan `j` is its own cluster, whether
+//! annotated in scan `i` or not, and no odometry is needed; a positive threshold
+//! needs odometry (the builder returns [`Error::Mismatch`] without it).
+//!
+//! **Labels.** Moving people get labels 1, 2, … in increasing `person_id`. A return
+//! of scan `j` within [`LeighPairOptions::person_radius`] (default 0.35 m) of the
+//! annotated centre of a moving person in scan `j` gets that person's label (the
+//! nearest centre if several are that close); every other valid return is
+//! background 0, standing people included. Reference labels are built the same way
+//! from scan `i` and the centres annotated there.
+//!
+//! **Motions.** For each moving person annotated in both scans, a [`ClusterMotion`]
+//! (kind `"person <id>"`) that maps the current frame onto the reference frame: the
+//! rotation of the odometry prior (a centre carries no orientation) and the
+//! translation that takes the centre in `j` onto the centre in `i`. The ego-motion is
+//! not ground truth here (odometry is only a prior), so `truth.ego_motion` is `None`
+//! and no background motion is given.
+
+use crate::carmen::CarmenLog;
+use crate::error::{Error, Result};
+use crate::leigh::{IndexedScan, LeighScans, PersonAnnotation};
+use crate::pair::{ClusterMotion, GroundTruth, ScanPair};
+use crate::relations::Relation;
+use nalgebra::Point2;
+use pgm_features::{Pose2, Scan};
+use std::collections::BTreeMap;
+
+/// Label 0 for every valid return, `None` for beams without a return.
+pub fn background_labels(scan: &Scan) -> Vec<Option<u32>> {
+    scan.valid.iter().map(|v| v.then_some(0)).collect()
+}
+
+/// The odometry prior `inverse(odo_ref ∘ L_ref) ∘ (odo_cur ∘ L_cur)` when both scans
+/// have odometry.
+pub fn odometry_prior(reference: &Scan, current: &Scan) -> Option<Pose2> {
+    Some(
+        reference
+            .laser_odometry()?
+            .between(&current.laser_odometry()?),
+    )
+}
+
+fn static_pair(name: String, reference: Scan, current: Scan, ego_motion: Pose2) -> ScanPair {
+    let truth = GroundTruth {
+        ego_motion: Some(ego_motion),
+        labels: Some(background_labels(&current)),
+        reference_labels: Some(background_labels(&reference)),
+        associations: None,
+        motions: vec![ClusterMotion {
+            label: 0,
+            motion: ego_motion,
+            kind: "background".into(),
+        }],
+    };
+    ScanPair {
+        name,
+        odometry: odometry_prior(&reference, &current),
+        reference,
+        current,
+        truth: Some(truth),
+    }
+}
+
+/// Options of [`relation_pairs`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct RelationPairOptions {
+    /// Largest accepted difference between a relation's time stamp and a scan's (s).
+    pub tolerance: f64,
+    /// Prefix of the pair names (`<prefix>:<t1>-<t2>`).
+    pub name: String,
+}
+
+impl Default for RelationPairOptions {
+    fn default() -> Self {
+        Self {
+            tolerance: 1e-4,
+            name: "relations".into(),
+        }
+    }
+}
+
+/// The result of [`relation_pairs`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct RelationPairs {
+    /// One pair per relation whose two time stamps both matched a scan.
+    pub pairs: Vec<ScanPair>,
+    /// Relations for which a time stamp matched no scan.
+    pub unmatched: Vec<Relation>,
+}
+
+/// Builds one pair per relation (see the module docs).
+pub fn relation_pairs(
+    log: &CarmenLog,
+    relations: &[Relation],
+    options: &RelationPairOptions,
+) -> RelationPairs {
+    let mut by_time: Vec<(f64, usize)> = log
+        .scans
+        .iter()
+        .enumerate()
+        .map(|(k, s)| (s.scan.timestamp, k))
+        .collect();
+    by_time.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let find = |t: f64| -> Option<usize> {
+        let at = by_time.partition_point(|(ts, _)| *ts < t);
+        [at.checked_sub(1), Some(at)]
+            .into_iter()
+            .flatten()
+            .filter_map(|k| by_time.get(k))
+            .filter(|(ts, _)| (ts - t).abs() <= options.tolerance)
+            .min_by(|a, b| (a.0 - t).abs().total_cmp(&(b.0 - t).abs()))
+            .map(|(_, k)| *k)
+    };
+    let mut out = RelationPairs {
+        pairs: Vec::new(),
+        unmatched: Vec::new(),
+    };
+    for r in relations {
+        let (Some(a), Some(b)) = (find(r.t1), find(r.t2)) else {
+            out.unmatched.push(*r);
+            continue;
+        };
+        let reference = log.scans[a].scan.clone();
+        let current = log.scans[b].scan.clone();
+        let ego = reference
+            .laser_offset
+            .inverse()
+            .compose(&r.motion)
+            .compose(&current.laser_offset);
+        let name = format!("{}:{:.5}-{:.5}", options.name, r.t1, r.t2);
+        out.pairs.push(static_pair(name, reference, current, ego));
+    }
+    out
+}
+
+/// The result of [`consecutive_pairs`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct ConsecutivePairs {
+    /// One pair per two consecutive scans with vertex poses.
+    pub pairs: Vec<ScanPair>,
+    /// True when the log's odometry equalled the vertex poses and was removed.
+    pub odometry_was_ground_truth: bool,
+}
+
+/// Builds pairs of consecutive scans with `VERTEX2` poses (see the module docs).
+pub fn consecutive_pairs(log: &CarmenLog, name: &str) -> ConsecutivePairs {
+    let with_pose: Vec<_> = log
+        .scans
+        .iter()
+        .filter_map(|s| s.vertex.map(|v| (s, v)))
+        .collect();
+    let same = |a: &Pose2, b: &Pose2| a.translation_error(b) < 1e-6 && a.rotation_error(b) < 1e-6;
+    let equal = with_pose
+        .iter()
+        .filter(|(s, v)| s.scan.odometry.is_some_and(|o| same(&o, &v.pose)))
+        .count();
+    let odometry_was_ground_truth = 2 * equal > with_pose.len();
+    let mut pairs = Vec::new();
+    for w in with_pose.windows(2) {
+        let ((a, va), (b, vb)) = (w[0], w[1]);
+        let mut reference = a.scan.clone();
+        let mut current = b.scan.clone();
+        let ego = va
+            .pose
+            .compose(&reference.laser_offset)
+            .between(&vb.pose.compose(&current.laser_offset));
+        if odometry_was_ground_truth {
+            reference.odometry = None;
+            current.odometry = None;
+        }
+        let pair_name = format!("{name}:{}-{}", va.id, vb.id);
+        pairs.push(static_pair(pair_name, reference, current, ego));
+    }
+    ConsecutivePairs {
+        pairs,
+        odometry_was_ground_truth,
+    }
+}
+
+/// Options of [`leigh_pairs`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct LeighPairOptions {
+    /// Distance between the two scans of a pair, in scan indices (≥ 1).
+    pub k: usize,
+    /// Smallest displacement (m) for a person to count as moving; 0 makes every
+    /// annotated person its own cluster.
+    pub moving_threshold: f64,
+    /// Returns within this distance (m) of an annotated centre belong to the person.
+    pub person_radius: f64,
+    /// Prefix of the pair names (`<prefix>:<i>-<j>`).
+    pub name: String,
+}
+
+impl Default for LeighPairOptions {
+    fn default() -> Self {
+        Self {
+            k: 5,
+            moving_threshold: 0.2,
+            person_radius: 0.35,
+            name: "leigh-gtm1".into(),
+        }
+    }
+}
+
+fn label_returns(scan: &Scan, centres: &[(u32, Point2<f64>)], radius: f64) -> Vec<Option<u32>> {
+    let r2 = radius * radius;
+    (0..scan.len())
+        .map(|k| {
+            if !scan.valid[k] {
+                return None;
+            }
+            let p = scan.beam_point(k);
+            let nearest = centres
+                .iter()
+                .map(|(label, c)| (*label, (p - c).norm_squared()))
+                .filter(|(_, d2)| *d2 <= r2)
+                .min_by(|a, b| a.1.total_cmp(&b.1));
+            Some(nearest.map_or(0, |(label, _)| label))
+        })
+        .collect()
+}
+
+/// Builds leigh-gtm1 pairs `k` scans apart with motion labels (see the module docs).
+/// The scans' odometry (if any) must already be attached
+/// ([`crate::leigh::attach_odometry`]).
+pub fn leigh_pairs(
+    scans: &LeighScans,
+    people: &[PersonAnnotation],
+    options: &LeighPairOptions,
+) -> Result<Vec<ScanPair>> {
+    if options.k == 0 {
+        return Err(Error::Mismatch {
+            what: "k = 0: the two scans of a pair must differ".into(),
+        });
+    }
+    if !(options.moving_threshold >= 0.0 && options.moving_threshold.is_finite()) {
+        return Err(Error::Mismatch {
+            what: format!(
+                "moving threshold {} must be finite and >= 0",
+                options.moving_threshold
+            ),
+        });
+    }
+    if !(options.person_radius > 0.0 && options.person_radius.is_finite()) {
+        return Err(Error::Mismatch {
+            what: format!("person radius {} must be positive", options.person_radius),
+        });
+    }
+    let mut by_scan: BTreeMap<usize, BTreeMap<u32, Point2<f64>>> = BTreeMap::new();
+    for a in people {
+        by_scan
+            .entry(a.scan)
+            .or_default()
+            .insert(a.person, a.centre);
+    }
+    let mut pairs = Vec::new();
+    for (&i, people_i) in &by_scan {
+        let j = i + options.k;
+        let Some(people_j) = by_scan.get(&j) else {
+            continue;
+        };
+        let (Some(ref_scan), Some(cur_scan)) = (scans.get(i), scans.get(j)) else {
+            continue;
+        };
+        pairs.push(leigh_pair(ref_scan, cur_scan, people_i, people_j, options)?);
+    }
+    Ok(pairs)
+}
+
+fn leigh_pair(
+    reference: &IndexedScan,
+    current: &IndexedScan,
+    people_i: &BTreeMap<u32, Point2<f64>>,
+    people_j: &BTreeMap<u32, Point2<f64>>,
+    options: &LeighPairOptions,
+) -> Result<ScanPair> {
+    let prior = odometry_prior(&reference.scan, &current.scan);
+    if prior.is_none() && options.moving_threshold > 0.0 {
+        return Err(Error::Mismatch {
+            what: format!(
+                "scans {} and {}: deciding who moves by at least {} m needs odometry to carry \
+                 person centres between the two laser frames; give the odometry or use a \
+                 moving threshold of 0",
+                reference.index, current.index, options.moving_threshold
+            ),
+        });
+    }
+    let mut centres_i = Vec::new();
+    let mut centres_j = Vec::new();
+    let mut motions = Vec::new();
+    let mut next_label = 1;
+    for (&person, &c_j) in people_j {
+        let c_i = people_i.get(&person).copied();
+        let displacement = match (c_i, prior) {
+            (Some(c_i), Some(prior)) => {
+                let carried = prior.inverse().transform_point(&c_i);
+                Some((c_j - carried).norm())
+            }
+            _ => None,
+        };
+        let moving = options.moving_threshold <= 0.0
+            || displacement.is_some_and(|d| d >= options.moving_threshold);
+        if !moving {
+            continue;
+        }
+        let label = next_label;
+        next_label += 1;
+        centres_j.push((label, c_j));
+        if let Some(c_i) = c_i {
+            centres_i.push((label, c_i));
+            if let Some(prior) = prior {
+                // m(c_j) = c_i with the rotation of the prior: T = c_i − R c_j.
+                let rotated = prior.transform_point(&c_j) - prior.translation();
+                let t = c_i - rotated;
+                motions.push(ClusterMotion {
+                    label,
+                    motion: Pose2::new(t.x, t.y, prior.theta()),
+                    kind: format!("person {person}"),
+                });
+            }
+        }
+    }
+    let truth = GroundTruth {
+        ego_motion: None,
+        labels: Some(label_returns(
+            &current.scan,
+            &centres_j,
+            options.person_radius,
+        )),
+        reference_labels: Some(label_returns(
+            &reference.scan,
+            &centres_i,
+            options.person_radius,
+        )),
+        associations: None,
+        motions,
+    };
+    Ok(ScanPair {
+        name: format!("{}:{}-{}", options.name, reference.index, current.index),
+        reference: reference.scan.clone(),
+        current: current.scan.clone(),
+        odometry: prior,
+        truth: Some(truth),
+    })
+}
+
+/// Figures of a set of leigh-gtm1 pairs (the `pgm data summary` table).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct LeighSummary {
+    /// Scan distance of the pairs.
+    pub k: usize,
+    /// Number of pairs.
+    pub pairs: usize,
+    /// Mean number of valid returns per current scan.
+    pub returns_per_scan: f64,
+    /// Mean number of moving-person returns (label > 0) per pair.
+    pub moving_returns_per_pair: f64,
+    /// Number of pairs with at least one moving-person return.
+    pub pairs_with_moving_person: usize,
+    /// Number of moving people summed over pairs.
+    pub moving_people: usize,
+}
+
+/// Summarises pairs built by [`leigh_pairs`] with scan distance `k`.
+pub fn summarize_leigh_pairs(k: usize, pairs: &[ScanPair]) -> LeighSummary {
+    let n = pairs.len();
+    let mut returns = 0usize;
+    let mut moving_returns = 0usize;
+    let mut with_moving = 0usize;
+    let mut moving_people = 0usize;
+    for p in pairs {
+        returns += p.current.valid_count();
+        let labels = p.truth.as_ref().and_then(|t| t.labels.as_ref());
+        let m = labels.map_or(0, |l| l.iter().filter(|x| x.is_some_and(|v| v > 0)).count());
+        moving_returns += m;
+        if m > 0 {
+            with_moving += 1;
+        }
+        if let Some(l) = labels {
+            let mut ids: Vec<u32> = l.iter().flatten().copied().filter(|v| *v > 0).collect();
+            ids.sort_unstable();
+            ids.dedup();
+            moving_people += ids.len();
+        }
+    }
+    let mean = |x: usize| if n == 0 { 0.0 } else { x as f64 / n as f64 };
+    LeighSummary {
+        k,
+        pairs: n,
+        returns_per_scan: mean(returns),
+        moving_returns_per_pair: mean(moving_returns),
+        pairs_with_moving_person: with_moving,
+        moving_people,
+    }
+}

@@ -1,0 +1,97 @@
+//! The one error type of `pgm-datasets`: every variant names where the problem is
+//! (file, line, field) and the offending value.
+
+use std::path::PathBuf;
+
+/// Errors of the log readers, pair builders, the on-disk pair format and the metrics.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// A file could not be read or written.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The underlying error.
+        source: std::io::Error,
+    },
+    /// A field of a text log has a value that cannot be used.
+    #[error("{}:{line}: field `{field}` = `{value}`: {problem}", path.display())]
+    Field {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line number.
+        line: usize,
+        /// Name of the field (for example `range[17]` or `ipc_timestamp`).
+        field: String,
+        /// The offending text as it appears in the file.
+        value: String,
+        /// What is wrong with it.
+        problem: String,
+    },
+    /// A line ends before a field it must have.
+    #[error("{}:{line}: line ends before field `{field}` ({found} fields, expected {expected})", path.display())]
+    MissingField {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line number.
+        line: usize,
+        /// Name of the first missing field.
+        field: String,
+        /// Number of whitespace-separated fields on the line.
+        found: usize,
+        /// Number of fields the line must have.
+        expected: usize,
+    },
+    /// A line has more fields than its record type declares.
+    #[error("{}:{line}: {found} fields, expected {expected} ({context})", path.display())]
+    ExtraFields {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line number.
+        line: usize,
+        /// Number of whitespace-separated fields on the line.
+        found: usize,
+        /// Number of fields the record declares.
+        expected: usize,
+        /// Which declared count the expectation comes from.
+        context: String,
+    },
+    /// A JSON file does not parse as the expected structure.
+    #[error("{}: {source}", path.display())]
+    Json {
+        /// The file.
+        path: PathBuf,
+        /// The serde error (with line and column).
+        source: serde_json::Error,
+    },
+    /// A stored scan pair (or other structured input) violates an invariant.
+    #[error("{}: `{field}`: {problem}", path.display())]
+    Invalid {
+        /// The file.
+        path: PathBuf,
+        /// Path of the offending field (for example `truth.labels` or `current`).
+        field: String,
+        /// What is wrong with it.
+        problem: String,
+    },
+    /// Two inputs that must agree do not (for example odometry and scans, or the
+    /// arguments of a metric).
+    #[error("{what}")]
+    Mismatch {
+        /// Description naming both inputs and the disagreeing values.
+        what: String,
+    },
+}
+
+/// Result type of `pgm-datasets`.
+pub type Result<T> = std::result::Result<T, Error>;
+
+impl Error {
+    /// An [`Error::Io`] for `path`.
+    pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+        Error::Io {
+            path: path.into(),
+            source,
+        }
+    }
+}

@@ -1,0 +1,279 @@
+//! Readers for the text logs of the leigh-gtm1 data set (McGill smart wheelchair,
+//! Hokuyo laser, hand-annotated people; A. Leigh, J. Pineau, N. Olmedo, H. Zhang,
+//! "Person Tracking and Following with 2D Laser Scanners", ICRA 2015).
+//!
+//! - Scans (`scans.txt`): `SCAN idx stamp_header_s stamp_bag_s frame angle_min
+//!   angle_increment range_min range_max n r_0 … r_{n-1}`. Beam `k` lies at
+//!   `angle_min + k·angle_increment`; a beam is a return when
+//!   `range_min < r < range_max` and finite. `nan`, `inf` and `0` mean no return
+//!   (stored as range 0, invalid); a negative range is an error. The scan's time stamp
+//!   is `stamp_header_s`; its laser offset is [`LASER_OFFSET`].
+//! - Odometry (`odom_at_scan.txt`): `ODOM idx stamp x y theta`, the wheel-odometry pose
+//!   of the robot base at scan `idx`.
+//! - People (`people_gt.txt`): `PERSON scan_idx person_id x y`, an annotated person
+//!   centre in the laser frame of scan `scan_idx`.
+//!
+//! Lines starting with `#` and blank lines are skipped; lines of another record type
+//! are skipped and counted. Scan indices must be unique, and so must
+//! `(scan_idx, person_id)`.
+
+use crate::error::{Error, Result};
+use crate::text::{read_text, Fields};
+use nalgebra::Point2;
+use pgm_features::{Pose2, Scan};
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// Pose of the laser on the wheelchair's base (x = 0.850326 m, y = 0.235214 m,
+/// yaw = 0.73480 rad), from the bag's `/tf`.
+pub const LASER_OFFSET: (f64, f64, f64) = (0.850326, 0.235214, 0.73480);
+
+/// [`LASER_OFFSET`] as a pose.
+pub fn laser_offset() -> Pose2 {
+    Pose2::new(LASER_OFFSET.0, LASER_OFFSET.1, LASER_OFFSET.2)
+}
+
+/// One scan of the log with its index.
+#[derive(Clone, Debug, PartialEq)]
+pub struct IndexedScan {
+    /// The log's scan index (`idx`).
+    pub index: usize,
+    /// The scan.
+    pub scan: Scan,
+    /// 1-based line number.
+    pub line: usize,
+}
+
+/// A hand-annotated person centre.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PersonAnnotation {
+    /// Index of the scan the annotation belongs to.
+    pub scan: usize,
+    /// Person identity (the same id in two scans is the same person).
+    pub person: u32,
+    /// Centre in the laser frame of that scan.
+    pub centre: Point2<f64>,
+    /// 1-based line number.
+    pub line: usize,
+}
+
+/// The scans of a leigh-gtm1 scan log.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct LeighScans {
+    /// Scans in file order (indices strictly increasing).
+    pub scans: Vec<IndexedScan>,
+    /// Number of skipped lines per first word.
+    pub skipped: BTreeMap<String, usize>,
+}
+
+impl LeighScans {
+    /// The scan with log index `index`.
+    pub fn get(&self, index: usize) -> Option<&IndexedScan> {
+        self.scans
+            .binary_search_by_key(&index, |s| s.index)
+            .ok()
+            .map(|k| &self.scans[k])
+    }
+}
+
+fn lines(text: &str) -> impl Iterator<Item = (usize, &str)> {
+    text.lines().enumerate().filter_map(|(i, l)| {
+        let t = l.trim_start();
+        (!t.is_empty() && !t.starts_with('#')).then_some((i + 1, l))
+    })
+}
+
+const SCAN_HEAD: [&str; 10] = [
+    "SCAN",
+    "idx",
+    "stamp_header_s",
+    "stamp_bag_s",
+    "frame",
+    "angle_min",
+    "angle_increment",
+    "range_min",
+    "range_max",
+    "n",
+];
+
+/// Reads a `scans.txt` log.
+pub fn read_scans(path: impl AsRef<Path>) -> Result<LeighScans> {
+    let path = path.as_ref();
+    let text = read_text(path)?;
+    parse_scans(path, &text)
+}
+
+/// Parses the text of a `scans.txt` log; `path` is only used in error messages.
+pub fn parse_scans(path: &Path, text: &str) -> Result<LeighScans> {
+    let mut out = LeighScans::default();
+    for (line, line_text) in lines(text) {
+        let f = Fields::new(path, line, line_text);
+        if f.tokens[0] != "SCAN" {
+            *out.skipped.entry(f.tokens[0].to_string()).or_insert(0) += 1;
+            continue;
+        }
+        let head = SCAN_HEAD.len();
+        let index = f.count(1, "idx", head)?;
+        let timestamp = f.finite(2, "stamp_header_s", head)?;
+        f.finite(3, "stamp_bag_s", head)?;
+        f.raw(4, "frame", head)?;
+        let angle_min = f.finite(5, "angle_min", head)?;
+        let increment = f.finite(6, "angle_increment", head)?;
+        let range_min = f.finite(7, "range_min", head)?;
+        let range_max = f.finite(8, "range_max", head)?;
+        if !(range_max > 0.0 && range_max > range_min) {
+            return Err(f.error(
+                "range_max",
+                f.tokens[8],
+                format!("must be positive and above range_min {range_min}"),
+            ));
+        }
+        let n = f.count(9, "n", head)?;
+        f.expect_len(head + n, &format!("SCAN declares n = {n} ranges"), |i| {
+            if i < head {
+                SCAN_HEAD[i].to_string()
+            } else {
+                format!("range[{}]", i - head)
+            }
+        })?;
+        let mut ranges = Vec::with_capacity(n);
+        let mut valid = Vec::with_capacity(n);
+        for k in 0..n {
+            let name = format!("range[{k}]");
+            let r = f.number(head + k, &name, head + n)?;
+            if r < 0.0 {
+                return Err(f.error(&name, f.tokens[head + k], "negative range"));
+            }
+            if r.is_finite() {
+                ranges.push(r);
+                valid.push(r > range_min && r < range_max);
+            } else {
+                ranges.push(0.0);
+                valid.push(false);
+            }
+        }
+        if let Some(last) = out.scans.last() {
+            if index <= last.index {
+                return Err(f.error(
+                    "idx",
+                    f.tokens[1],
+                    format!(
+                        "scan indices must increase (previous {} on line {})",
+                        last.index, last.line
+                    ),
+                ));
+            }
+        }
+        out.scans.push(IndexedScan {
+            index,
+            scan: Scan {
+                timestamp,
+                angles: (0..n).map(|k| angle_min + k as f64 * increment).collect(),
+                ranges,
+                valid,
+                max_range: range_max,
+                odometry: None,
+                laser_offset: laser_offset(),
+            },
+            line,
+        });
+    }
+    Ok(out)
+}
+
+/// Reads an `odom_at_scan.txt` log: robot-base odometry pose per scan index.
+pub fn read_odometry(path: impl AsRef<Path>) -> Result<BTreeMap<usize, Pose2>> {
+    let path = path.as_ref();
+    let text = read_text(path)?;
+    parse_odometry(path, &text)
+}
+
+/// Parses the text of an `odom_at_scan.txt` log; `path` is only used in error messages.
+pub fn parse_odometry(path: &Path, text: &str) -> Result<BTreeMap<usize, Pose2>> {
+    const NAMES: [&str; 6] = ["ODOM", "idx", "stamp", "x", "y", "theta"];
+    let mut out = BTreeMap::new();
+    for (line, line_text) in lines(text) {
+        let f = Fields::new(path, line, line_text);
+        if f.tokens[0] != "ODOM" {
+            continue;
+        }
+        f.expect_len(NAMES.len(), "ODOM has 5 fields", |i| NAMES[i].to_string())?;
+        let index = f.count(1, "idx", 6)?;
+        f.finite(2, "stamp", 6)?;
+        let pose = Pose2::new(
+            f.finite(3, "x", 6)?,
+            f.finite(4, "y", 6)?,
+            f.finite(5, "theta", 6)?,
+        );
+        if out.insert(index, pose).is_some() {
+            return Err(f.error("idx", f.tokens[1], "second odometry record for this scan"));
+        }
+    }
+    Ok(out)
+}
+
+/// Reads a `people_gt.txt` annotation file.
+pub fn read_people(path: impl AsRef<Path>) -> Result<Vec<PersonAnnotation>> {
+    let path = path.as_ref();
+    let text = read_text(path)?;
+    parse_people(path, &text)
+}
+
+/// Parses the text of a `people_gt.txt` file; `path` is only used in error messages.
+pub fn parse_people(path: &Path, text: &str) -> Result<Vec<PersonAnnotation>> {
+    const NAMES: [&str; 5] = ["PERSON", "scan_idx", "person_id", "x", "y"];
+    let mut out: Vec<PersonAnnotation> = Vec::new();
+    let mut seen: BTreeMap<(usize, u32), usize> = BTreeMap::new();
+    for (line, line_text) in lines(text) {
+        let f = Fields::new(path, line, line_text);
+        if f.tokens[0] != "PERSON" {
+            continue;
+        }
+        f.expect_len(NAMES.len(), "PERSON has 4 fields", |i| NAMES[i].to_string())?;
+        let scan = f.count(1, "scan_idx", 5)?;
+        let raw = f.tokens[2];
+        let person: u32 = raw
+            .parse()
+            .map_err(|_| f.error("person_id", raw, "not a non-negative integer"))?;
+        let centre = Point2::new(f.finite(3, "x", 5)?, f.finite(4, "y", 5)?);
+        if let Some(first) = seen.insert((scan, person), line) {
+            return Err(f.error(
+                "person_id",
+                raw,
+                format!("person annotated twice in scan {scan} (first on line {first})"),
+            ));
+        }
+        out.push(PersonAnnotation {
+            scan,
+            person,
+            centre,
+            line,
+        });
+    }
+    Ok(out)
+}
+
+/// Sets each scan's odometry from `odometry` (by scan index). Every scan must have a
+/// record; the error names the first scan without one.
+pub fn attach_odometry(
+    scans: &mut LeighScans,
+    odometry: &BTreeMap<usize, Pose2>,
+    odometry_path: &Path,
+) -> Result<()> {
+    for s in &mut scans.scans {
+        match odometry.get(&s.index) {
+            Some(p) => s.scan.odometry = Some(*p),
+            None => {
+                return Err(Error::Invalid {
+                    path: odometry_path.to_path_buf(),
+                    field: format!("ODOM {}", s.index),
+                    problem: format!(
+                        "no odometry record for scan {} (scan line {})",
+                        s.index, s.line
+                    ),
+                })
+            }
+        }
+    }
+    Ok(())
+}

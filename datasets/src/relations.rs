@@ -1,0 +1,61 @@
+//! Reader for the relation files of the Kümmerle et al. SLAM benchmark
+//! ("On measuring the accuracy of SLAM algorithms", Autonomous Robots 27(4), 2009).
+//!
+//! One relation a line: `t1 t2 x y z roll pitch yaw`, the true relative pose
+//! `inverse(pose(t1)) ∘ pose(t2)` of the robot, expressed in the robot frame at `t1`;
+//! `t1` and `t2` are laser time stamps of the log. Only `x`, `y` and `yaw` are used
+//! (the other three must still be finite numbers). Blank lines and lines starting
+//! with `#` are skipped.
+
+use crate::error::Result;
+use crate::text::{read_text, Fields};
+use pgm_features::Pose2;
+use std::path::Path;
+
+/// One ground-truth relation between two time stamps.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Relation {
+    /// Time stamp of the first (reference) scan.
+    pub t1: f64,
+    /// Time stamp of the second (current) scan.
+    pub t2: f64,
+    /// `inverse(pose(t1)) ∘ pose(t2)` in the robot frame at `t1`.
+    pub motion: Pose2,
+    /// 1-based line number.
+    pub line: usize,
+}
+
+const NAMES: [&str; 8] = ["t1", "t2", "x", "y", "z", "roll", "pitch", "yaw"];
+
+/// Reads a `.relations` file.
+pub fn read_relations(path: impl AsRef<Path>) -> Result<Vec<Relation>> {
+    let path = path.as_ref();
+    let text = read_text(path)?;
+    parse_relations(path, &text)
+}
+
+/// Parses the text of a `.relations` file; `path` is only used in error messages.
+pub fn parse_relations(path: &Path, text: &str) -> Result<Vec<Relation>> {
+    let mut relations = Vec::new();
+    for (index, line_text) in text.lines().enumerate() {
+        let trimmed = line_text.trim_start();
+        if trimmed.is_empty() || trimmed.starts_with('#') {
+            continue;
+        }
+        let fields = Fields::new(path, index + 1, line_text);
+        fields.expect_len(NAMES.len(), "a relation has 8 fields", |i| {
+            NAMES.get(i).unwrap_or(&"?").to_string()
+        })?;
+        let mut values = [0.0; 8];
+        for (k, name) in NAMES.iter().enumerate() {
+            values[k] = fields.finite(k, name, NAMES.len())?;
+        }
+        relations.push(Relation {
+            t1: values[0],
+            t2: values[1],
+            motion: Pose2::new(values[2], values[3], values[7]),
+            line: fields.line,
+        });
+    }
+    Ok(relations)
+}

@@ -1,0 +1,66 @@
+//! Locating the shared real-data folder for tests, benches and examples.
+//!
+//! The real logs are not part of the repository: they live in `../shared/data` beside
+//! the workspace (CI has that folder next to its checkout), or wherever the
+//! environment variable `PGM_SHARED_DATA` points. A test that needs them calls
+//! [`shared_data_dir`]: when the folder is missing the test is skipped with a note on
+//! stderr — except under CI (`CI=true`), where a missing folder is a failure so a
+//! real-data check never silently vanishes.
+
+use std::path::PathBuf;
+
+/// Environment variable that overrides the location of the shared data folder.
+pub const SHARED_DATA_ENV: &str = "PGM_SHARED_DATA";
+
+/// The default location: `../shared/data` relative to the workspace root (fixed at
+/// compile time from this crate's manifest directory).
+pub fn default_shared_data_dir() -> PathBuf {
+    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data"))
+}
+
+/// The shared data folder, if it exists (`PGM_SHARED_DATA` or the default).
+///
+/// # Panics
+///
+/// When the folder is missing and the environment variable `CI` is `true`.
+pub fn shared_data_dir() -> Option<PathBuf> {
+    let dir = std::env::var_os(SHARED_DATA_ENV)
+        .map(PathBuf::from)
+        .unwrap_or_else(default_shared_data_dir);
+    if dir.is_dir() {
+        return Some(dir);
+    }
+    let under_ci = std::env::var("CI").is_ok_and(|v| v == "true");
+    if under_ci {
+        panic!(
+            "shared real data not found at {} (set {SHARED_DATA_ENV}); CI=true, so this is an error",
+            dir.display()
+        );
+    }
+    eprintln!(
+        "note: shared real data not found at {} (set {SHARED_DATA_ENV}); skipping",
+        dir.display()
+    );
+    None
+}
+
+/// A file inside the shared data folder (for example `mit-csail/mit-csail.clf`), with
+/// the same skip-or-fail rule as [`shared_data_dir`], which also applies when the
+/// folder exists but the file does not.
+pub fn shared_data_file(relative: &str) -> Option<PathBuf> {
+    let path = shared_data_dir()?.join(relative);
+    if path.is_file() {
+        return Some(path);
+    }
+    if std::env::var("CI").is_ok_and(|v| v == "true") {
+        panic!(
+            "shared data file {} is missing; CI=true, so this is an error",
+            path.display()
+        );
+    }
+    eprintln!(
+        "note: shared data file {} is missing; skipping",
+        path.display()
+    );
+    None
+}

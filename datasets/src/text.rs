@@ -1,0 +1,110 @@
+//! Shared helpers of the line-oriented text readers: reading a file with its path in
+//! every error, and typed access to whitespace-separated fields by name.
+
+use crate::error::{Error, Result};
+use std::path::{Path, PathBuf};
+
+/// Reads a whole text file, naming it in the error.
+pub(crate) fn read_text(path: &Path) -> Result<String> {
+    std::fs::read_to_string(path).map_err(|e| Error::io(path, e))
+}
+
+/// The fields of one line, with the file and line number for error messages.
+pub(crate) struct Fields<'a> {
+    pub path: &'a Path,
+    pub line: usize,
+    pub tokens: Vec<&'a str>,
+}
+
+impl<'a> Fields<'a> {
+    pub fn new(path: &'a Path, line: usize, text: &'a str) -> Self {
+        Self {
+            path,
+            line,
+            tokens: text.split_whitespace().collect(),
+        }
+    }
+
+    fn path_buf(&self) -> PathBuf {
+        self.path.to_path_buf()
+    }
+
+    /// The raw token at `index`, or a [`Error::MissingField`] naming `field`.
+    pub fn raw(&self, index: usize, field: &str, expected: usize) -> Result<&'a str> {
+        self.tokens
+            .get(index)
+            .copied()
+            .ok_or_else(|| Error::MissingField {
+                path: self.path_buf(),
+                line: self.line,
+                field: field.to_string(),
+                found: self.tokens.len(),
+                expected: expected.max(index + 1),
+            })
+    }
+
+    pub fn error(&self, field: &str, value: &str, problem: impl Into<String>) -> Error {
+        Error::Field {
+            path: self.path_buf(),
+            line: self.line,
+            field: field.to_string(),
+            value: value.to_string(),
+            problem: problem.into(),
+        }
+    }
+
+    /// A finite number.
+    pub fn finite(&self, index: usize, field: &str, expected: usize) -> Result<f64> {
+        let raw = self.raw(index, field, expected)?;
+        let v: f64 = raw
+            .parse()
+            .map_err(|_| self.error(field, raw, "not a number"))?;
+        if !v.is_finite() {
+            return Err(self.error(field, raw, "not a finite number"));
+        }
+        Ok(v)
+    }
+
+    /// Any number that parses, `nan` and `inf` included.
+    pub fn number(&self, index: usize, field: &str, expected: usize) -> Result<f64> {
+        let raw = self.raw(index, field, expected)?;
+        raw.parse()
+            .map_err(|_| self.error(field, raw, "not a number"))
+    }
+
+    /// A non-negative integer.
+    pub fn count(&self, index: usize, field: &str, expected: usize) -> Result<usize> {
+        let raw = self.raw(index, field, expected)?;
+        raw.parse()
+            .map_err(|_| self.error(field, raw, "not a non-negative integer"))
+    }
+
+    /// Fails unless the line has exactly `expected` fields; `name_of` names the field
+    /// at an index (for the first missing field).
+    pub fn expect_len(
+        &self,
+        expected: usize,
+        context: &str,
+        name_of: impl Fn(usize) -> String,
+    ) -> Result<()> {
+        if self.tokens.len() > expected {
+            return Err(Error::ExtraFields {
+                path: self.path_buf(),
+                line: self.line,
+                found: self.tokens.len(),
+                expected,
+                context: context.to_string(),
+            });
+        }
+        if self.tokens.len() < expected {
+            return Err(Error::MissingField {
+                path: self.path_buf(),
+                line: self.line,
+                field: name_of(self.tokens.len()),
+                found: self.tokens.len(),
+                expected,
+            });
+        }
+        Ok(())
+    }
+}

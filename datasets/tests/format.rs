@@ -1,0 +1,208 @@
+//! The on-disk pair format: round trips, accepted paths, validation errors.
+
+use pgm_datasets::format::{read_pair, INDEX_FILE};
+use pgm_datasets::{
+    read_pairs, write_pairs, Association, ClusterMotion, Error, GroundTruth, ScanPair,
+};
+use pgm_features::{Pose2, Scan};
+use std::path::PathBuf;
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir =
+        std::env::temp_dir().join(format!("pgm-datasets-format-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+fn scan(n: usize, t: f64) -> Scan {
+    Scan {
+        timestamp: t,
+        angles: (0..n).map(|k| -1.0 + k as f64 * 0.1).collect(),
+        ranges: (0..n)
+            .map(|k| {
+                if k == 1 {
+                    0.0
+                } else {
+                    1.0 + 0.123456789 * k as f64
+                }
+            })
+            .collect(),
+        valid: (0..n).map(|k| k != 1).collect(),
+        max_range: 30.0,
+        odometry: Some(Pose2::new(1.0, 2.0, 0.3)),
+        laser_offset: Pose2::new(0.85, 0.23, 0.73),
+    }
+}
+
+fn pair(name: &str) -> ScanPair {
+    let reference = scan(5, 10.0);
+    let current = scan(5, 10.5);
+    ScanPair {
+        name: name.into(),
+        odometry: Some(Pose2::new(0.1, -0.2, 0.03)),
+        truth: Some(GroundTruth {
+            ego_motion: Some(Pose2::new(0.11, -0.19, 0.031)),
+            labels: Some(vec![Some(0), None, Some(1), Some(1), Some(0)]),
+            reference_labels: Some(vec![Some(0), None, Some(0), Some(1), Some(1)]),
+            associations: Some(vec![
+                Some(Association::Point(0)),
+                None,
+                Some(Association::Outlier),
+                Some(Association::Point(4)),
+                Some(Association::Point(3)),
+            ]),
+            motions: vec![ClusterMotion {
+                label: 1,
+                motion: Pose2::new(0.5, 0.0, 0.031),
+                kind: "person 3".into(),
+            }],
+        }),
+        reference,
+        current,
+    }
+}
+
+#[test]
+fn round_trip_is_exact_through_any_path() {
+    let dir = temp_dir("roundtrip");
+    let pairs = vec![pair("a"), pair("b"), pair("c")];
+    write_pairs(&dir, &pairs).unwrap();
+    assert_eq!(read_pairs(&dir).unwrap(), pairs);
+    assert_eq!(read_pairs(dir.join(INDEX_FILE)).unwrap(), pairs);
+    assert_eq!(
+        read_pairs(dir.join("pair-00001.json")).unwrap(),
+        vec![pairs[1].clone()]
+    );
+    assert_eq!(read_pair(dir.join("pair-00002.json")).unwrap(), pairs[2]);
+    // Rewriting with fewer pairs removes the stale pair file; no temporary files remain.
+    write_pairs(&dir, &pairs[..1]).unwrap();
+    assert_eq!(read_pairs(&dir).unwrap(), pairs[..1].to_vec());
+    let mut names: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(names, vec!["index.json", "pair-00000.json"]);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn invalid_pairs_are_not_written() {
+    let dir = temp_dir("invalid-write");
+    let mut p = pair("bad");
+    p.truth.as_mut().unwrap().labels.as_mut().unwrap().pop();
+    let err = write_pairs(&dir, &[p]).unwrap_err();
+    assert!(
+        matches!(err, Error::Invalid { ref field, .. } if field == "truth.labels"),
+        "{err}"
+    );
+    assert!(!dir.join(INDEX_FILE).exists());
+}
+
+fn write_and_corrupt(name: &str, corrupt: impl Fn(&mut serde_json::Value)) -> Error {
+    let dir = temp_dir(name);
+    write_pairs(&dir, &[pair("x")]).unwrap();
+    let file = dir.join("pair-00000.json");
+    let mut v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
+    corrupt(&mut v);
+    std::fs::write(&file, serde_json::to_string(&v).unwrap()).unwrap();
+    let err = read_pairs(&dir).unwrap_err();
+    let msg = err.to_string();
+    assert!(
+        msg.contains("pair-00000.json"),
+        "error names the file: {msg}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+    err
+}
+
+#[test]
+fn validation_on_read_names_file_and_field() {
+    let err = write_and_corrupt("labels", |v| {
+        v["truth"]["labels"].as_array_mut().unwrap().pop();
+    });
+    assert!(
+        matches!(err, Error::Invalid { ref field, .. } if field == "truth.labels"),
+        "{err}"
+    );
+
+    let err = write_and_corrupt("assoc-range", |v| {
+        v["truth"]["associations"][0] = serde_json::json!(99);
+    });
+    assert!(
+        matches!(err, Error::Invalid { ref field, ref problem, .. }
+        if field == "truth.associations[0]" && problem.contains("out of range")),
+        "{err}"
+    );
+
+    let err = write_and_corrupt("assoc-negative", |v| {
+        v["truth"]["associations"][0] = serde_json::json!(-5);
+    });
+    assert!(matches!(err, Error::Json { .. }), "{err}");
+
+    let err = write_and_corrupt("scan", |v| {
+        v["current"]["valid"].as_array_mut().unwrap().pop();
+    });
+    assert!(
+        matches!(err, Error::Invalid { ref field, .. } if field == "current"),
+        "{err}"
+    );
+
+    let err = write_and_corrupt("label-on-invalid", |v| {
+        v["truth"]["labels"][1] = serde_json::json!(0);
+    });
+    assert!(
+        matches!(err, Error::Invalid { ref field, .. } if field == "truth.labels[1]"),
+        "{err}"
+    );
+
+    let err = write_and_corrupt("range", |v| {
+        v["reference"]["ranges"][0] = serde_json::json!(-1.0);
+    });
+    assert!(
+        matches!(err, Error::Invalid { ref field, .. } if field == "reference"),
+        "{err}"
+    );
+}
+
+#[test]
+fn bad_index_is_reported() {
+    let dir = temp_dir("index");
+    write_pairs(&dir, &[pair("x")]).unwrap();
+    let index = dir.join(INDEX_FILE);
+    std::fs::write(
+        &index,
+        r#"{"format": "pgm-scan-pairs", "version": 9, "pairs": []}"#,
+    )
+    .unwrap();
+    let err = read_pairs(&dir).unwrap_err();
+    assert!(
+        matches!(err, Error::Invalid { ref field, .. } if field == "version"),
+        "{err}"
+    );
+    std::fs::write(
+        &index,
+        r#"{"format": "pgm-scan-pairs", "version": 1, "pairs": [{"name": "x", "file": "../x.json"}]}"#,
+    )
+    .unwrap();
+    let err = read_pairs(&dir).unwrap_err();
+    assert!(
+        matches!(err, Error::Invalid { ref field, .. } if field == "pairs[0].file"),
+        "{err}"
+    );
+    std::fs::write(
+        &index,
+        r#"{"format": "pgm-scan-pairs", "version": 1, "pairs": [{"name": "y", "file": "pair-00000.json"}]}"#,
+    )
+    .unwrap();
+    let err = read_pairs(&dir).unwrap_err();
+    assert!(
+        matches!(err, Error::Invalid { ref field, .. } if field == "name"),
+        "{err}"
+    );
+    std::fs::write(&index, "{ not json").unwrap();
+    assert!(matches!(read_pairs(&dir).unwrap_err(), Error::Json { .. }));
+    std::fs::remove_dir_all(&dir).unwrap();
+    assert!(matches!(read_pairs(&dir).unwrap_err(), Error::Io { .. }));
+}

@@ -1,0 +1,279 @@
+//! Reader tests on small hand-written logs, well-formed and malformed.
+
+use pgm_datasets::carmen::{parse_carmen, CarmenOptions};
+use pgm_datasets::leigh::{parse_odometry, parse_people, parse_scans};
+use pgm_datasets::relations::parse_relations;
+use pgm_datasets::Error;
+use std::path::Path;
+
+fn flaser(ranges: &[&str]) -> String {
+    format!(
+        "FLASER {} {} 1.0 2.0 0.1 1.0 2.0 0.1 1134864645.90321 host 0.5",
+        ranges.len(),
+        ranges.join(" ")
+    )
+}
+
+fn carmen(text: &str) -> pgm_datasets::Result<pgm_datasets::carmen::CarmenLog> {
+    parse_carmen(Path::new("test.clf"), text, CarmenOptions::default())
+}
+
+/// Asserts a field error with the given line, field and a problem containing `needle`.
+fn assert_field_error(err: Error, line: usize, field: &str, needle: &str) {
+    match &err {
+        Error::Field {
+            path,
+            line: l,
+            field: f,
+            problem,
+            ..
+        } => {
+            assert_eq!(*l, line, "{err}");
+            assert_eq!(f, field, "{err}");
+            assert!(problem.contains(needle), "{err}");
+            assert!(!path.as_os_str().is_empty());
+        }
+        other => panic!("expected a field error, got {other:?}"),
+    }
+    let msg = err.to_string();
+    assert!(
+        msg.contains(&format!(":{line}:")),
+        "message names the line: {msg}"
+    );
+    assert!(msg.contains(field), "message names the field: {msg}");
+}
+
+#[test]
+fn flaser_is_read_with_angles_odometry_and_validity() {
+    let text = format!(
+        "# comment\nPARAM robot_x 1\n\n{}\nODOM 1 2 0.5 0 0 0 10.0 host 1.0\nFOO bar\n",
+        flaser(&["1.5", "81.91", "0", "2.0", "3.0"])
+    );
+    let log = carmen(&text).unwrap();
+    assert_eq!(log.scans.len(), 1);
+    let s = &log.scans[0];
+    assert_eq!(s.line, 4);
+    assert_eq!(s.scan.valid, vec![true, false, false, true, true]);
+    assert!((s.scan.angles[0] + std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+    assert!((s.scan.angles[4] - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+    assert!((s.scan.timestamp - 1134864645.90321).abs() < 1e-6);
+    assert!(s.scan.laser_offset.translation_error(&Default::default()) < 1e-12);
+    assert_eq!(s.scan.validate(), Ok(()));
+    assert_eq!(log.odometry.len(), 1);
+    assert_eq!(log.skipped.get("#"), Some(&1));
+    assert_eq!(log.skipped.get("PARAM"), Some(&1));
+    assert_eq!(log.skipped.get("FOO"), Some(&1));
+    assert_eq!(log.skipped_lines(), 3);
+}
+
+#[test]
+fn robotlaser1_and_vertex2() {
+    let text = "VERTEX2 7 1.0 2.0 0.5\nROBOTLASER1 0 -1.5 3.0 1.5 50.0 0.1 0 3 1.0 81.83 2.0 2 0.5 0.6 1.0 2.0 0.5 1.0 2.0 0.5 0 0 0 0 0 976053557.767368 x 700.43\nEDGE2 0 1 0 0 0 1 0 1 1 0 0\n";
+    let log = carmen(text).unwrap();
+    assert_eq!(log.scans.len(), 1);
+    let s = &log.scans[0];
+    assert_eq!(s.vertex.map(|v| v.id), Some(7));
+    assert_eq!(s.scan.valid, vec![true, false, true]);
+    assert_eq!(s.scan.max_range, 50.0);
+    assert!((s.scan.angles[2] - 1.5).abs() < 1e-12);
+    assert_eq!(log.skipped.get("EDGE2"), Some(&1));
+}
+
+#[test]
+fn truncated_flaser_line() {
+    let mut line = flaser(&["1.0", "2.0", "3.0"]);
+    line.truncate(line.rfind(' ').unwrap());
+    let err = carmen(&format!("\n{line}\n")).unwrap_err();
+    match &err {
+        Error::MissingField {
+            line,
+            field,
+            found,
+            expected,
+            ..
+        } => {
+            assert_eq!(*line, 2);
+            assert_eq!(field, "logger_timestamp");
+            assert_eq!((*found, *expected), (13, 14));
+        }
+        other => panic!("{other:?}"),
+    }
+    assert!(err.to_string().contains("test.clf:2"), "{err}");
+}
+
+#[test]
+fn flaser_with_wrong_beam_count() {
+    // Declares 4 ranges, has 3: the line is one field short.
+    let line = flaser(&["1.0", "2.0", "3.0"]).replacen("FLASER 3", "FLASER 4", 1);
+    assert!(matches!(
+        carmen(&line).unwrap_err(),
+        Error::MissingField { line: 1, .. }
+    ));
+    // Declares 2 ranges, has 3: one field too many.
+    let line = flaser(&["1.0", "2.0", "3.0"]).replacen("FLASER 3", "FLASER 2", 1);
+    match carmen(&line).unwrap_err() {
+        Error::ExtraFields {
+            line,
+            found,
+            expected,
+            context,
+            ..
+        } => {
+            assert_eq!((line, found, expected), (1, 14, 13));
+            assert!(context.contains("n = 2"));
+        }
+        other => panic!("{other:?}"),
+    }
+}
+
+#[test]
+fn flaser_with_non_numeric_nan_and_negative_ranges() {
+    let err = carmen(&flaser(&["1.0", "abc", "3.0"])).unwrap_err();
+    assert_field_error(err, 1, "range[1]", "not a number");
+    let err = carmen(&flaser(&["1.0", "2.0", "nan"])).unwrap_err();
+    assert_field_error(err, 1, "range[2]", "finite");
+    let err = carmen(&flaser(&["-1.0", "2.0", "3.0"])).unwrap_err();
+    assert_field_error(err, 1, "range[0]", "negative");
+    let err = carmen("FLASER x 1 2").unwrap_err();
+    assert_field_error(err, 1, "n", "integer");
+    let bad_time = flaser(&["1.0"]).replace("1134864645.90321", "12:00");
+    assert_field_error(
+        carmen(&bad_time).unwrap_err(),
+        1,
+        "ipc_timestamp",
+        "not a number",
+    );
+}
+
+#[test]
+fn robotlaser1_with_bad_remission_count() {
+    let text = "ROBOTLASER1 0 -1.57 3.14 1.57 50.0 0.1 0 3 1.0 2.0 3.0 5 0.5 1.0 2.0 0.5 1.0 2.0 0.5 0 0 0 0 0 9.0 x 7.0";
+    assert!(matches!(
+        carmen(text).unwrap_err(),
+        Error::MissingField { .. }
+    ));
+}
+
+#[test]
+fn vertex_and_odom_errors() {
+    assert_field_error(carmen("VERTEX2 -3 1 2 3").unwrap_err(), 1, "id", "integer");
+    assert!(matches!(
+        carmen("VERTEX2 1 2 3").unwrap_err(),
+        Error::MissingField { line: 1, ref field, .. } if field == "theta"
+    ));
+    assert_field_error(
+        carmen("ODOM 1 2 inf 0 0 0 10.0 host 1.0").unwrap_err(),
+        1,
+        "theta",
+        "finite",
+    );
+}
+
+#[test]
+fn relations_parse_and_fail() {
+    let rels = parse_relations(
+        Path::new("r.relations"),
+        "1.0 2.0 0.3 0.1 0 0 0 0.2\n\n3.0 4.0 0 0 0 0 0 -0.1\n",
+    )
+    .unwrap();
+    assert_eq!(rels.len(), 2);
+    assert_eq!(rels[1].line, 3);
+    assert!((rels[0].motion.theta() - 0.2).abs() < 1e-12);
+    let err = parse_relations(Path::new("r.relations"), "1.0 2.0 0.3 0.1 0 0 0\n").unwrap_err();
+    assert!(
+        matches!(err, Error::MissingField { line: 1, ref field, .. } if field == "yaw"),
+        "{err}"
+    );
+    let err = parse_relations(Path::new("r.relations"), "1.0 2.0 0.3 y 0 0 0 0\n").unwrap_err();
+    assert_field_error(err, 1, "y", "not a number");
+}
+
+fn scan_line(idx: usize, n: usize, ranges: &[&str]) -> String {
+    format!(
+        "SCAN {idx} 100.5 100.6 left_laser -2.356194496 0.006135923 0.0300 11.0000 {n} {}",
+        ranges.join(" ")
+    )
+}
+
+#[test]
+fn leigh_scans_nan_inf_zero_are_no_return() {
+    let text = format!(
+        "# header\n{}\n{}\n",
+        scan_line(0, 5, &["0", "nan", "inf", "1.5", "12.0"]),
+        scan_line(3, 2, &["0.01", "2.0"])
+    );
+    let scans = parse_scans(Path::new("scans.txt"), &text).unwrap();
+    assert_eq!(scans.scans.len(), 2);
+    let s = &scans.scans[0].scan;
+    assert_eq!(s.valid, vec![false, false, false, true, false]);
+    assert!(s.ranges.iter().all(|r| r.is_finite()));
+    assert_eq!(s.validate(), Ok(()));
+    // Below range_min (0.03) is no return.
+    assert_eq!(scans.scans[1].scan.valid, vec![false, true]);
+    assert_eq!(scans.get(3).map(|s| s.line), Some(3));
+    assert!(scans.get(1).is_none());
+}
+
+#[test]
+fn leigh_scan_errors() {
+    let p = Path::new("scans.txt");
+    let err = parse_scans(p, &scan_line(0, 3, &["1.0", "-2.0", "1.0"])).unwrap_err();
+    assert_field_error(err, 1, "range[1]", "negative");
+    let err = parse_scans(p, &scan_line(0, 3, &["1.0", "x", "1.0"])).unwrap_err();
+    assert_field_error(err, 1, "range[1]", "not a number");
+    let err = parse_scans(p, &scan_line(0, 4, &["1.0", "2.0", "1.0"])).unwrap_err();
+    assert!(
+        matches!(err, Error::MissingField { ref field, .. } if field == "range[3]"),
+        "{err}"
+    );
+    let err = parse_scans(p, &scan_line(0, 2, &["1.0", "2.0", "1.0"])).unwrap_err();
+    assert!(matches!(err, Error::ExtraFields { .. }), "{err}");
+    let err = parse_scans(p, "SCAN 0 100.5").unwrap_err();
+    assert!(
+        matches!(err, Error::MissingField { ref field, .. } if field == "stamp_bag_s"),
+        "{err}"
+    );
+    let text = format!(
+        "{}\n{}",
+        scan_line(4, 1, &["1.0"]),
+        scan_line(4, 1, &["1.0"])
+    );
+    assert_field_error(parse_scans(p, &text).unwrap_err(), 2, "idx", "increase");
+}
+
+#[test]
+fn leigh_odometry_and_people() {
+    let odo = parse_odometry(
+        Path::new("o.txt"),
+        "# h\nODOM 0 1.0 2.0 3.0 0.5\nODOM 1 1.0 2.0 3.0 0.6\n",
+    )
+    .unwrap();
+    assert_eq!(odo.len(), 2);
+    let err = parse_odometry(Path::new("o.txt"), "ODOM 0 1.0 2.0 nan 0.5\n").unwrap_err();
+    assert_field_error(err, 1, "y", "finite");
+    let people = parse_people(
+        Path::new("p.txt"),
+        "PERSON 133 1 4.7 -2.8\nPERSON 133 2 1 1\n",
+    )
+    .unwrap();
+    assert_eq!(people.len(), 2);
+    assert_eq!(people[1].person, 2);
+    let err = parse_people(
+        Path::new("p.txt"),
+        "PERSON 133 1 4.7 -2.8\nPERSON 133 1 1 1\n",
+    )
+    .unwrap_err();
+    assert_field_error(err, 2, "person_id", "twice");
+    let err = parse_people(Path::new("p.txt"), "PERSON 133 1 4.7\n").unwrap_err();
+    assert!(
+        matches!(err, Error::MissingField { ref field, .. } if field == "y"),
+        "{err}"
+    );
+}
+
+#[test]
+fn missing_file_names_the_path() {
+    let err = pgm_datasets::carmen::read_carmen("/nonexistent/dir/log.clf").unwrap_err();
+    assert!(matches!(err, Error::Io { .. }));
+    assert!(err.to_string().contains("/nonexistent/dir/log.clf"));
+}

@@ -1,0 +1,168 @@
+//! Readers and pair builders on the real logs in ../shared/data (skipped when the
+//! folder is missing, a failure under CI=true; see `pgm_datasets::testdata`).
+
+use pgm_datasets::builders::{
+    consecutive_pairs, leigh_pairs, relation_pairs, summarize_leigh_pairs, LeighPairOptions,
+    RelationPairOptions,
+};
+use pgm_datasets::testdata::shared_data_dir;
+use pgm_datasets::{carmen, leigh, relations};
+
+#[test]
+fn mit_csail_log_and_relations() {
+    let Some(data) = shared_data_dir() else {
+        return;
+    };
+    let log = carmen::read_carmen(data.join("mit-csail/mit-csail.clf")).unwrap();
+    assert_eq!(log.scans.len(), 1988);
+    assert_eq!(log.skipped_lines(), 0);
+    assert!(log
+        .scans
+        .iter()
+        .all(|s| s.scan.len() == 361 && s.scan.validate().is_ok()));
+    let rels = relations::read_relations(data.join("mit-csail/mit-csail.relations")).unwrap();
+    assert_eq!(rels.len(), 1172);
+    let built = relation_pairs(&log, &rels, &RelationPairOptions::default());
+    assert!(built.pairs.len() >= 1156, "{} pairs", built.pairs.len());
+    assert_eq!(built.pairs.len() + built.unmatched.len(), 1172);
+    for p in &built.pairs {
+        assert!(p.validate().is_ok());
+        assert!(p.odometry.is_some());
+        let truth = p.truth.as_ref().unwrap();
+        assert!(truth.ego_motion.is_some());
+        assert_eq!(truth.labels.as_ref().unwrap().len(), 361);
+    }
+}
+
+#[test]
+fn intel_lab_consecutive_pairs() {
+    let Some(data) = shared_data_dir() else {
+        return;
+    };
+    let log = carmen::read_carmen(data.join("intel-lab/intel-lab.log")).unwrap();
+    assert_eq!(log.scans.len(), 2672);
+    assert_eq!(log.vertices.len(), 2672);
+    assert_eq!(log.skipped.get("EDGE2"), Some(&3901));
+    let built = consecutive_pairs(&log, "intel-lab");
+    assert_eq!(built.pairs.len(), 2671);
+    // The log's robot poses are the corrected poses: they must not leak as odometry.
+    assert!(built.odometry_was_ground_truth);
+    assert!(built
+        .pairs
+        .iter()
+        .all(|p| p.odometry.is_none() && p.current.odometry.is_none()));
+    // Truth of pair (1, 2): inverse(V1) ∘ V2, rotation 0.262096 rad.
+    let e = built.pairs[1].truth.as_ref().unwrap().ego_motion.unwrap();
+    assert!((e.theta() - (-1.145855 + 1.407951)).abs() < 1e-9, "{e:?}");
+    assert_eq!(built.pairs[1].name, "intel-lab:1-2");
+}
+
+#[test]
+fn leigh_pairs_carry_moving_person_labels() {
+    let Some(data) = shared_data_dir() else {
+        return;
+    };
+    let dir = data.join("leigh-gtm1");
+    let mut scans = leigh::read_scans(dir.join("scans.txt")).unwrap();
+    assert_eq!(scans.scans.len(), 873);
+    assert!(scans
+        .scans
+        .iter()
+        .all(|s| s.scan.len() == 768 && s.scan.validate().is_ok()));
+    let people = leigh::read_people(dir.join("people_gt.txt")).unwrap();
+    assert_eq!(people.len(), 153);
+    // Without odometry only threshold 0 is possible.
+    let no_odo = leigh_pairs(
+        &scans,
+        &people,
+        &LeighPairOptions {
+            k: 1,
+            ..Default::default()
+        },
+    );
+    assert!(no_odo.is_err());
+    let all = leigh_pairs(
+        &scans,
+        &people,
+        &LeighPairOptions {
+            k: 1,
+            moving_threshold: 0.0,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(all.len(), 106);
+    let odometry = leigh::read_odometry(dir.join("odom_at_scan.txt")).unwrap();
+    leigh::attach_odometry(&mut scans, &odometry, &dir.join("odom_at_scan.txt")).unwrap();
+    let k1 = leigh_pairs(
+        &scans,
+        &people,
+        &LeighPairOptions {
+            k: 1,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(k1.len(), 106);
+    let k5 = leigh_pairs(&scans, &people, &LeighPairOptions::default()).unwrap();
+    let summary = summarize_leigh_pairs(5, &k5);
+    // 92 pairs at k = 5. The data README expects "roughly half" of them to contain a
+    // moving person; the rule as specified (centre of scan i carried into scan j's
+    // frame by odometry and the base-to-laser offset, moved >= 0.2 m) gives 23 (an
+    // independent Python check of the same rule agrees). Standing people move by a
+    // median of about 0.1 m, as the README says, which supports the frame handling.
+    assert_eq!(summary.pairs, 92);
+    assert!(
+        (15..=35).contains(&summary.pairs_with_moving_person),
+        "{summary:?}"
+    );
+    for p in &k5 {
+        assert!(p.validate().is_ok());
+        let truth = p.truth.as_ref().unwrap();
+        let labels = truth.labels.as_ref().unwrap();
+        let moving: Vec<u32> = {
+            let mut v: Vec<u32> = labels
+                .iter()
+                .flatten()
+                .copied()
+                .filter(|l| *l > 0)
+                .collect();
+            v.sort_unstable();
+            v.dedup();
+            v
+        };
+        // Every moving label has a motion; a motion's translation is a displacement
+        // of at least the threshold in the current frame.
+        for l in &moving {
+            let m = truth
+                .motions
+                .iter()
+                .find(|m| m.label == *l)
+                .expect("motion per label");
+            let prior = p.odometry.unwrap();
+            let relative = prior.between(&m.motion);
+            assert!(
+                relative.translation().norm() >= 0.2 - 1e-9,
+                "{}: {relative:?}",
+                p.name
+            );
+            assert!(m.kind.starts_with("person "));
+        }
+        // Person returns are few (3–42 per person in the README).
+        let count = labels.iter().filter(|l| l.is_some_and(|v| v > 0)).count();
+        assert!(count <= 100, "{}: {count}", p.name);
+    }
+    // Threshold 0: every annotated person its own cluster, at least as many labelled returns.
+    let k5_all = leigh_pairs(
+        &scans,
+        &people,
+        &LeighPairOptions {
+            moving_threshold: 0.0,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let s0 = summarize_leigh_pairs(5, &k5_all);
+    assert!(s0.moving_people > summary.moving_people);
+    assert!(s0.pairs_with_moving_person >= summary.pairs_with_moving_person);
+}

@@ -1,0 +1,461 @@
+//! The simulator's ground truth is right: true motions put current points onto their
+//! associated reference points, hidden or unseen surfaces are outliers, labels and
+//! motions are consistent, and everything is a function of the seed.
+
+use nalgebra::Point2;
+use pgm_datasets::sim::{
+    association_tolerance, pair_rng, simulate_pair, simulate_pairs, simulate_scene, MovingObject,
+    Preset, Primitive, Scene, SimConfig, SimError, Trajectory, ValidSimConfig,
+};
+use pgm_datasets::{Association, ScanPair};
+use pgm_features::Pose2;
+use std::collections::BTreeSet;
+
+fn config(preset: Preset) -> ValidSimConfig {
+    SimConfig {
+        preset,
+        ..SimConfig::default()
+    }
+    .check()
+    .unwrap()
+}
+
+fn noise_free(preset: Preset) -> ValidSimConfig {
+    SimConfig {
+        preset,
+        range_noise: 0.0,
+        dropout: 0.0,
+        ..SimConfig::default()
+    }
+    .check()
+    .unwrap()
+}
+
+fn motion_of(pair: &ScanPair, label: u32) -> Pose2 {
+    let truth = pair.truth.as_ref().unwrap();
+    truth
+        .motions
+        .iter()
+        .find(|m| m.label == label)
+        .unwrap_or_else(|| panic!("{}: no motion for label {label}", pair.name))
+        .motion
+}
+
+/// (current beam, reference beam, label, distance between `m_label · s_i` and `g_j`,
+/// range of `m_label · s_i` from the reference sensor).
+fn associated_distances(pair: &ScanPair) -> Vec<(usize, usize, u32, f64, f64)> {
+    let truth = pair.truth.as_ref().unwrap();
+    let labels = truth.labels.as_ref().unwrap();
+    let associations = truth.associations.as_ref().unwrap();
+    let mut out = Vec::new();
+    for (i, a) in associations.iter().enumerate() {
+        if let Some(Association::Point(j)) = a {
+            let label = labels[i].unwrap();
+            let moved = motion_of(pair, label).transform_point(&pair.current.beam_point(i));
+            let d = (moved - pair.reference.beam_point(*j)).norm();
+            out.push((i, *j, label, d, moved.coords.norm()));
+        }
+    }
+    out
+}
+
+#[test]
+fn every_preset_gives_valid_consistent_pairs() {
+    for preset in Preset::ALL {
+        let c = config(preset);
+        for pair in simulate_pairs(&c, 11, 15) {
+            pair.validate()
+                .unwrap_or_else(|v| panic!("{}: {v}", pair.name));
+            assert_eq!(pair.current.len(), 361);
+            assert!((pair.current.angles[0] + std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+            assert!((pair.current.angles[360] - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+            assert!(pair.time_gap() > 0.0);
+            let truth = pair.truth.as_ref().unwrap();
+            let labels = truth.labels.as_ref().unwrap();
+            let reference_labels = truth.reference_labels.as_ref().unwrap();
+            for (k, l) in labels.iter().enumerate() {
+                assert_eq!(l.is_some(), pair.current.valid[k], "{} beam {k}", pair.name);
+            }
+            for (k, l) in reference_labels.iter().enumerate() {
+                assert_eq!(
+                    l.is_some(),
+                    pair.reference.valid[k],
+                    "{} beam {k}",
+                    pair.name
+                );
+            }
+            // Labels are 0..=K without gaps, and exactly those have motions.
+            let used: BTreeSet<u32> = labels
+                .iter()
+                .chain(reference_labels)
+                .flatten()
+                .copied()
+                .collect();
+            let expected: BTreeSet<u32> = (0..used.len() as u32).collect();
+            assert_eq!(used, expected, "{}", pair.name);
+            let with_motion: BTreeSet<u32> = truth.motions.iter().map(|m| m.label).collect();
+            assert_eq!(used, with_motion, "{}", pair.name);
+            assert_eq!(truth.motions[0].label, 0);
+            assert_eq!(truth.motions[0].kind, "background");
+            for m in &truth.motions[1..] {
+                assert!(m.kind == "car" || m.kind == "pedestrian", "{}", m.kind);
+            }
+            // The background's motion is the ego-motion; the pair is 2-4 m apart.
+            let ego = truth.ego_motion.unwrap();
+            assert_eq!(truth.motions[0].motion, ego);
+            let travel = ego.translation().norm();
+            assert!((2.0..=4.0).contains(&travel), "{}: {travel}", pair.name);
+            // Associated points carry the same label in both scans.
+            for (i, j, label, _, _) in associated_distances(&pair) {
+                assert_eq!(
+                    reference_labels[j],
+                    Some(label),
+                    "{}: {i} -> {j}",
+                    pair.name
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn true_motions_put_points_on_their_partners_within_noise() {
+    let spacing = std::f64::consts::PI / 360.0;
+    for preset in Preset::ALL {
+        // Noise-free: the distance is only the sampling offset, at most one beam
+        // spacing on the surface (the documented tolerance), and typically half of it.
+        let mut ratios = Vec::new();
+        for pair in simulate_pairs(&noise_free(preset), 5, 10) {
+            for (i, j, _, d, r) in associated_distances(&pair) {
+                let worst = association_tolerance(r, 0.0, spacing);
+                assert!(
+                    d <= worst + 1e-9,
+                    "{}: {i} -> {j}: {d} m > {worst} m",
+                    pair.name
+                );
+                ratios.push(d / (r * spacing));
+            }
+        }
+        ratios.sort_by(f64::total_cmp);
+        let median = ratios[ratios.len() / 2];
+        assert!(
+            median <= 0.6,
+            "{preset}: median offset {median} beam spacings"
+        );
+
+        // With 3 cm range noise on both points, add at most 5 standard deviations each.
+        for pair in simulate_pairs(&config(preset), 5, 10) {
+            for (i, j, _, d, r) in associated_distances(&pair) {
+                // The moved noisy point's range is within 5 σ of the true one.
+                let bound = association_tolerance(r + 5.0 * 0.03, 0.0, spacing) + 2.0 * 5.0 * 0.03;
+                assert!(d <= bound, "{}: {i} -> {j}: {d} m > {bound} m", pair.name);
+            }
+        }
+    }
+}
+
+#[test]
+fn associations_on_a_wall_ahead_are_the_nearest_beam() {
+    // Ego drives 3 m straight towards a wall 20 m ahead: a point seen at bearing a
+    // from 17 m lies at bearing atan(17 tan a / 20) from 20 m, and the nearest beam
+    // there is the association.
+    let scene = Scene {
+        background: vec![Primitive::segment(
+            Point2::new(20.0, -30.0),
+            Point2::new(20.0, 30.0),
+        )],
+        objects: vec![],
+        ego: Trajectory {
+            start: Pose2::identity(),
+            speed: 10.0,
+            yaw_rate: 0.0,
+        },
+        interval: 0.3,
+    };
+    let c = noise_free(Preset::Mixed);
+    let pair = simulate_scene(&scene, &c, &mut pair_rng(0, 0), "wall".into());
+    let truth = pair.truth.as_ref().unwrap();
+    let associations = truth.associations.as_ref().unwrap();
+    let step = std::f64::consts::PI / 360.0;
+    let mut checked = 0;
+    for (i, a) in associations.iter().enumerate() {
+        let Some(a) = a else { continue };
+        let y = pair.current.beam_point(i).y;
+        let bearing = y.atan2(20.0);
+        let nearest = ((bearing + std::f64::consts::FRAC_PI_2) / step).round() as usize;
+        assert_eq!(*a, Association::Point(nearest), "beam {i}");
+        checked += 1;
+    }
+    assert!(checked > 100, "only {checked} wall points");
+}
+
+/// A wall 15 m ahead, a car crossing at x = 9 (centre y = 0 at the reference scan,
+/// y = 3 at the current scan), ego driving 3 m forward.
+fn crossing_scene() -> Scene {
+    Scene {
+        background: vec![Primitive::segment(
+            Point2::new(15.0, -40.0),
+            Point2::new(15.0, 40.0),
+        )],
+        objects: vec![MovingObject::car(
+            4.5,
+            1.8,
+            Trajectory {
+                start: Pose2::new(9.0, 0.0, std::f64::consts::FRAC_PI_2),
+                speed: 10.0,
+                yaw_rate: 0.0,
+            },
+        )],
+        ego: Trajectory {
+            start: Pose2::identity(),
+            speed: 10.0,
+            yaw_rate: 0.0,
+        },
+        interval: 0.3,
+    }
+}
+
+#[test]
+fn surfaces_hidden_at_the_reference_time_are_outliers() {
+    let c = noise_free(Preset::Mixed);
+    let pair = simulate_scene(
+        &crossing_scene(),
+        &c,
+        &mut pair_rng(0, 0),
+        "crossing".into(),
+    );
+    let truth = pair.truth.as_ref().unwrap();
+    let labels = truth.labels.as_ref().unwrap();
+    let associations = truth.associations.as_ref().unwrap();
+    let sensor = Pose2::new(3.0, 0.0, 0.0);
+    let (mut hidden, mut open, mut car_associated, mut car_points) = (0, 0, 0, 0);
+    for i in 0..pair.current.len() {
+        let Some(label) = labels[i] else { continue };
+        let world = sensor.transform_point(&pair.current.beam_point(i));
+        if label == 0 {
+            // Wall points behind the car's reference-time position (the ray from the
+            // origin to (15, y) crosses x = 9 at 0.6 y, inside |y| < 2.25 for
+            // |y| < 3.75) are hidden in the reference scan.
+            if (-2.0..=0.5).contains(&world.y) {
+                assert_eq!(
+                    associations[i],
+                    Some(Association::Outlier),
+                    "wall y = {}",
+                    world.y
+                );
+                hidden += 1;
+            } else if world.y < -5.0 && world.y > -30.0 {
+                assert!(
+                    matches!(associations[i], Some(Association::Point(_))),
+                    "open wall y = {} is {:?}",
+                    world.y,
+                    associations[i]
+                );
+                open += 1;
+            }
+        } else {
+            assert_eq!(label, 1);
+            car_points += 1;
+            if matches!(associations[i], Some(Association::Point(_))) {
+                car_associated += 1;
+            }
+        }
+    }
+    assert!(hidden >= 10, "{hidden} hidden wall points");
+    assert!(open >= 20, "{open} open wall points");
+    // The car's near side was seen at both times (it moved 3 m along itself).
+    assert!(car_points >= 10, "{car_points} car points");
+    assert!(
+        car_associated * 2 >= car_points,
+        "{car_associated} of {car_points}"
+    );
+    // Its motion is exactly its own displacement seen from the two sensor poses.
+    let m = truth.motions.iter().find(|m| m.label == 1).unwrap();
+    assert_eq!(m.kind, "car");
+    assert!(
+        m.motion.translation_error(&Pose2::new(3.0, -3.0, 0.0)) < 1e-9,
+        "{:?}",
+        m.motion
+    );
+}
+
+#[test]
+fn surfaces_outside_the_reference_view_are_outliers() {
+    // A car overtaking from behind: at the reference time it is entirely behind the
+    // sensor (x < 0, outside the 180° field of view), at the current time beside it.
+    let scene = Scene {
+        background: vec![Primitive::segment(
+            Point2::new(-40.0, -6.0),
+            Point2::new(60.0, -6.0),
+        )],
+        objects: vec![MovingObject::car(
+            4.5,
+            1.8,
+            Trajectory {
+                start: Pose2::new(-3.0, 3.3, 0.0),
+                speed: 20.0,
+                yaw_rate: 0.0,
+            },
+        )],
+        ego: Trajectory {
+            start: Pose2::identity(),
+            speed: 10.0,
+            yaw_rate: 0.0,
+        },
+        interval: 0.3,
+    };
+    let c = noise_free(Preset::Mixed);
+    let pair = simulate_scene(&scene, &c, &mut pair_rng(0, 0), "behind".into());
+    let truth = pair.truth.as_ref().unwrap();
+    let labels = truth.labels.as_ref().unwrap();
+    let associations = truth.associations.as_ref().unwrap();
+    let car: Vec<usize> = (0..labels.len())
+        .filter(|&i| labels[i] == Some(1))
+        .collect();
+    assert!(car.len() >= 5, "car seen by {} beams", car.len());
+    for &i in &car {
+        assert_eq!(associations[i], Some(Association::Outlier), "car beam {i}");
+    }
+    // The reference scan never saw the car, but its label and motion exist.
+    let reference_labels = truth.reference_labels.as_ref().unwrap();
+    assert!(reference_labels.iter().all(|l| *l != Some(1)));
+    assert!(truth.motions.iter().any(|m| m.label == 1));
+}
+
+#[test]
+fn same_seed_same_bytes_and_pairs_do_not_depend_on_the_count() {
+    let c = config(Preset::Mixed);
+    let a = serde_json::to_string(&simulate_pairs(&c, 42, 6)).unwrap();
+    let b = serde_json::to_string(&simulate_pairs(&c, 42, 6)).unwrap();
+    assert_eq!(a, b);
+    let other = serde_json::to_string(&simulate_pairs(&c, 43, 6)).unwrap();
+    assert_ne!(a, other);
+    let short = simulate_pairs(&c, 42, 3);
+    let long = simulate_pairs(&c, 42, 6);
+    assert_eq!(short[..], long[..3]);
+    assert_eq!(simulate_pair(&c, 42, 4), long[4]);
+    assert_eq!(long[4].name, "sim:mixed:42:4");
+}
+
+#[test]
+fn odometry_is_the_true_motion_plus_distance_scaled_noise() {
+    let exact = SimConfig {
+        odometry_translation_noise: 0.0,
+        odometry_rotation_noise: 0.0,
+        ..SimConfig::default()
+    }
+    .check()
+    .unwrap();
+    for pair in simulate_pairs(&exact, 2, 5) {
+        let ego = pair.truth.as_ref().unwrap().ego_motion.unwrap();
+        let odometry = pair.odometry.unwrap();
+        assert!(odometry.translation_error(&ego) < 1e-12);
+        assert!(odometry.rotation_error(&ego) < 1e-12);
+    }
+    let noisy = config(Preset::Mixed);
+    let pairs = simulate_pairs(&noisy, 2, 200);
+    let mut errors = Vec::new();
+    for pair in &pairs {
+        let ego = pair.truth.as_ref().unwrap().ego_motion.unwrap();
+        let odometry = pair.odometry.unwrap();
+        let d = ego.translation().norm();
+        let e = (odometry.x() - ego.x()) / (0.02 * d);
+        errors.push(e);
+        // Scan odometry agrees with the pair's prior.
+        let between = pair
+            .reference
+            .odometry
+            .unwrap()
+            .between(&pair.current.odometry.unwrap());
+        assert!(between.translation_error(&odometry) < 1e-9);
+    }
+    // Normalised x errors are standard normal: sample deviation near 1.
+    let sd = (errors.iter().map(|e| e * e).sum::<f64>() / errors.len() as f64).sqrt();
+    assert!(
+        (0.8..1.2).contains(&sd),
+        "normalised odometry error deviation {sd}"
+    );
+}
+
+#[test]
+fn noise_and_dropout_follow_the_configuration() {
+    let c = SimConfig {
+        dropout: 0.2,
+        ..SimConfig::default()
+    }
+    .check()
+    .unwrap();
+    let clean = noise_free(Preset::Mixed);
+    let noisy_pairs = simulate_pairs(&c, 9, 10);
+    let clean_pairs = simulate_pairs(&clean, 9, 10);
+    let (mut dropped, mut hits) = (0usize, 0usize);
+    for (noisy, clean) in noisy_pairs.iter().zip(&clean_pairs) {
+        // Same scene for the same seed: the laser parameters draw after the scene.
+        assert_eq!(
+            noisy.truth.as_ref().unwrap().ego_motion,
+            clean.truth.as_ref().unwrap().ego_motion
+        );
+        for k in 0..clean.current.len() {
+            if clean.current.valid[k] {
+                hits += 1;
+                if !noisy.current.valid[k] {
+                    dropped += 1;
+                }
+            }
+        }
+    }
+    let rate = dropped as f64 / hits as f64;
+    assert!((0.17..0.23).contains(&rate), "dropout rate {rate}");
+}
+
+#[test]
+fn configuration_errors_name_the_offending_value() {
+    let bad = |c: SimConfig| c.check().unwrap_err();
+    let e = bad(SimConfig {
+        beams: 1,
+        ..SimConfig::default()
+    });
+    assert!(
+        matches!(&e, SimError::InvalidParameter { name: "beams", value, .. } if value == "1"),
+        "{e}"
+    );
+    let e = bad(SimConfig {
+        dropout: 1.5,
+        ..SimConfig::default()
+    });
+    assert!(
+        e.to_string().contains("dropout") && e.to_string().contains("1.5"),
+        "{e}"
+    );
+    let e = bad(SimConfig {
+        pair_distance: [4.0, 2.0],
+        ..SimConfig::default()
+    });
+    assert!(
+        e.to_string().contains("pair_distance") && e.to_string().contains("[4.0, 2.0]"),
+        "{e}"
+    );
+    let e = bad(SimConfig {
+        range_noise: f64::NAN,
+        ..SimConfig::default()
+    });
+    assert!(
+        e.to_string().contains("range_noise") && e.to_string().contains("NaN"),
+        "{e}"
+    );
+    let e = bad(SimConfig {
+        ego_speed: [0.0, 10.0],
+        ..SimConfig::default()
+    });
+    assert!(e.to_string().contains("ego_speed"), "{e}");
+    // 181 beams is a valid sensor too.
+    let c = SimConfig {
+        beams: 181,
+        ..SimConfig::default()
+    }
+    .check()
+    .unwrap();
+    let pair = simulate_pair(&c, 1, 0);
+    assert_eq!(pair.reference.len(), 181);
+    pair.validate().unwrap();
+}

@@ -1,0 +1,365 @@
+//! Closed-form weighted rigid alignment of two 2D point sets, eq. (3) of the
+//! CRF-Clustering paper (Tipaldi and Ramos, "Motion Clustering and Estimation with
+//! Conditional Random Fields"):
+//!
+//! `R_l, T_l = argmin_{R, T} Σ_i w_i ‖T + R s_i − g_i‖²`
+//!
+//! over the point pairs `(s_i, g_i)` of one cluster, where `s_i` is a point of the
+//! **current** scan and `g_i` its partner in the **reference** scan. The result maps
+//! current points onto reference points (`g ≈ R s + T`), the project's motion
+//! convention (see [`crate::pose`]).
+//!
+//! [`RigidAlignment`] keeps only weighted sufficient statistics (Σw, Σw s, Σw g,
+//! Σw s gᵀ, Σw‖s‖², Σw‖g‖²), so adding or removing a pair is O(1) and solving is O(1):
+//! the hybrid nodes of the joint model recompute every cluster's motion after each
+//! variable visit by moving one point from one cluster's statistics to another's.
+//!
+//! # The solution and its special cases
+//!
+//! With weighted centroids `s̄`, `ḡ` and the centred cross terms
+//! `a = Σw (s−s̄)·(g−ḡ)` and `b = Σw (s−s̄)×(g−ḡ)` (2D cross product), the optimal
+//! rotation is `θ = atan2(b, a)` and `T = ḡ − R s̄`. The minimum of the objective is
+//! `Σw‖s−s̄‖² + Σw‖g−ḡ‖² − 2 √(a² + b²)`.
+//!
+//! - **No points, or total weight (numerically) zero**: [`RigidAlignment::solve`]
+//!   returns `None` — there is no motion to estimate, and the caller decides what an
+//!   empty cluster means.
+//! - **One point** (or all points at one place in either scan): the rotation is not
+//!   observable (`a = b = 0`); the result is the pure translation `ḡ − s̄` with
+//!   rotation 0 and [`Alignment::degenerate`] set.
+//! - **Collinear points**: in 2D the rotation is still unique as long as the centred
+//!   point sets are not orthogonal to each other (`a² + b² > 0`), so collinear points
+//!   give the exact least-squares motion, *not* flagged degenerate. Only when
+//!   `√(a² + b²)` is negligible against the spread of the points is the rotation
+//!   undetermined; then the result is the pure translation with rotation 0 and
+//!   `degenerate` set, as for one point.
+//!
+//! # Numerical robustness of removal
+//!
+//! Removing pairs subtracts from running sums, which can leave rounding residue. The
+//! statistics therefore count their pairs and reset to exact zeros when the count
+//! returns to 0, and [`RigidAlignment::solve`] treats a total weight below `1e-12`
+//! times the largest total weight seen since the last reset as empty (returns `None`).
+//! Sums are kept relative to the first point added after a reset (an internal origin),
+//! which keeps the cross terms small for points far from the sensor origin.
+//!
+//! Weights must be finite and non-negative; a zero-weight pair is counted but does not
+//! influence the motion.
+//!
+//! ```
+//! use nalgebra::Point2;
+//! use pgm_features::alignment::RigidAlignment;
+//! use pgm_features::Pose2;
+//!
+//! let truth = Pose2::new(0.3, -0.2, 0.1);
+//! let mut stats = RigidAlignment::new();
+//! for (x, y) in [(1.0, 0.0), (0.0, 2.0), (-1.0, 1.0)] {
+//!     let s = Point2::new(x, y);
+//!     stats.add(&s, &truth.transform_point(&s), 1.0);
+//! }
+//! let alignment = stats.solve().expect("three points");
+//! assert!(alignment.motion.translation_error(&truth) < 1e-12);
+//! assert!(alignment.motion.rotation_error(&truth) < 1e-12);
+//! ```
+
+use crate::pose::Pose2;
+use nalgebra::{Point2, Vector2};
+
+/// Relative threshold under which the total weight counts as zero (see module docs).
+const RELATIVE_WEIGHT_EPSILON: f64 = 1e-12;
+/// Relative threshold under which `√(a² + b²)` counts as zero against the spread.
+const RELATIVE_ROTATION_EPSILON: f64 = 1e-12;
+
+/// Weighted sufficient statistics of a set of point pairs `(s_i, g_i, w_i)`, with O(1)
+/// [`add`](Self::add), [`remove`](Self::remove) and [`solve`](Self::solve).
+#[derive(Clone, Debug, PartialEq)]
+pub struct RigidAlignment {
+    /// Number of pairs currently added.
+    count: usize,
+    /// Internal origin subtracted from every point (first point after a reset).
+    origin_s: Vector2<f64>,
+    origin_g: Vector2<f64>,
+    /// Σw.
+    sum_w: f64,
+    /// Largest Σw since the last reset (scale for the "weight is zero" test).
+    max_sum_w: f64,
+    /// Σw s and Σw g (relative to the origins).
+    sum_s: Vector2<f64>,
+    sum_g: Vector2<f64>,
+    /// Σw s·g and Σw s×g (relative to the origins).
+    sum_dot: f64,
+    sum_cross: f64,
+    /// Σw ‖s‖² and Σw ‖g‖² (relative to the origins).
+    sum_ss: f64,
+    sum_gg: f64,
+}
+
+impl Default for RigidAlignment {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// The solution of eq. (3) for one set of point pairs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Alignment {
+    /// The motion `(R, T)` mapping current points onto reference points.
+    pub motion: Pose2,
+    /// Weighted sum of squared residuals `Σ w_i ‖T + R s_i − g_i‖²` at the solution.
+    pub residual: f64,
+    /// Total weight Σw of the pairs.
+    pub weight: f64,
+    /// Number of pairs.
+    pub count: usize,
+    /// True when the rotation was not observable (one point, coincident points) and
+    /// the motion is the pure translation between the weighted centroids.
+    pub degenerate: bool,
+}
+
+impl RigidAlignment {
+    /// Empty statistics.
+    pub fn new() -> Self {
+        Self {
+            count: 0,
+            origin_s: Vector2::zeros(),
+            origin_g: Vector2::zeros(),
+            sum_w: 0.0,
+            max_sum_w: 0.0,
+            sum_s: Vector2::zeros(),
+            sum_g: Vector2::zeros(),
+            sum_dot: 0.0,
+            sum_cross: 0.0,
+            sum_ss: 0.0,
+            sum_gg: 0.0,
+        }
+    }
+
+    /// Statistics of all pairs of an iterator of `(s, g, w)`.
+    pub fn from_pairs<'a>(
+        pairs: impl IntoIterator<Item = (&'a Point2<f64>, &'a Point2<f64>, f64)>,
+    ) -> Self {
+        let mut stats = Self::new();
+        for (s, g, w) in pairs {
+            stats.add(s, g, w);
+        }
+        stats
+    }
+
+    /// Number of pairs currently in the statistics.
+    pub fn len(&self) -> usize {
+        self.count
+    }
+
+    /// True when no pair is in the statistics.
+    pub fn is_empty(&self) -> bool {
+        self.count == 0
+    }
+
+    /// Total weight Σw.
+    pub fn total_weight(&self) -> f64 {
+        self.sum_w
+    }
+
+    /// Forgets every pair.
+    pub fn clear(&mut self) {
+        *self = Self::new();
+    }
+
+    /// Adds the pair (current point `s`, reference point `g`) with weight `w ≥ 0`.
+    #[inline]
+    pub fn add(&mut self, s: &Point2<f64>, g: &Point2<f64>, w: f64) {
+        debug_assert!(
+            w.is_finite() && w >= 0.0,
+            "weight {w} must be finite and >= 0"
+        );
+        if self.count == 0 {
+            self.origin_s = s.coords;
+            self.origin_g = g.coords;
+        }
+        self.count += 1;
+        self.accumulate(s, g, w);
+        if self.sum_w > self.max_sum_w {
+            self.max_sum_w = self.sum_w;
+        }
+    }
+
+    /// Removes a pair previously added with the same `s`, `g` and `w`. Removing a pair
+    /// that was never added leaves meaningless statistics (not checked, O(1)).
+    #[inline]
+    pub fn remove(&mut self, s: &Point2<f64>, g: &Point2<f64>, w: f64) {
+        debug_assert!(
+            w.is_finite() && w >= 0.0,
+            "weight {w} must be finite and >= 0"
+        );
+        if self.count <= 1 {
+            self.clear();
+            return;
+        }
+        self.count -= 1;
+        self.accumulate(s, g, -w);
+    }
+
+    /// Adds all pairs of `other` (both must describe pairs in the same frames).
+    pub fn merge(&mut self, other: &RigidAlignment) {
+        if other.count == 0 {
+            return;
+        }
+        if self.count == 0 {
+            *self = other.clone();
+            return;
+        }
+        // Re-express other's sums around our origins: with d = o_other − o_self,
+        // Σw (x + d) = Σw x + W d, Σw (x+ds)·(y+dg) = Σw x·y + Σw x·dg + ds·Σw y + W ds·dg.
+        let ds = other.origin_s - self.origin_s;
+        let dg = other.origin_g - self.origin_g;
+        let w = other.sum_w;
+        self.sum_w += w;
+        self.sum_s += other.sum_s + ds * w;
+        self.sum_g += other.sum_g + dg * w;
+        self.sum_dot +=
+            other.sum_dot + other.sum_s.dot(&dg) + ds.dot(&other.sum_g) + w * ds.dot(&dg);
+        self.sum_cross += other.sum_cross
+            + cross(&other.sum_s, &dg)
+            + cross(&ds, &other.sum_g)
+            + w * cross(&ds, &dg);
+        self.sum_ss += other.sum_ss + 2.0 * other.sum_s.dot(&ds) + w * ds.norm_squared();
+        self.sum_gg += other.sum_gg + 2.0 * other.sum_g.dot(&dg) + w * dg.norm_squared();
+        self.count += other.count;
+        self.max_sum_w = self.max_sum_w.max(self.sum_w);
+    }
+
+    #[inline]
+    fn accumulate(&mut self, s: &Point2<f64>, g: &Point2<f64>, w: f64) {
+        let s = s.coords - self.origin_s;
+        let g = g.coords - self.origin_g;
+        self.sum_w += w;
+        self.sum_s += s * w;
+        self.sum_g += g * w;
+        self.sum_dot += w * s.dot(&g);
+        self.sum_cross += w * cross(&s, &g);
+        self.sum_ss += w * s.norm_squared();
+        self.sum_gg += w * g.norm_squared();
+    }
+
+    /// The weighted least-squares motion of eq. (3); `None` when there is no pair or
+    /// the total weight is (numerically) zero. See the module docs for degenerate sets.
+    pub fn solve(&self) -> Option<Alignment> {
+        if self.count == 0
+            || self.sum_w.is_nan()
+            || self.sum_w <= RELATIVE_WEIGHT_EPSILON * self.max_sum_w
+            || self.sum_w <= 0.0
+        {
+            return None;
+        }
+        let w = self.sum_w;
+        let mean_s = self.sum_s / w;
+        let mean_g = self.sum_g / w;
+        // Centred second moments.
+        let a = self.sum_dot - w * mean_s.dot(&mean_g);
+        let b = self.sum_cross - w * cross(&mean_s, &mean_g);
+        let spread_s = (self.sum_ss - w * mean_s.norm_squared()).max(0.0);
+        let spread_g = (self.sum_gg - w * mean_g.norm_squared()).max(0.0);
+        let magnitude = a.hypot(b);
+        let scale = (spread_s * spread_g).sqrt();
+        let degenerate = magnitude.is_nan() || magnitude <= RELATIVE_ROTATION_EPSILON * scale;
+        let theta = if degenerate { 0.0 } else { b.atan2(a) };
+        let (sin, cos) = theta.sin_cos();
+        // T = ḡ − R s̄ in absolute coordinates.
+        let abs_s = mean_s + self.origin_s;
+        let abs_g = mean_g + self.origin_g;
+        let rotated = Vector2::new(cos * abs_s.x - sin * abs_s.y, sin * abs_s.x + cos * abs_s.y);
+        let t = abs_g - rotated;
+        let residual = (spread_s + spread_g - 2.0 * (a * cos + b * sin)).max(0.0);
+        Some(Alignment {
+            motion: Pose2::new(t.x, t.y, theta),
+            residual,
+            weight: w,
+            count: self.count,
+            degenerate,
+        })
+    }
+}
+
+#[inline]
+fn cross(a: &Vector2<f64>, b: &Vector2<f64>) -> f64 {
+    a.x * b.y - a.y * b.x
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn empty_is_none() {
+        assert!(RigidAlignment::new().solve().is_none());
+    }
+
+    #[test]
+    fn one_point_is_pure_translation() {
+        let mut stats = RigidAlignment::new();
+        stats.add(&Point2::new(1.0, 2.0), &Point2::new(3.0, -1.0), 2.0);
+        let a = stats.solve().unwrap();
+        assert!(a.degenerate);
+        assert_eq!(a.motion.theta(), 0.0);
+        assert!((a.motion.x() - 2.0).abs() < 1e-12);
+        assert!((a.motion.y() + 3.0).abs() < 1e-12);
+        assert!(a.residual < 1e-12);
+    }
+
+    #[test]
+    fn zero_weight_only_is_none() {
+        let mut stats = RigidAlignment::new();
+        stats.add(&Point2::new(1.0, 2.0), &Point2::new(3.0, -1.0), 0.0);
+        assert!(stats.solve().is_none());
+    }
+
+    #[test]
+    fn collinear_points_give_rotation() {
+        let truth = Pose2::new(0.5, 0.1, 0.4);
+        let mut stats = RigidAlignment::new();
+        for k in 0..5 {
+            let s = Point2::new(k as f64, 2.0 * k as f64);
+            stats.add(&s, &truth.transform_point(&s), 1.0);
+        }
+        let a = stats.solve().unwrap();
+        assert!(!a.degenerate);
+        assert!(a.motion.translation_error(&truth) < 1e-12);
+        assert!(a.motion.rotation_error(&truth) < 1e-12);
+    }
+
+    #[test]
+    fn coincident_points_are_degenerate() {
+        let mut stats = RigidAlignment::new();
+        for _ in 0..3 {
+            stats.add(&Point2::new(1.0, 1.0), &Point2::new(2.0, 1.0), 1.0);
+        }
+        let a = stats.solve().unwrap();
+        assert!(a.degenerate);
+        assert!((a.motion.x() - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn removing_all_but_a_tiny_weight_is_none() {
+        let mut stats = RigidAlignment::new();
+        let s = Point2::new(1.0, 1.0);
+        stats.add(&s, &s, 1e6);
+        stats.add(&Point2::new(2.0, 0.0), &Point2::new(2.0, 0.0), 1e-9);
+        stats.remove(&s, &s, 1e6);
+        // 1e-9 of 1e6 is below the relative threshold.
+        assert!(stats.solve().is_none());
+        assert_eq!(stats.len(), 1);
+    }
+
+    #[test]
+    fn removing_every_pair_resets_exactly() {
+        let mut stats = RigidAlignment::new();
+        let pts = [(0.1, 0.2), (3.0, -1.0), (5.5, 2.25)];
+        for (x, y) in pts {
+            stats.add(&Point2::new(x, y), &Point2::new(y, x), 0.3);
+        }
+        for (x, y) in pts {
+            stats.remove(&Point2::new(x, y), &Point2::new(y, x), 0.3);
+        }
+        assert_eq!(stats, RigidAlignment::new());
+    }
+}

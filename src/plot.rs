@@ -1,0 +1,396 @@
+//! SVG pictures of scan pairs: the reference scan in grey, the current scan coloured
+//! by cluster label, optional motion arrows and boxes around the labelled clusters,
+//! in the style of Fig. 4 and 5 of the CRF-Clustering paper.
+//!
+//! The picture is drawn in the **reference sensor frame**, forward pointing up and
+//! left pointing left. Current-scan points are brought into that frame by an
+//! alignment motion (by default the true ego-motion, else the odometry prior), so
+//! static surfaces of both scans overlap and moving objects stand out. The labels
+//! can be the ground truth (the default) or any clustering result, so the same
+//! function draws the simulator's truth and a model's output.
+//!
+//! ```no_run
+//! use pgm::datasets::sim::{simulate_pair, SimConfig};
+//! use pgm::plot::PairPicture;
+//!
+//! let config = SimConfig::default().check().unwrap();
+//! let pair = simulate_pair(&config, 1, 0);
+//! PairPicture::new(&pair).write_svg("pair.svg").unwrap();
+//! ```
+
+use nalgebra::Point2;
+use pgm_datasets::{ClusterMotion, ScanPair};
+use pgm_features::Pose2;
+use plotters::prelude::*;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// Errors while drawing or writing a picture.
+#[derive(Debug, thiserror::Error)]
+pub enum PlotError {
+    /// The drawing backend failed.
+    #[error("drawing failed: {0}")]
+    Drawing(String),
+    /// The per-point labels do not match the current scan.
+    #[error("{labels} labels given for the {beams} beams of the current scan")]
+    LabelCount {
+        /// Number of labels given.
+        labels: usize,
+        /// Number of beams of the current scan.
+        beams: usize,
+    },
+    /// The SVG file could not be written.
+    #[error("cannot write {path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+}
+
+/// Colours of clusters `1, 2, …` (cycled); cluster 0 (background) is dark blue-grey.
+pub const CLUSTER_COLOURS: [RGBColor; 9] = [
+    RGBColor(214, 39, 40),
+    RGBColor(31, 119, 180),
+    RGBColor(44, 160, 44),
+    RGBColor(255, 127, 14),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(188, 189, 34),
+    RGBColor(23, 190, 207),
+];
+const BACKGROUND_COLOUR: RGBColor = RGBColor(45, 55, 72);
+const REFERENCE_COLOUR: RGBColor = RGBColor(190, 190, 190);
+
+/// The colour of cluster `label` (0 = background).
+pub fn cluster_colour(label: u32) -> RGBColor {
+    if label == 0 {
+        BACKGROUND_COLOUR
+    } else {
+        CLUSTER_COLOURS[(label as usize - 1) % CLUSTER_COLOURS.len()]
+    }
+}
+
+/// What to draw for one pair. Build with [`PairPicture::new`] and adjust the fields.
+#[derive(Clone, Debug)]
+pub struct PairPicture<'a> {
+    /// The pair.
+    pub pair: &'a ScanPair,
+    /// Cluster label of every current-scan beam (`None`: no return, or unlabelled,
+    /// drawn black). Default: the ground-truth labels, if any.
+    pub labels: Option<&'a [Option<u32>]>,
+    /// Motion taking current-scan points into the reference frame. Default: true
+    /// ego-motion, else the odometry prior, else identity.
+    pub alignment: Pose2,
+    /// Motions drawn as arrows from where a cluster was at the reference time to
+    /// where it is at the current time (only for labels present in `labels`, not
+    /// for the background). Default: the ground-truth motions.
+    pub motions: &'a [ClusterMotion],
+    /// Draw a box around every labelled cluster other than 0 (default true).
+    pub boxes: bool,
+    /// Title above the picture (default: the pair's name).
+    pub title: String,
+    /// Width of the picture in pixels (the height follows from the view, 1:1 scale).
+    pub width: u32,
+    /// Region drawn, in the reference sensor frame: `[x_min, x_max, y_min, y_max]`
+    /// metres. Default: all points, clipped to 60 m ahead and 30 m to either side.
+    pub view: Option<[f64; 4]>,
+}
+
+impl<'a> PairPicture<'a> {
+    /// The default picture of `pair`: ground-truth labels, motions and boxes.
+    pub fn new(pair: &'a ScanPair) -> Self {
+        let truth = pair.truth.as_ref();
+        let alignment = truth
+            .and_then(|t| t.ego_motion)
+            .or(pair.odometry)
+            .unwrap_or_default();
+        PairPicture {
+            pair,
+            labels: truth.and_then(|t| t.labels.as_deref()),
+            alignment,
+            motions: truth.map_or(&[], |t| t.motions.as_slice()),
+            boxes: true,
+            title: pair.name.clone(),
+            width: 900,
+            view: None,
+        }
+    }
+
+    /// Draws the picture and returns the SVG text.
+    pub fn to_svg_string(&self) -> Result<String, PlotError> {
+        let current = &self.pair.current;
+        if let Some(labels) = self.labels {
+            if labels.len() != current.len() {
+                return Err(PlotError::LabelCount {
+                    labels: labels.len(),
+                    beams: current.len(),
+                });
+            }
+        }
+        let (reference_points, _) = self.pair.reference.points();
+        let (current_points, current_beams) = current.points();
+        let aligned: Vec<Point2<f64>> = current_points
+            .iter()
+            .map(|p| self.alignment.transform_point(p))
+            .collect();
+        let label_of = |k: usize| self.labels.and_then(|l| l[k]);
+
+        // Points of every moving cluster, in the current sensor frame, by label.
+        let mut clusters: BTreeMap<u32, Vec<Point2<f64>>> = BTreeMap::new();
+        for (p, &k) in current_points.iter().zip(&current_beams) {
+            if let Some(l) = label_of(k).filter(|&l| l != 0) {
+                clusters.entry(l).or_default().push(*p);
+            }
+        }
+
+        let [x0, x1, y0, y1] = self.view.unwrap_or_else(|| {
+            let mut b = [0.0f64, 1.0, -1.0, 1.0];
+            for p in reference_points.iter().chain(&aligned) {
+                b[0] = b[0].min(p.x);
+                b[1] = b[1].max(p.x);
+                b[2] = b[2].min(p.y);
+                b[3] = b[3].max(p.y);
+            }
+            [
+                (b[0] - 1.0).max(-5.0),
+                (b[1] + 1.0).min(60.0),
+                (b[2] - 1.0).max(-30.0),
+                (b[3] + 1.0).min(30.0),
+            ]
+        });
+        // Screen axes: u = −y (left is left), v = x (forward is up).
+        let (u0, u1, v0, v1) = (-y1, -y0, x0, x1);
+        const TITLE: u32 = 28;
+        const MARGIN: u32 = 12;
+        const X_LABELS: u32 = 36;
+        const Y_LABELS: u32 = 44;
+        let plot_width = self.width.saturating_sub(2 * MARGIN + Y_LABELS).max(100);
+        let plot_height = ((v1 - v0) / (u1 - u0) * plot_width as f64)
+            .round()
+            .max(50.0) as u32;
+        let height = plot_height + TITLE + 2 * MARGIN + X_LABELS;
+
+        let mut svg = String::new();
+        {
+            let root = SVGBackend::with_string(&mut svg, (self.width, height)).into_drawing_area();
+            root.fill(&WHITE).map_err(drawing)?;
+            let (top, body) = root.split_vertically(TITLE);
+            top.draw(&Text::new(
+                self.title.clone(),
+                (MARGIN as i32, 6),
+                ("sans-serif", 16).into_font(),
+            ))
+            .map_err(drawing)?;
+            let mut chart = ChartBuilder::on(&body)
+                .margin(MARGIN)
+                .x_label_area_size(X_LABELS)
+                .y_label_area_size(Y_LABELS)
+                .build_cartesian_2d(u0..u1, v0..v1)
+                .map_err(drawing)?;
+            chart
+                .configure_mesh()
+                .x_desc("← left   lateral (m)")
+                .y_desc("forward (m)")
+                .x_label_formatter(&|u| format!("{:.0}", -u))
+                .light_line_style(RGBColor(240, 240, 240))
+                .bold_line_style(RGBColor(225, 225, 225))
+                .draw()
+                .map_err(drawing)?;
+            let screen = |p: &Point2<f64>| (-p.y, p.x);
+            let inside = |p: &Point2<f64>| p.x >= x0 && p.x <= x1 && p.y >= y0 && p.y <= y1;
+
+            chart
+                .draw_series(
+                    reference_points
+                        .iter()
+                        .filter(|p| inside(p))
+                        .map(|p| Circle::new(screen(p), 3, REFERENCE_COLOUR.filled())),
+                )
+                .map_err(drawing)?;
+            chart
+                .draw_series(
+                    aligned
+                        .iter()
+                        .zip(&current_beams)
+                        .filter(|(p, _)| inside(p))
+                        .map(|(p, &k)| {
+                            let colour = label_of(k).map_or(BLACK, cluster_colour);
+                            let size = if label_of(k).is_some_and(|l| l != 0) {
+                                2
+                            } else {
+                                1
+                            };
+                            Circle::new(screen(p), size, colour.filled())
+                        }),
+                )
+                .map_err(drawing)?;
+
+            // Sensors: reference at the origin (grey), current at the alignment (black).
+            for (pose, colour) in [
+                (Pose2::identity(), REFERENCE_COLOUR),
+                (self.alignment, BLACK),
+            ] {
+                let tip = pose.transform_point(&Point2::new(1.2, 0.0));
+                let left = pose.transform_point(&Point2::new(-0.6, 0.6));
+                let right = pose.transform_point(&Point2::new(-0.6, -0.6));
+                chart
+                    .draw_series(std::iter::once(Polygon::new(
+                        vec![screen(&tip), screen(&left), screen(&right)],
+                        colour.filled(),
+                    )))
+                    .map_err(drawing)?;
+            }
+
+            for (&label, points) in &clusters {
+                let colour = cluster_colour(label);
+                let aligned_cluster: Vec<Point2<f64>> = points
+                    .iter()
+                    .map(|p| self.alignment.transform_point(p))
+                    .collect();
+                if self.boxes {
+                    let (mut bx0, mut bx1, mut by0, mut by1) =
+                        (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+                    for p in &aligned_cluster {
+                        bx0 = bx0.min(p.x);
+                        bx1 = bx1.max(p.x);
+                        by0 = by0.min(p.y);
+                        by1 = by1.max(p.y);
+                    }
+                    let pad = 0.4;
+                    chart
+                        .draw_series(std::iter::once(Rectangle::new(
+                            [(-(by1 + pad), bx1 + pad), (-(by0 - pad), bx0 - pad)],
+                            colour.stroke_width(2),
+                        )))
+                        .map_err(drawing)?;
+                    let kind = self
+                        .motions
+                        .iter()
+                        .find(|m| m.label == label)
+                        .map_or(String::new(), |m| format!(" {}", m.kind));
+                    chart
+                        .draw_series(std::iter::once(Text::new(
+                            format!("{label}{kind}"),
+                            (-(by1 + pad), bx1 + pad + 0.3),
+                            ("sans-serif", 13).into_font().color(&colour),
+                        )))
+                        .map_err(drawing)?;
+                }
+                if let Some(m) = self.motions.iter().find(|m| m.label == label) {
+                    let n = points.len() as f64;
+                    let centroid = Point2::from(
+                        points
+                            .iter()
+                            .map(|p| p.coords)
+                            .sum::<nalgebra::Vector2<f64>>()
+                            / n,
+                    );
+                    let from = m.motion.transform_point(&centroid);
+                    let to = self.alignment.transform_point(&centroid);
+                    draw_arrow(&mut chart, screen(&from), screen(&to), colour)?;
+                }
+            }
+            root.present().map_err(drawing)?;
+        }
+        Ok(svg)
+    }
+
+    /// Draws the picture into the SVG file `path`.
+    pub fn write_svg(&self, path: impl AsRef<Path>) -> Result<(), PlotError> {
+        let path = path.as_ref();
+        let svg = self.to_svg_string()?;
+        std::fs::write(path, svg).map_err(|source| PlotError::Io {
+            path: path.to_path_buf(),
+            source,
+        })
+    }
+}
+
+fn drawing(e: impl std::fmt::Display) -> PlotError {
+    PlotError::Drawing(e.to_string())
+}
+
+type Chart<'a, 'b> = ChartContext<
+    'a,
+    SVGBackend<'b>,
+    Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+>;
+
+/// A line from `from` to `to` with a head at `to` (screen coordinates in metres).
+fn draw_arrow(
+    chart: &mut Chart<'_, '_>,
+    from: (f64, f64),
+    to: (f64, f64),
+    colour: RGBColor,
+) -> Result<(), PlotError> {
+    let (dx, dy) = (to.0 - from.0, to.1 - from.1);
+    let length = (dx * dx + dy * dy).sqrt();
+    if length < 1e-6 {
+        return Ok(());
+    }
+    let (ux, uy) = (dx / length, dy / length);
+    let head = length.min(0.8) * 0.6;
+    let wing = |side: f64| {
+        (
+            to.0 - head * ux + side * head * 0.5 * -uy,
+            to.1 - head * uy + side * head * 0.5 * ux,
+        )
+    };
+    let style = colour.stroke_width(2);
+    chart
+        .draw_series(std::iter::once(PathElement::new(vec![from, to], style)))
+        .map_err(drawing)?;
+    chart
+        .draw_series(std::iter::once(PathElement::new(
+            vec![wing(1.0), to, wing(-1.0)],
+            style,
+        )))
+        .map_err(drawing)?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use pgm_datasets::sim::{simulate_pair, SimConfig};
+
+    #[test]
+    fn draws_every_point_and_box() {
+        let config = SimConfig::default().check().unwrap();
+        let pair = simulate_pair(&config, 1, 0);
+        let mut picture = PairPicture::new(&pair);
+        picture.view = Some([-100.0, 100.0, -100.0, 100.0]);
+        let svg = picture.to_svg_string().unwrap();
+        assert!(svg.starts_with("<svg"), "{}", &svg[..50]);
+        let circles = svg.matches("<circle").count();
+        let expected = pair.reference.valid_count() + pair.current.valid_count();
+        assert_eq!(circles, expected);
+        let truth = pair.truth.as_ref().unwrap();
+        let labels = truth.labels.as_ref().unwrap();
+        let moving: std::collections::BTreeSet<u32> = labels
+            .iter()
+            .flatten()
+            .copied()
+            .filter(|&l| l != 0)
+            .collect();
+        assert!(!moving.is_empty());
+        for m in truth.motions.iter().filter(|m| moving.contains(&m.label)) {
+            let caption = format!("{} {}", m.label, m.kind);
+            assert!(svg.contains(&caption), "no box caption {caption}");
+        }
+    }
+
+    #[test]
+    fn wrong_label_count_is_an_error() {
+        let config = SimConfig::default().check().unwrap();
+        let pair = simulate_pair(&config, 1, 0);
+        let labels = vec![Some(0); 3];
+        let mut picture = PairPicture::new(&pair);
+        picture.labels = Some(&labels);
+        let err = picture.to_svg_string().unwrap_err();
+        assert!(err.to_string().contains("3 labels"), "{err}");
+    }
+}

@@ -1,0 +1,94 @@
+//! Scan matching on the real logs against their ground truth (issue 5 targets).
+//!
+//! Reads `../shared/data` beside the workspace (or `$PGM_SHARED_DATA`); skipped with a
+//! note when the folder is missing, a failure when `CI=true`
+//! (`pgm_datasets::testdata::shared_data_dir`).
+//!
+//! Targets (an independent plain ICP reaches them): mit-csail pairs less than 1.5 s
+//! apart, ICP from odometry: rotation median ≤ 0.005 rad (odometry alone: about
+//! 0.032) and translation median ≤ 0.025 m; intel-lab consecutive pairs, ICP from the
+//! identity (the log has no independent odometry): ≤ 0.025 m and ≤ 0.006 rad.
+
+use pgm_baselines::icp::{Icp, IcpParams};
+use pgm_datasets::builders::{consecutive_pairs, relation_pairs, RelationPairOptions};
+use pgm_datasets::metrics::{motion_error, summarize_errors, ErrorSummary, MotionError};
+use pgm_datasets::{carmen, relations, testdata, ScanPair};
+use rayon::prelude::*;
+
+fn icp_errors(pairs: &[ScanPair]) -> ErrorSummary {
+    let params = IcpParams::default();
+    let errors: Vec<MotionError> = pairs
+        .par_iter()
+        .map(|p| {
+            let truth = p
+                .truth
+                .as_ref()
+                .and_then(|t| t.ego_motion)
+                .expect("ground truth");
+            let icp = Icp::new(&p.reference, params).expect("reference has returns");
+            let r = icp
+                .align(&p.current, p.odometry.unwrap_or_default())
+                .expect("current has returns");
+            motion_error(&r.motion, &truth)
+        })
+        .collect();
+    summarize_errors(&errors).expect("pairs")
+}
+
+fn odometry_errors(pairs: &[ScanPair]) -> ErrorSummary {
+    let errors: Vec<MotionError> = pairs
+        .iter()
+        .map(|p| {
+            let truth = p
+                .truth
+                .as_ref()
+                .and_then(|t| t.ego_motion)
+                .expect("ground truth");
+            motion_error(&p.odometry.expect("odometry prior"), &truth)
+        })
+        .collect();
+    summarize_errors(&errors).expect("pairs")
+}
+
+#[test]
+fn mit_csail_near_pairs_meet_the_targets() {
+    let Some(data) = testdata::shared_data_dir() else {
+        return;
+    };
+    let dir = data.join("mit-csail");
+    let log = carmen::read_carmen(dir.join("mit-csail.clf")).expect("log");
+    let rels = relations::read_relations(dir.join("mit-csail.relations")).expect("relations");
+    let built = relation_pairs(&log, &rels, &RelationPairOptions::default());
+    let near: Vec<ScanPair> = built
+        .pairs
+        .into_iter()
+        .filter(|p| p.time_gap().abs() < 1.5)
+        .collect();
+    assert!(near.len() > 1000, "{} near pairs", near.len());
+    let odometry = odometry_errors(&near);
+    eprintln!("mit-csail near, odometry: {odometry:?}");
+    assert!(
+        (0.025..0.04).contains(&odometry.rotation_median),
+        "odometry rotation median {} (data README: 0.032)",
+        odometry.rotation_median
+    );
+    let icp = icp_errors(&near);
+    eprintln!("mit-csail near, ICP: {icp:?}");
+    assert!(icp.rotation_median <= 0.005, "{icp:?}");
+    assert!(icp.translation_median <= 0.025, "{icp:?}");
+}
+
+#[test]
+fn intel_lab_consecutive_pairs_meet_the_targets() {
+    let Some(data) = testdata::shared_data_dir() else {
+        return;
+    };
+    let log = carmen::read_carmen(data.join("intel-lab/intel-lab.log")).expect("log");
+    let built = consecutive_pairs(&log, "intel-lab");
+    assert_eq!(built.pairs.len(), 2671);
+    assert!(built.pairs.iter().all(|p| p.odometry.is_none()));
+    let icp = icp_errors(&built.pairs);
+    eprintln!("intel-lab consecutive, ICP: {icp:?}");
+    assert!(icp.translation_median <= 0.025, "{icp:?}");
+    assert!(icp.rotation_median <= 0.006, "{icp:?}");
+}
