@@ -195,7 +195,7 @@ impl BeliefPropagation {
                 expected: "a number in [0, 1)",
             });
         }
-        if !(self.tolerance >= 0.0) {
+        if self.tolerance.is_nan() || self.tolerance < 0.0 {
             return Err(Error::InvalidParameter {
                 name: "tolerance",
                 value: self.tolerance.to_string(),

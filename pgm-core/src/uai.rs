@@ -151,7 +151,7 @@ impl UaiModel {
         let num_functions = tk.integer("the number of functions", 0, LIMIT)?;
         let mut scopes = Vec::with_capacity(num_functions.min(1 << 20));
         for f in 0..num_functions {
-            let arity = tk.integer(&format!("the scope size of function {f}"), 0, n.max(0))?;
+            let arity = tk.integer(&format!("the scope size of function {f}"), 0, n)?;
             let mut scope = Vec::with_capacity(arity);
             for j in 0..arity {
                 let before = tk.next;

@@ -125,18 +125,18 @@ pub fn viterbi(graph: &FactorGraph) -> Result<(Vec<usize>, f64)> {
     let mut back: Vec<Vec<usize>> = Vec::with_capacity(n);
     back.push(Vec::new());
     for i in 1..n {
-        let (k0, k1) = (t.cards[i - 1], t.cards[i]);
+        let k1 = t.cards[i];
         let mut next = vec![f64::NEG_INFINITY; k1];
         let mut ptr = vec![0usize; k1];
-        for y in 0..k1 {
-            for x in 0..k0 {
-                let s = delta[x] + t.pair[i - 1][x * k1 + y];
-                if s > next[y] {
-                    next[y] = s;
-                    ptr[y] = x;
+        for (y, (best, back_y)) in next.iter_mut().zip(ptr.iter_mut()).enumerate() {
+            for (x, d) in delta.iter().enumerate() {
+                let s = d + t.pair[i - 1][x * k1 + y];
+                if s > *best {
+                    *best = s;
+                    *back_y = x;
                 }
             }
-            next[y] += t.unary[i][y];
+            *best += t.unary[i][y];
         }
         delta = next;
         back.push(ptr);
@@ -180,11 +180,11 @@ pub fn forward_backward(graph: &FactorGraph) -> Result<ExactSolution> {
         let (k0, k1) = (t.cards[i - 1], t.cards[i]);
         let mut next = vec![0.0; k1];
         let mut terms = vec![0.0; k0];
-        for y in 0..k1 {
-            for x in 0..k0 {
-                terms[x] = alpha[i - 1][x] + t.pair[i - 1][x * k1 + y];
+        for (y, value) in next.iter_mut().enumerate() {
+            for (x, term) in terms.iter_mut().enumerate() {
+                *term = alpha[i - 1][x] + t.pair[i - 1][x * k1 + y];
             }
-            next[y] = log_sum_exp(&terms) + t.unary[i][y];
+            *value = log_sum_exp(&terms) + t.unary[i][y];
         }
         alpha.push(next);
     }

@@ -213,10 +213,10 @@ pub(crate) fn diagonal_message(q: &[f64], out: &mut [f64], offset: isize, on: f6
             let all = off + prefix[n];
             out[..lo].iter_mut().for_each(|o| *o = all);
             out[hi..].iter_mut().for_each(|o| *o = all);
-            for y in lo..hi {
+            for (y, o) in out.iter_mut().enumerate().take(hi).skip(lo) {
                 let p = (y as isize + offset) as usize;
                 let rest = log_add_exp(prefix[p], suffix[p + 1]);
-                out[y] = log_add_exp(q[p] + on, off + rest);
+                *o = log_add_exp(q[p] + on, off + rest);
             }
         }
     }

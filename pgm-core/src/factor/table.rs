@@ -52,7 +52,7 @@ impl TableFactor {
     pub fn from_potentials(scope: Vec<VariableId>, shape: Vec<usize>, potentials: &[f64]) -> Result<Self> {
         let mut logs = Vec::with_capacity(potentials.len());
         for (index, &p) in potentials.iter().enumerate() {
-            if !(p >= 0.0) || p == f64::INFINITY {
+            if p.is_nan() || p < 0.0 || p == f64::INFINITY {
                 return Err(Error::BadLogPotential { index, value: p });
             }
             logs.push(p.ln());

@@ -104,7 +104,7 @@ impl ScheduleKind {
     /// A boxed schedule of this kind with default settings.
     pub fn build(self) -> Box<dyn Schedule> {
         match self {
-            ScheduleKind::Flooding => Box::new(Flooding::default()),
+            ScheduleKind::Flooding => Box::new(Flooding),
             ScheduleKind::Sequential => Box::new(Sequential::default()),
             ScheduleKind::Residual => Box::new(Residual::default()),
         }
