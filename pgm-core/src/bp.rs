@@ -691,6 +691,12 @@ impl MessagePasser for Passer<'_, '_> {
     fn tolerance(&self) -> f64 {
         self.tolerance
     }
+
+    fn update_continuous(&mut self) {
+        if let (Some(hook), GraphRef::Exclusive(g)) = (self.hook.as_deref_mut(), &mut self.graph) {
+            hook.continuous_update(&mut Potentials::new(g), &self.state.messages);
+        }
+    }
 }
 
 /// Index of the first maximum (lowest index among ties); 0 for an empty or all-NaN slice.

@@ -52,6 +52,12 @@ pub trait UpdateHook {
         let _ = (visit, potentials, messages);
     }
 
+    /// The schedule asked for a continuous update between two visits
+    /// ([`MessagePasser::update_continuous`](crate::MessagePasser::update_continuous)).
+    fn continuous_update(&mut self, potentials: &mut Potentials<'_>, messages: &Messages) {
+        let _ = (potentials, messages);
+    }
+
     /// After every iteration. Returns whether the hook's own state (for example the
     /// continuous values it maintains) is stable; the run converges only when both the
     /// messages and the hook are stable.

@@ -63,6 +63,10 @@ pub enum UpdatePolicy {
     /// After every iteration (sweep), from the consistently decoded MAP labels
     /// ([`decode_map`]) or the beliefs.
     EverySweep,
+    /// Only when the schedule asks for it
+    /// ([`MessagePasser::update_continuous`](crate::MessagePasser::update_continuous)),
+    /// so a user-defined schedule interleaves continuous updates as it likes.
+    OnRequest,
     /// Never during message passing: the values stay as they are (plain BP on the
     /// current potentials). The final decoding does not re-solve either.
     Frozen,
@@ -443,6 +447,8 @@ impl UpdateHook for HybridHook<'_> {
         let k = match self.policy {
             UpdatePolicy::EveryVisit => 1,
             UpdatePolicy::EveryVisits(k) => k,
+            // Track state changes so the statistics are current when the schedule asks.
+            UpdatePolicy::OnRequest => usize::MAX,
             UpdatePolicy::EverySweep | UpdatePolicy::Frozen => return,
         };
         let graph = potentials.graph();
@@ -459,9 +465,16 @@ impl UpdateHook for HybridHook<'_> {
         }
     }
 
+    fn continuous_update(&mut self, _potentials: &mut Potentials<'_>, _messages: &Messages) {
+        if self.policy != UpdatePolicy::Frozen {
+            self.solve();
+        }
+    }
+
     fn after_iteration(&mut self, _iteration: usize, potentials: &mut Potentials<'_>, messages: &Messages) -> bool {
         match self.policy {
             UpdatePolicy::Frozen => true,
+            UpdatePolicy::OnRequest => self.last_change <= self.tolerance,
             UpdatePolicy::EverySweep => {
                 let labels = self.sync_all(potentials.graph(), messages);
                 self.solve();

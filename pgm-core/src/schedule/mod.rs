@@ -70,6 +70,13 @@ pub trait MessagePasser {
 
     /// The run's convergence tolerance on message changes.
     fn tolerance(&self) -> f64;
+
+    /// Asks the run's hook to update its continuous values now (see
+    /// [`UpdateHook::continuous_update`](crate::UpdateHook::continuous_update)); a
+    /// schedule uses this to interleave continuous updates with message updates as it
+    /// likes, e.g. every second visit as in the joint-model paper. Without a hook it
+    /// does nothing.
+    fn update_continuous(&mut self);
 }
 
 /// A message schedule. Schedules are `Send` so a run can move into a thread pool.
