@@ -448,43 +448,46 @@ impl Passer<'_, '_> {
 /// message ignores its input, so nothing is gathered for it.
 #[inline]
 fn gather(graph: &FactorGraph, messages: &[f64], a: FactorId, skip: Option<usize>, scratch: &mut Scratch) {
-    let edges = graph.factor_edges(a);
-    let arity = edges.len();
+    let ix = graph.index();
+    let (first_edge, end_edge) = (ix.factor_edge_start[a.0], ix.factor_edge_start[a.0 + 1]);
     scratch.offsets.clear();
     scratch.offsets.push(0);
     let mut total = 0;
-    for e in edges.clone() {
-        total += graph.cardinality(graph.edge_variable(EdgeId(e)));
+    for e in first_edge..end_edge {
+        total += ix.cardinalities[ix.edge_variable[e].0];
         scratch.offsets.push(total);
     }
     scratch.incoming.clear();
     scratch.incoming.resize(total, 0.0);
-    if arity == 1 {
+    if end_edge - first_edge == 1 {
         return;
     }
-    for (slot, e) in edges.enumerate() {
+    for (slot, e) in (first_edge..end_edge).enumerate() {
         if Some(slot) == skip {
             continue;
         }
-        let (lo, hi) = (scratch.offsets[slot], scratch.offsets[slot + 1]);
-        let k = hi - lo;
-        let dst = &mut scratch.incoming[lo..hi];
-        let v = graph.edge_variable(EdgeId(e));
-        let block = &messages[graph.variable_message_range(v)];
-        let own = graph.message_range(EdgeId(e)).start - graph.variable_message_range(v).start;
+        let lo = scratch.offsets[slot];
+        let v = ix.edge_variable[e].0;
+        let k = ix.cardinalities[v];
+        let own = ix.edge_offset[e];
+        let dst = &mut scratch.incoming[lo..lo + k];
+        let block = &messages[ix.variable_start[v]..ix.variable_start[v + 1]];
+        let own = own - ix.variable_start[v];
         let mut first = true;
-        for (i, src) in block.chunks_exact(k).enumerate() {
-            if i * k == own {
-                continue;
-            }
-            if first {
-                dst.copy_from_slice(src);
-                first = false;
-            } else {
-                for (d, s) in dst.iter_mut().zip(src) {
-                    *d += s;
+        let mut start = 0;
+        while start < block.len() {
+            if start != own {
+                let src = &block[start..start + k];
+                if first {
+                    dst.copy_from_slice(src);
+                    first = false;
+                } else {
+                    for (d, s) in dst.iter_mut().zip(src) {
+                        *d += s;
+                    }
                 }
             }
+            start += k;
         }
     }
 }

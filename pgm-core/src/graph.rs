@@ -63,6 +63,16 @@ pub struct FactorGraph {
     layout: OnceLock<Layout>,
 }
 
+/// Borrowed flat arrays of a graph's structure and message layout.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct MessageIndex<'g> {
+    pub(crate) edge_offset: &'g [usize],
+    pub(crate) variable_start: &'g [usize],
+    pub(crate) edge_variable: &'g [VariableId],
+    pub(crate) cardinalities: &'g [usize],
+    pub(crate) factor_edge_start: &'g [usize],
+}
+
 /// Variable-major message layout.
 #[derive(Debug, Default)]
 struct Layout {
@@ -241,6 +251,19 @@ impl FactorGraph {
     /// The scope position of an edge within its factor.
     pub fn edge_slot(&self, e: EdgeId) -> usize {
         e.0 - self.factor_edge_start[self.edge_factor[e.0].0]
+    }
+
+    /// Flat views of the structure for the message-passing inner loops.
+    #[inline]
+    pub(crate) fn index(&self) -> MessageIndex<'_> {
+        let layout = self.layout();
+        MessageIndex {
+            edge_offset: &layout.edge_offset,
+            variable_start: &layout.variable_start,
+            edge_variable: &self.edge_variable,
+            cardinalities: &self.cardinalities,
+            factor_edge_start: &self.factor_edge_start,
+        }
     }
 
     fn layout(&self) -> &Layout {

@@ -147,8 +147,8 @@ proptest! {
     }
 
     /// Dyadic log-potentials keep max-product arithmetic exact, so adding a constant to
-    /// a table must leave every decision and every belief bit-for-bit unchanged (up to
-    /// the reported score, which moves by the constant).
+    /// a table must leave every max-product message and decision bit-for-bit unchanged;
+    /// sum-product beliefs agree to rounding.
     #[test]
     fn constant_shift_changes_nothing(
         spec in strategies::loopy(8, 3, 3, 8.0, 0.1),
@@ -179,7 +179,9 @@ proptest! {
             let a = sp.run(&base, &mut schedule).unwrap();
             let b = sp.run(&shifted, &mut schedule).unwrap();
             for (x, y) in a.beliefs.iter().flatten().zip(b.beliefs.iter().flatten()) {
-                prop_assert!((x - y).abs() < 1e-12, "{name}: {x} vs {y}");
+                // log-sum-exp rounds differently after a shift, and residual BP's order
+                // follows the rounded residuals, so sum-product agrees to rounding only.
+                prop_assert!((x - y).abs() < 1e-9, "{name}: {x} vs {y}");
             }
         }
     }
