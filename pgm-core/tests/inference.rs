@@ -8,6 +8,7 @@ use pgm_core::{
     ShiftedIdentityFactor, TableFactor, VariableId,
 };
 use proptest::prelude::*;
+use proptest::test_runner::FileFailurePersistence;
 
 const MAX_STATES: u64 = 1 << 17;
 
@@ -68,7 +69,12 @@ fn check_exact_on_tree(spec: &GraphSpec) -> Result<(), TestCaseError> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 200, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig {
+        cases: 200,
+        // Failing cases are saved here and replayed first (commit the file).
+        failure_persistence: Some(Box::new(FileFailurePersistence::Direct("proptest-regressions/inference.txt"))),
+        ..ProptestConfig::default()
+    })]
 
     #[test]
     fn bp_is_exact_on_random_trees(spec in strategies::tree(12, 4, 50.0, 0.1)

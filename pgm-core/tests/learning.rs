@@ -9,6 +9,7 @@ use pgm_core::learning::{
 };
 use pgm_core::{BeliefPropagation, Error, Mode, Sequential, VariableId};
 use proptest::prelude::*;
+use proptest::test_runner::FileFailurePersistence;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::ops::ControlFlow;
@@ -149,7 +150,12 @@ fn problem(max_extra: usize) -> impl Strategy<Value = ProblemSpec> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(256))]
+    #![proptest_config(ProptestConfig {
+        cases: 256,
+        // Failing cases are saved here and replayed first (commit the file).
+        failure_persistence: Some(Box::new(FileFailurePersistence::Direct("proptest-regressions/learning.txt"))),
+        ..ProptestConfig::default()
+    })]
 
     /// The analytic gradient of `−PL + ‖w‖²/(2σ²)` matches central finite differences
     /// (step 1e-5; truncation error ~h² ≈ 1e-10, rounding ~1e-16·|f|/h ≈ 1e-10) to a
