@@ -1,0 +1,144 @@
+//! `pgm map` and `pgm marginals` on UAI files, checked against brute force, plus their
+//! error messages and `--stats` line.
+
+use pgm_core::exact::{brute_force, BruteForceLimit};
+use pgm_core::uai::{Evidence, UaiModel};
+use pgm_core::{FactorGraph, TableFactor, VariableId};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("pgm-cli-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// A random tree with shuffled scope orders, some zero potentials, and cardinalities 1-4.
+fn random_tree(seed: u64) -> FactorGraph {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let n = rng.random_range(2..11);
+    let cards: Vec<usize> = (0..n).map(|_| rng.random_range(1..5)).collect();
+    let mut g = FactorGraph::with_variables(&cards).unwrap();
+    let mut draw = |size: usize, rng: &mut ChaCha8Rng| -> Vec<f64> {
+        let mut t: Vec<f64> = (0..size)
+            .map(|_| if rng.random::<f64>() < 0.1 { f64::NEG_INFINITY } else { rng.random_range(-3.0..3.0) })
+            .collect();
+        if t.iter().all(|x| *x == f64::NEG_INFINITY) {
+            t[0] = 0.0;
+        }
+        t
+    };
+    for v in 0..n {
+        let t = draw(cards[v], &mut rng);
+        g.add_factor(TableFactor::new(vec![VariableId(v)], vec![cards[v]], t).unwrap()).unwrap();
+    }
+    for v in 1..n {
+        let p = rng.random_range(0..v);
+        let (a, b) = if rng.random::<bool>() { (p, v) } else { (v, p) };
+        let t = draw(cards[a] * cards[b], &mut rng);
+        g.add_factor(TableFactor::new(vec![VariableId(a), VariableId(b)], vec![cards[a], cards[b]], t).unwrap())
+            .unwrap();
+    }
+    g
+}
+
+fn pgm(args: &[&str]) -> (String, String, bool) {
+    let out = Command::new(env!("CARGO_BIN_EXE_pgm")).args(args).output().unwrap();
+    (
+        String::from_utf8(out.stdout).unwrap(),
+        String::from_utf8(out.stderr).unwrap(),
+        out.status.success(),
+    )
+}
+
+fn numbers(line: &str) -> Vec<f64> {
+    line.split_whitespace().map(|t| t.parse().unwrap()).collect()
+}
+
+fn check(model: &Path, evidence: Option<&Path>, schedule: &str) {
+    let uai = UaiModel::read(model).unwrap();
+    let mut graph = uai.to_factor_graph().unwrap();
+    let mut args = vec![model.to_str().unwrap(), "--schedule", schedule];
+    if let Some(e) = evidence {
+        Evidence::read(e, &uai.cardinalities).unwrap().apply(&mut graph).unwrap();
+        args.extend(["--evidence", e.to_str().unwrap()]);
+    }
+    let Ok(exact) = brute_force(&graph, BruteForceLimit::default()) else { return };
+    let (out, err, ok) = pgm(&[&["map"], &args[..]].concat());
+    assert!(ok, "{err}");
+    let lines: Vec<&str> = out.lines().collect();
+    assert_eq!(lines[0], "MPE");
+    let values = numbers(lines[1]);
+    assert_eq!(values[0] as usize, graph.num_variables());
+    let assignment: Vec<usize> = values[1..].iter().map(|&x| x as usize).collect();
+    let score = graph.log_score(&assignment).unwrap();
+    assert!((score - exact.map_log_score).abs() < 1e-9, "{schedule}: {score} vs {}", exact.map_log_score);
+
+    let (out, err, ok) = pgm(&[&["marginals"], &args[..]].concat());
+    assert!(ok, "{err}");
+    let lines: Vec<&str> = out.lines().collect();
+    assert_eq!(lines[0], "MAR");
+    let values = numbers(lines[1]);
+    assert_eq!(values[0] as usize, graph.num_variables());
+    let mut at = 1;
+    for m in &exact.marginals {
+        assert_eq!(values[at] as usize, m.len());
+        for (p, q) in values[at + 1..at + 1 + m.len()].iter().zip(m) {
+            assert!((p - q).abs() < 1e-6, "{schedule}: {p} vs {q}");
+        }
+        at += 1 + m.len();
+    }
+}
+
+#[test]
+fn map_and_marginals_are_exact_on_trees() {
+    let dir = temp_dir("trees");
+    for seed in 0..12 {
+        let graph = random_tree(seed);
+        let model = dir.join(format!("tree{seed}.uai"));
+        UaiModel::from_factor_graph(&graph).write(&model).unwrap();
+        let evid = dir.join(format!("tree{seed}.evid"));
+        let v = seed as usize % graph.num_variables();
+        let x = seed as usize % graph.cardinalities()[v];
+        std::fs::write(&evid, format!("1 {v} {x}\n")).unwrap();
+        for schedule in ["flooding", "sequential", "residual"] {
+            check(&model, None, schedule);
+            check(&model, Some(&evid), schedule);
+        }
+    }
+}
+
+#[test]
+fn stats_line_is_json_on_stderr() {
+    let dir = temp_dir("stats");
+    let model = dir.join("m.uai");
+    UaiModel::from_factor_graph(&random_tree(99)).write(&model).unwrap();
+    let (out, err, ok) = pgm(&["map", model.to_str().unwrap(), "--stats"]);
+    assert!(ok);
+    assert!(out.starts_with("MPE\n"));
+    let stats: serde_json::Value = serde_json::from_str(err.trim()).unwrap();
+    assert!(stats["iterations"].as_u64().unwrap() >= 1);
+    assert_eq!(stats["converged"], serde_json::json!(true));
+    assert!(stats["residual"].as_f64().unwrap() <= 1e-9);
+    assert!(stats["seconds"].as_f64().unwrap() >= 0.0);
+}
+
+#[test]
+fn malformed_input_names_file_line_and_expectation() {
+    let dir = temp_dir("bad");
+    let model = dir.join("bad.uai");
+    std::fs::write(&model, "MARKOV\n2\n2 2\n1\n2 0 1\n\n4\n0.5 1 nope 2\n").unwrap();
+    let (out, err, ok) = pgm(&["map", model.to_str().unwrap()]);
+    assert!(!ok && out.is_empty());
+    assert!(err.contains("bad.uai:8:") && err.contains("entry 2 of the table of function 0"), "{err}");
+    std::fs::write(&model, "MARKOV\n2\n2 2\n1\n2 0 1\n\n4\n0.5 1 1 2\n").unwrap();
+    let evid = dir.join("e.evid");
+    std::fs::write(&evid, "1 1 7\n").unwrap();
+    let (_, err, ok) = pgm(&["map", model.to_str().unwrap(), "--evidence", evid.to_str().unwrap()]);
+    assert!(!ok);
+    assert!(err.contains("e.evid:1:") && err.contains("state 7 of variable 1"), "{err}");
+    let (_, err, ok) = pgm(&["map", model.to_str().unwrap(), "--damping", "1.5"]);
+    assert!(!ok && err.contains("damping"), "{err}");
+}
