@@ -76,7 +76,8 @@ impl Schedule for Residual {
     }
 }
 
-/// A binary max-heap over edge ids with updatable priorities.
+/// A 4-ary max-heap over edge ids with updatable priorities: half the depth of a
+/// binary heap, and a node's four children share one cache line.
 #[derive(Clone, Debug, Default)]
 struct IndexedMaxHeap {
     /// (priority, edge) pairs in heap order.
@@ -133,7 +134,7 @@ impl IndexedMaxHeap {
 
     fn sift_up(&mut self, mut i: usize) {
         while i > 0 {
-            let parent = (i - 1) / 2;
+            let parent = (i - 1) / 4;
             if Self::before(self.heap[i], self.heap[parent]) {
                 self.swap(i, parent);
                 i = parent;
@@ -146,13 +147,12 @@ impl IndexedMaxHeap {
     fn sift_down(&mut self, mut i: usize) {
         let n = self.heap.len();
         loop {
-            let (l, r) = (2 * i + 1, 2 * i + 2);
+            let first = 4 * i + 1;
             let mut best = i;
-            if l < n && Self::before(self.heap[l], self.heap[best]) {
-                best = l;
-            }
-            if r < n && Self::before(self.heap[r], self.heap[best]) {
-                best = r;
+            for c in first..(first + 4).min(n) {
+                if Self::before(self.heap[c], self.heap[best]) {
+                    best = c;
+                }
             }
             if best == i {
                 break;
