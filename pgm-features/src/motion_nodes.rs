@@ -62,6 +62,13 @@ impl RigidMotionNodes {
                 expected: "finite coordinates",
             });
         }
+        if let Some(x) = extra_states.iter().find(|x| x.is_nan() || **x == f64::INFINITY) {
+            return Err(Error::InvalidParameter {
+                name: "extra state log-potential",
+                value: x.to_string(),
+                expected: "finite or -inf",
+            });
+        }
         let max_factor = local_factor.iter().map(|a| a.0 + 1).max().unwrap_or(0);
         let mut factor_variable = vec![None; max_factor];
         for (i, a) in local_factor.iter().enumerate() {
@@ -147,9 +154,21 @@ impl ContinuousModel for RigidMotionNodes {
         let Some(Some(i)) = self.factor_variable.get(a.0) else {
             return Ok(());
         };
-        let table = self.local_log_potentials(*i);
+        let (s, g) = &self.pairs[*i];
         match potentials.factor_mut(a).as_any_mut().and_then(|f| f.downcast_mut::<TableFactor>()) {
-            Some(t) => t.set_table(table),
+            Some(t) if t.table().len() == self.motions.len() + self.extra_states.len() => {
+                // Written in place: motions give finite values, extra states were checked.
+                let table = t.table_mut();
+                for (x, m) in table.iter_mut().zip(&self.motions) {
+                    *x = -self.weight * (m.transform_point(s) - g).norm_squared();
+                }
+                table[self.motions.len()..].copy_from_slice(&self.extra_states);
+                Ok(())
+            }
+            Some(t) => Err(Error::TableSize {
+                expected: self.motions.len() + self.extra_states.len(),
+                actual: t.table().len(),
+            }),
             None => Err(Error::InvalidParameter {
                 name: "local factor",
                 value: a.0.to_string(),

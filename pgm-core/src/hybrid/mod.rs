@@ -208,6 +208,7 @@ impl HybridInference {
             error: None,
             trace: self.trace,
             scores: Vec::new(),
+            belief: Vec::new(),
         };
         if let Some(labels) = initial_labels {
             graph.check_assignment(labels)?;
@@ -332,6 +333,8 @@ struct HybridHook<'m> {
     error: Option<crate::Error>,
     trace: bool,
     scores: Vec<f64>,
+    /// Scratch buffer for beliefs.
+    belief: Vec<f64>,
 }
 
 impl HybridHook<'_> {
@@ -421,17 +424,48 @@ impl HybridHook<'_> {
         }
     }
 
-    /// The variables whose beliefs a visit changed.
-    fn touched(visit: Visit, graph: &FactorGraph) -> Vec<VariableId> {
+    /// Feeds the variables whose beliefs a visit changed to the model (a variable may
+    /// be seen twice; unchanged states cost a comparison).
+    fn update_touched(&mut self, visit: Visit, graph: &FactorGraph, messages: &Messages) {
         match visit {
             Visit::Variable(v) => {
-                let mut out = graph.neighbours(v);
-                out.push(v);
-                out
+                for &e in graph.variable_edges(v) {
+                    for &u in graph.factor(graph.edge_factor(e)).scope() {
+                        self.update_one(graph, messages, u);
+                    }
+                }
+                self.update_one(graph, messages, v);
             }
-            Visit::Factor(a) => graph.factor(a).scope().to_vec(),
-            Visit::Edge(e) => vec![graph.edge_variable(e)],
-            Visit::Flood => Vec::new(),
+            Visit::Factor(a) => {
+                for &u in graph.factor(a).scope() {
+                    self.update_one(graph, messages, u);
+                }
+            }
+            Visit::Edge(e) => self.update_one(graph, messages, graph.edge_variable(e)),
+            Visit::Flood => {}
+        }
+    }
+
+    fn update_one(&mut self, graph: &FactorGraph, messages: &Messages, v: VariableId) {
+        match self.summary {
+            DiscreteSummary::MapLabels => {
+                // Argmax of the belief without allocating.
+                self.belief.clear();
+                self.belief.resize(graph.cardinality(v), 0.0);
+                for &e in graph.variable_edges(v) {
+                    for (b, m) in self.belief.iter_mut().zip(messages.message(graph, e)) {
+                        *b += m;
+                    }
+                }
+                let label = first_argmax(&self.belief);
+                if self.states[v.0] != Some(StoredState::Label(label)) {
+                    self.set_state(v, StoredState::Label(label));
+                }
+            }
+            DiscreteSummary::Beliefs => {
+                let s = self.current_state(graph, messages, v);
+                self.set_state(v, s);
+            }
         }
     }
 }
@@ -451,11 +485,7 @@ impl UpdateHook for HybridHook<'_> {
             UpdatePolicy::OnRequest => usize::MAX,
             UpdatePolicy::EverySweep | UpdatePolicy::Frozen => return,
         };
-        let graph = potentials.graph();
-        for v in Self::touched(visit, graph) {
-            let s = self.current_state(graph, messages, v);
-            self.set_state(v, s);
-        }
+        self.update_touched(visit, potentials.graph(), messages);
         if visit == Visit::Flood {
             let _ = self.sync_all(potentials.graph(), messages);
         }
