@@ -24,7 +24,7 @@
 //! Every other line (comments `#…`, `PARAM`, `EDGE2`, `RAWLASER*`, …) is skipped and
 //! counted by its first word in [`CarmenLog::skipped`]; blank lines are ignored.
 //!
-//! A malformed line of an understood type is an [`Error`] naming the file, the 1-based
+//! A malformed line of an understood type is an [`Error`](crate::Error) naming the file, the 1-based
 //! line, the field and its text: a field count that disagrees with the declared
 //! number of beams, a non-numeric or non-finite value (`nan` is an error here: CARMEN
 //! writes no-returns as the maximum range), or a negative range.

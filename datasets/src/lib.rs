@@ -4,7 +4,7 @@
 //! ([`pair`]), the real-log readers ([`carmen`] for CARMEN logs, [`relations`] for
 //! Kümmerle-style relation files, [`leigh`] for the leigh-gtm1 text logs), the
 //! builders that turn logs into pairs with ground truth ([`builders`]), the on-disk
-//! pair format ([`format`], specified in `datasets/FORMAT.md`), the evaluation
+//! pair format ([`format`](mod@format), specified in `datasets/FORMAT.md`), the evaluation
 //! metrics of both papers ([`metrics`]) and the shared-data lookup for real-data
 //! tests ([`testdata`]). The simulator lives in its own module (see the workspace
 //! README for the current state).
@@ -31,9 +31,9 @@ pub mod leigh;
 pub mod metrics;
 pub mod pair;
 pub mod relations;
+pub mod sim;
 pub mod testdata;
 mod text;
-pub mod sim;
 
 pub use error::{Error, Result};
 pub use format::{read_pairs, write_pairs};

@@ -109,7 +109,7 @@ fn leigh_pairs_carry_moving_person_labels() {
     // 92 pairs at k = 5. The data README expects "roughly half" of them to contain a
     // moving person; the rule as specified (centre of scan i carried into scan j's
     // frame by odometry and the base-to-laser offset, moved >= 0.2 m) gives 23 (an
-    // independent Python check of the same rule agrees). Standing people move by a
+    // independent Python check of the same rule agrees). Person displacements have a
     // median of about 0.1 m, as the README says, which supports the frame handling.
     assert_eq!(summary.pairs, 92);
     assert!(

@@ -10,6 +10,7 @@
 //! by the issues that need them; see the workspace README for the current state.
 
 pub mod alignment;
+pub mod clustering;
 pub mod motion_nodes;
 pub mod pose;
 pub mod scan;

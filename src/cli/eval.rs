@@ -41,6 +41,8 @@ pub struct EvalArgs {
 pub enum EvalCommand {
     /// Scan matching: ego-motion error against the ground truth.
     Matching(MatchingArgs),
+    /// Motion clustering: homogeneity, completeness and V-measure against the labels.
+    Clustering(super::eval_clustering::ClusteringEvalArgs),
 }
 
 /// A scan-matching method.
@@ -83,6 +85,9 @@ pub struct MatchingArgs {
     /// ICP: convergence tolerance on the change per iteration (m and rad).
     #[arg(long, default_value_t = IcpParams::default().translation_tolerance)]
     pub icp_tolerance: f64,
+    /// ICP: match only every N-th return while the distance is coarse.
+    #[arg(long, default_value_t = IcpParams::default().coarse_stride)]
+    pub icp_coarse_stride: usize,
     /// Print one JSON object.
     #[arg(long)]
     pub json: bool,
@@ -92,6 +97,7 @@ pub struct MatchingArgs {
 pub fn run(args: EvalArgs) -> CliResult {
     match args.command {
         EvalCommand::Matching(a) => run_matching(a),
+        EvalCommand::Clustering(a) => super::eval_clustering::run(a),
     }
 }
 
@@ -161,6 +167,7 @@ fn run_matching(args: MatchingArgs) -> CliResult {
         max_iterations: args.icp_max_iterations,
         translation_tolerance: args.icp_tolerance,
         rotation_tolerance: args.icp_tolerance,
+        coarse_stride: args.icp_coarse_stride,
     };
     params.check().map_err(CliError::from_display)?;
     let results: Vec<(MotionError, f64, bool)> = with_truth
@@ -213,7 +220,11 @@ fn run_matching(args: MatchingArgs) -> CliResult {
         );
         return Ok(ExitCode::SUCCESS);
     }
-    println!("method {:?}: {} pairs", args.method, report.all.pairs);
+    let method = match args.method {
+        MatchingMethod::Odometry => "odometry",
+        MatchingMethod::Icp => "icp",
+    };
+    println!("method {method}: {} pairs", report.all.pairs);
     println!(
         "{:<24}  {:>5}  {:>14}  {:>12}  {:>15}  {:>13}",
         "subset", "pairs", "transl. median", "transl. p90", "rot. median", "rot. p90"

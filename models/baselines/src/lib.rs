@@ -4,10 +4,14 @@
 //! CRF models so comparisons run on identical inputs.
 //!
 //! - [`icp`]: point-to-point ICP with a k-d tree and a shrinking outlier distance.
+//! - [`motion_kmeans`]: the motion K-Means of the CRF-Clustering paper (eq. 10).
+//! - [`consistency`]: the consistency-based detector (CBD) of moving objects.
 
+pub mod consistency;
 pub mod icp;
+pub mod motion_kmeans;
 
-pub use icp::{icp, Icp, IcpParams, IcpResult};
+pub use icp::{Icp, IcpParams, IcpResult};
 
 /// Errors of the baselines: invalid parameters and inputs they cannot work on.
 #[derive(Debug, thiserror::Error)]
