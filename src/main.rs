@@ -28,6 +28,12 @@ enum Command {
     Sim(cli::sim::SimArgs),
     /// Draw one pair of a data set as SVG, coloured by ground truth.
     Plot(cli::plot::PlotArgs),
+    /// CRF-Clustering of one scan pair: JSON clusters and motions, optional SVG.
+    Cluster(cli::cluster::ClusterArgs),
+    /// Learn model weights from labelled pairs (`pgm train clustering …`).
+    Train(cli::train::TrainArgs),
+    /// CRF-Clustering on the built-in simulator: summary table and an SVG.
+    Demo(cli::demo::DemoArgs),
 }
 
 fn main() -> ExitCode {
@@ -39,6 +45,9 @@ fn main() -> ExitCode {
         Command::Eval(args) => cli::eval::run(args),
         Command::Sim(args) => cli::sim::run(args),
         Command::Plot(args) => cli::plot::run(args),
+        Command::Cluster(args) => cli::cluster::run(args),
+        Command::Train(args) => cli::train::run(args),
+        Command::Demo(args) => cli::demo::run(args),
     };
     match outcome {
         Ok(code) => code,

@@ -457,8 +457,10 @@ fn gather(graph: &FactorGraph, messages: &[f64], a: FactorId, skip: Option<usize
         total += ix.cardinalities[ix.edge_variable[e].0];
         scratch.offsets.push(total);
     }
-    scratch.incoming.clear();
-    scratch.incoming.resize(total, 0.0);
+    // Every gathered position is overwritten below; the skipped one is never read.
+    if scratch.incoming.len() < total {
+        scratch.incoming.resize(total, 0.0);
+    }
     if end_edge - first_edge == 1 {
         return;
     }
@@ -489,6 +491,10 @@ fn gather(graph: &FactorGraph, messages: &[f64], a: FactorId, skip: Option<usize
             }
             start += k;
         }
+        if first {
+            // The factor is the variable's only one: the incoming message is uniform.
+            dst.iter_mut().for_each(|d| *d = 0.0);
+        }
     }
 }
 
@@ -497,11 +503,42 @@ fn gather(graph: &FactorGraph, messages: &[f64], a: FactorId, skip: Option<usize
 fn compute(graph: &FactorGraph, a: FactorId, slot: usize, mode: Mode, how: Normalisation, scratch: &mut Scratch) -> bool {
     let factor = graph.factor(a);
     let k = scratch.offsets[slot + 1] - scratch.offsets[slot];
-    scratch.out.clear();
+    // `Factor::message` writes every entry, so the buffer is not cleared.
     scratch.out.resize(k, 0.0);
+    scratch.out.truncate(k);
     let incoming = Incoming::new(&scratch.incoming, &scratch.offsets);
     factor.message(slot, &incoming, mode, &mut scratch.out);
     logspace::normalise(&mut scratch.out, how)
+}
+
+/// Computes the unnormalised message of scope position `slot` of factor `a` into
+/// `scratch.out`, assuming `gather` was called.
+#[inline]
+fn compute_raw(graph: &FactorGraph, a: FactorId, slot: usize, mode: Mode, scratch: &mut Scratch) {
+    let factor = graph.factor(a);
+    let k = scratch.offsets[slot + 1] - scratch.offsets[slot];
+    scratch.out.resize(k, 0.0);
+    scratch.out.truncate(k);
+    let incoming = Incoming::new(&scratch.incoming, &scratch.offsets);
+    factor.message(slot, &incoming, mode, &mut scratch.out);
+}
+
+/// Normalises the raw message `raw` and writes it over `old` with damping; returns the
+/// undamped change and whether the message was not a contradiction. Undamped
+/// max-product messages take one fused pass.
+#[inline]
+fn commit_raw(old: &mut [f64], raw: &mut [f64], damping: f64, how: Normalisation) -> (f64, bool) {
+    if damping == 0.0 && how == Normalisation::Max {
+        let m = logspace::max(raw);
+        if m.is_finite() {
+            raw.iter_mut().for_each(|x| *x -= m);
+            let d = logspace::distance(raw, old);
+            old.copy_from_slice(raw);
+            return (d, true);
+        }
+    }
+    let ok = logspace::normalise(raw, how);
+    (commit(old, raw, damping, how), ok)
 }
 
 /// Writes `new` over `old` with damping; returns the undamped change.
@@ -535,11 +572,10 @@ impl PassState {
             if Some(slot) == except {
                 continue;
             }
-            if !compute(graph, a, slot, self.mode, self.normalisation, &mut self.scratch) {
-                self.contradictions += 1;
-            }
+            compute_raw(graph, a, slot, self.mode, &mut self.scratch);
             let range = graph.message_range(EdgeId(e));
-            let r = commit(&mut self.messages.values[range], &self.scratch.out, self.damping, self.normalisation);
+            let (r, ok) = commit_raw(&mut self.messages.values[range], &mut self.scratch.out, self.damping, self.normalisation);
+            self.contradictions += usize::from(!ok);
             self.residual = self.residual.max(r);
         }
     }
@@ -548,11 +584,10 @@ impl PassState {
         let a = graph.edge_factor(e);
         let slot = graph.edge_slot(e);
         gather(graph, &self.messages.values, a, Some(slot), &mut self.scratch);
-        if !compute(graph, a, slot, self.mode, self.normalisation, &mut self.scratch) {
-            self.contradictions += 1;
-        }
+        compute_raw(graph, a, slot, self.mode, &mut self.scratch);
         let range = graph.message_range(e);
-        let r = commit(&mut self.messages.values[range], &self.scratch.out, self.damping, self.normalisation);
+        let (r, ok) = commit_raw(&mut self.messages.values[range], &mut self.scratch.out, self.damping, self.normalisation);
+        self.contradictions += usize::from(!ok);
         self.residual = self.residual.max(r);
     }
 
@@ -630,13 +665,13 @@ impl PassState {
                         let a = graph.edge_factor(e);
                         let slot = graph.edge_slot(e);
                         gather(graph, old, a, Some(slot), &mut scratch);
-                        if !compute(graph, a, slot, mode, how, &mut scratch) {
-                            contradictions += 1;
-                        }
+                        compute_raw(graph, a, slot, mode, &mut scratch);
                         let range = graph.message_range(e);
                         let dst = &mut out[range.start - base..range.end - base];
                         dst.copy_from_slice(&old[range]);
-                        residual = residual.max(commit(dst, &scratch.out, damping, how));
+                        let (r, ok) = commit_raw(dst, &mut scratch.out, damping, how);
+                        contradictions += usize::from(!ok);
+                        residual = residual.max(r);
                     }
                 }
                 (residual, contradictions)

@@ -14,8 +14,17 @@ pub fn log_add_exp(a: f64, b: f64) -> f64 {
 /// Maximum entry (−∞ for an empty or all −∞ slice; NaN entries are skipped).
 #[inline]
 pub fn max(v: &[f64]) -> f64 {
+    // Four independent lanes let the compiler use packed max instructions.
+    let mut lanes = [f64::NEG_INFINITY; 4];
+    let chunks = v.chunks_exact(4);
+    let rest = chunks.remainder();
+    for c in chunks {
+        for (m, &x) in lanes.iter_mut().zip(c) {
+            *m = if x > *m { x } else { *m };
+        }
+    }
     let mut m = f64::NEG_INFINITY;
-    for &x in v {
+    for &x in lanes.iter().chain(rest) {
         m = if x > m { x } else { m };
     }
     m
@@ -65,8 +74,18 @@ pub fn normalise(v: &mut [f64], how: Normalisation) -> bool {
 #[inline]
 pub fn distance(a: &[f64], b: &[f64]) -> f64 {
     // −∞ − −∞ is NaN, and NaN never compares greater: equal hard zeros count as 0.
-    let mut d = 0.0f64;
-    for (x, y) in a.iter().zip(b) {
+    let mut lanes = [0.0f64; 4];
+    let n = a.len().min(b.len());
+    let (a4, b4) = (a[..n].chunks_exact(4), b[..n].chunks_exact(4));
+    let (ra, rb) = (a4.remainder(), b4.remainder());
+    for (ca, cb) in a4.zip(b4) {
+        for i in 0..4 {
+            let diff = (ca[i] - cb[i]).abs();
+            lanes[i] = if diff > lanes[i] { diff } else { lanes[i] };
+        }
+    }
+    let mut d = lanes.iter().fold(0.0f64, |d, &x| if x > d { x } else { d });
+    for (x, y) in ra.iter().zip(rb) {
         let diff = (x - y).abs();
         d = if diff > d { diff } else { d };
     }

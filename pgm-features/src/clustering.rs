@@ -66,7 +66,12 @@ pub fn association_variance(range: f64, angle_increment: f64) -> f64 {
 }
 
 /// Eq. (2) divided by the point's [`association_variance`] `variance`.
-pub fn normalised_distance_feature(motion: &Pose2, s: &Point2<f64>, g: &Point2<f64>, variance: f64) -> f64 {
+pub fn normalised_distance_feature(
+    motion: &Pose2,
+    s: &Point2<f64>,
+    g: &Point2<f64>,
+    variance: f64,
+) -> f64 {
     distance_feature(motion, s, g) / variance
 }
 

@@ -1,11 +1,15 @@
 //! One module per subcommand family. Each exposes clap `Args` structs and a `run`
 //! function returning `Result<ExitCode, CliError>`.
 
+pub mod cluster;
 pub mod data;
+pub mod demo;
 pub mod eval;
+pub mod eval_clustering;
 pub mod infer;
 pub mod plot;
 pub mod sim;
+pub mod train;
 
 use std::fmt;
 

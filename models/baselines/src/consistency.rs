@@ -73,8 +73,14 @@ pub struct ConsistencyResult {
 }
 
 /// Runs CBD on `pair`.
-pub fn consistency_detect(pair: &ScanPair, params: &ConsistencyParams) -> Result<ConsistencyResult> {
-    for (name, value) in [("margin", params.margin), ("segment_gap", params.segment_gap)] {
+pub fn consistency_detect(
+    pair: &ScanPair,
+    params: &ConsistencyParams,
+) -> Result<ConsistencyResult> {
+    for (name, value) in [
+        ("margin", params.margin),
+        ("segment_gap", params.segment_gap),
+    ] {
         if !(value.is_finite() && value >= 0.0) {
             return Err(Error::InvalidParameter {
                 name,
@@ -94,13 +100,20 @@ pub fn consistency_detect(pair: &ScanPair, params: &ConsistencyParams) -> Result
         Some(o) => (o, EgoSource::Odometry),
         None => {
             let icp = Icp::new(&pair.reference, params.icp)?;
-            (icp.align(&pair.current, Pose2::identity())?.motion, EgoSource::Icp)
+            (
+                icp.align(&pair.current, Pose2::identity())?.motion,
+                EgoSource::Icp,
+            )
         }
     };
     let reference = &pair.reference;
     let angles = &reference.angles;
     let m = angles.len();
-    let half_step = if m > 1 { (angles[m - 1] - angles[0]).abs() / (m - 1) as f64 / 2.0 } else { 0.0 };
+    let half_step = if m > 1 {
+        (angles[m - 1] - angles[0]).abs() / (m - 1) as f64 / 2.0
+    } else {
+        0.0
+    };
     let current = &pair.current;
     let mut dynamic = vec![false; current.len()];
     for (k, d) in dynamic.iter_mut().enumerate() {
@@ -137,7 +150,8 @@ pub fn consistency_detect(pair: &ScanPair, params: &ConsistencyParams) -> Result
     let mut start = 0;
     let mut next = 1u32;
     for i in 0..=points.len() {
-        let end_here = i == points.len() || (i > start && (points[i] - points[i - 1]).norm() > params.segment_gap);
+        let end_here = i == points.len()
+            || (i > start && (points[i] - points[i - 1]).norm() > params.segment_gap);
         if !end_here || i == start {
             continue;
         }

@@ -62,7 +62,11 @@ fn fit(stats: &RigidAlignment) -> Option<Pose2> {
 }
 
 /// Runs motion K-Means on `pair` with `associations` (one per current beam).
-pub fn motion_kmeans(pair: &ScanPair, associations: &[Option<Association>], params: &MotionKMeansParams) -> Result<MotionKMeansResult> {
+pub fn motion_kmeans(
+    pair: &ScanPair,
+    associations: &[Option<Association>],
+    params: &MotionKMeansParams,
+) -> Result<MotionKMeansResult> {
     if params.k == 0 || params.k > 64 {
         return Err(Error::InvalidParameter {
             name: "k",
@@ -89,14 +93,17 @@ pub fn motion_kmeans(pair: &ScanPair, associations: &[Option<Association>], para
     let partners: Vec<Option<Point2<f64>>> = beams
         .iter()
         .map(|&b| match associations[b] {
-            Some(Association::Point(r)) if r < pair.reference.len() && pair.reference.valid[r] => Some(pair.reference.beam_point(r)),
+            Some(Association::Point(r)) if r < pair.reference.len() && pair.reference.valid[r] => {
+                Some(pair.reference.beam_point(r))
+            }
             _ => None,
         })
         .collect();
     // Segments for the initialisation.
     let mut segment = vec![0usize; n];
     for i in 1..n {
-        segment[i] = segment[i - 1] + usize::from((points[i] - points[i - 1]).norm() > params.segment_gap);
+        segment[i] =
+            segment[i - 1] + usize::from((points[i] - points[i - 1]).norm() > params.segment_gap);
     }
     let segments = segment.last().map_or(0, |s| s + 1);
     let mut seg_stats = vec![RigidAlignment::new(); segments];
@@ -123,7 +130,10 @@ pub fn motion_kmeans(pair: &ScanPair, associations: &[Option<Association>], para
         }
     };
     let mut centroids: Vec<Pose2> = Vec::with_capacity(params.k);
-    if let Some(first) = (0..segments).filter(|&s| !seg_stats[s].is_empty()).max_by_key(|&s| (seg_stats[s].len(), std::cmp::Reverse(s))) {
+    if let Some(first) = (0..segments)
+        .filter(|&s| !seg_stats[s].is_empty())
+        .max_by_key(|&s| (seg_stats[s].len(), std::cmp::Reverse(s)))
+    {
         centroids.extend(fit(&seg_stats[first]));
     }
     if centroids.is_empty() {
@@ -133,7 +143,10 @@ pub fn motion_kmeans(pair: &ScanPair, associations: &[Option<Association>], para
         let next = (0..segments)
             .filter(|&s| seg_stats[s].len() >= 3)
             .map(|s| {
-                let worst = centroids.iter().map(|m| residual_under(m, s)).fold(f64::INFINITY, f64::min);
+                let worst = centroids
+                    .iter()
+                    .map(|m| residual_under(m, s))
+                    .fold(f64::INFINITY, f64::min);
                 (worst, s)
             })
             .filter(|(r, _)| *r > 0.0)
@@ -154,7 +167,12 @@ pub fn motion_kmeans(pair: &ScanPair, associations: &[Option<Association>], para
         for i in 0..n {
             let Some(g) = &partners[i] else { continue };
             let best = (0..k)
-                .map(|j| ((centroids[j].transform_point(&points[i]) - g).norm_squared(), j))
+                .map(|j| {
+                    (
+                        (centroids[j].transform_point(&points[i]) - g).norm_squared(),
+                        j,
+                    )
+                })
                 .min_by(|a, b| a.0.total_cmp(&b.0))
                 .map_or(0, |(_, j)| j);
             if assignment[i] != best {
@@ -180,9 +198,9 @@ pub fn motion_kmeans(pair: &ScanPair, associations: &[Option<Association>], para
         }
     }
     let background = match pair.odometry {
-        Some(odo) => (0..k)
-            .filter(|&j| count[j] > 0)
-            .min_by(|&a, &b| mahalanobis(&centroids[a], &odo).total_cmp(&mahalanobis(&centroids[b], &odo))),
+        Some(odo) => (0..k).filter(|&j| count[j] > 0).min_by(|&a, &b| {
+            mahalanobis(&centroids[a], &odo).total_cmp(&mahalanobis(&centroids[b], &odo))
+        }),
         None => (0..k).max_by_key(|&j| (count[j], std::cmp::Reverse(j))),
     }
     .unwrap_or(0);
@@ -199,7 +217,11 @@ pub fn motion_kmeans(pair: &ScanPair, associations: &[Option<Association>], para
     }
     let mut labels = vec![None; pair.current.len()];
     for (i, &b) in beams.iter().enumerate() {
-        labels[b] = Some(if assignment[i] < k { output[assignment[i]] } else { 0 });
+        labels[b] = Some(if assignment[i] < k {
+            output[assignment[i]]
+        } else {
+            0
+        });
     }
     Ok(MotionKMeansResult {
         labels,
@@ -210,5 +232,7 @@ pub fn motion_kmeans(pair: &ScanPair, associations: &[Option<Association>], para
 }
 
 fn mahalanobis(m: &Pose2, odometry: &Pose2) -> f64 {
-    ((m.x() - odometry.x()) / 0.3).powi(2) + ((m.y() - odometry.y()) / 0.3).powi(2) + (wrap_angle(m.theta() - odometry.theta()) / 0.1).powi(2)
+    ((m.x() - odometry.x()) / 0.3).powi(2)
+        + ((m.y() - odometry.y()) / 0.3).powi(2)
+        + (wrap_angle(m.theta() - odometry.theta()) / 0.1).powi(2)
 }

@@ -170,17 +170,11 @@ pub(crate) fn diagonal_message(q: &[f64], out: &mut [f64], offset: isize, on: f6
     let hi = (n - offset).clamp(lo as isize, n_out) as usize;
     match mode {
         Mode::MaxProduct => {
-            // Top two entries give max over x ≠ p for any p.
-            let (mut best, mut best_at, mut second) = (f64::NEG_INFINITY, 0usize, f64::NEG_INFINITY);
-            for (x, &v) in q.iter().enumerate() {
-                if v > best {
-                    second = best;
-                    best = v;
-                    best_at = x;
-                } else if v > second {
-                    second = v;
-                }
-            }
+            // Top two entries give max over x ≠ p for any p: the maximum, its first
+            // position, and the maximum of everything else (three packed passes).
+            let best = crate::logspace::max(q);
+            let best_at = q.iter().position(|&v| v == best).unwrap_or(0);
+            let second = crate::logspace::max(&q[..best_at]).max(crate::logspace::max(&q[(best_at + 1).min(q.len())..]));
             let all = off + best;
             out[..lo].iter_mut().for_each(|o| *o = all);
             out[hi..].iter_mut().for_each(|o| *o = all);

@@ -94,7 +94,8 @@ pub trait Factor: Send + Sync + Debug {
     fn log_potential(&self, states: &[usize]) -> f64;
 
     /// Writes the unnormalised message to scope position `target` into `out`
-    /// (length `shape()[target]`): for each state `x` of the target,
+    /// (length `shape()[target]`; its incoming contents are arbitrary and every entry
+    /// must be written): for each state `x` of the target,
     /// `max` (max-product) or `log Σ exp` (sum-product) over the other positions'
     /// states of `log_potential + Σ_{j ≠ target} incoming.slot(j)[x_j]`.
     fn message(&self, target: usize, incoming: &Incoming<'_>, mode: Mode, out: &mut [f64]) {

@@ -1,0 +1,208 @@
+//! Reproduces Table I of the CRF-Clustering paper (Tipaldi and Ramos): mean and
+//! standard deviation of homogeneity (H), completeness (C) and V-measure (V) for CBD,
+//! motion K-Means, CRF-Clustering with true associations (CRF-T) and with automatic
+//! associations (nearest neighbour after ICP, standing in for the paper's CRF-M),
+//! printed next to the paper's figures.
+//!
+//! (a) Simulated urban pairs (preset mixed), seed 1, held out from the training seed
+//!     1000 of the shipped weights.
+//! (b) leigh-gtm1 pairs k = 1, 3, 5 scans apart with the moving-person labels of the
+//!     data README (moving threshold 0.2 m, person radius 0.35 m), all annotated pairs
+//!     (the weights were trained on simulated data only, nothing was tuned on them).
+//!     Skipped when the shared data folder is missing.
+//!
+//! Also prints the motion error of the moving objects CRF-Clustering found.
+//!
+//! Run: `cargo run --release --example table1 [-- --quick] [-- --sim-pairs N]`.
+
+use pgm_crf_clustering::evaluation::{
+    evaluate_pair, motion_error_summary, summarize, EvaluationConfig, Method, PairOutcome, Summary,
+};
+use pgm_crf_clustering::{AssociationSource, Clusterer, NearestParams};
+use pgm_datasets::builders::{leigh_pairs, LeighPairOptions};
+use pgm_datasets::sim::{simulate_pairs, SimConfig};
+use pgm_datasets::{leigh, ScanPair};
+use rayon::prelude::*;
+use std::process::ExitCode;
+
+const PAPER: [(&str, [f64; 6]); 4] = [
+    ("CBD", [0.821, 0.279, 0.893, 0.298, 0.850, 0.290]),
+    ("K-Means", [0.415, 0.272, 0.950, 0.065, 0.537, 0.247]),
+    ("CRF-T", [0.983, 0.049, 0.990, 0.029, 0.986, 0.039]),
+    ("CRF-M", [0.862, 0.052, 0.903, 0.031, 0.886, 0.041]),
+];
+
+fn run(
+    pairs: &[ScanPair],
+    method: Method,
+    associations: AssociationSource,
+) -> Result<(Summary, Vec<PairOutcome>), String> {
+    let config = EvaluationConfig {
+        method,
+        associations,
+        clusterer: Clusterer::default(),
+        kmeans: Default::default(),
+        cbd: Default::default(),
+    };
+    let outcomes: Vec<PairOutcome> = pairs
+        .par_iter()
+        .map(|p| evaluate_pair(p, &config))
+        .collect::<Result<_, _>>()
+        .map_err(|e| e.to_string())?;
+    Ok((summarize(&outcomes), outcomes))
+}
+
+fn row(name: &str, s: &Summary, paper: Option<&[f64; 6]>) {
+    let ours = format!(
+        "{:.3}±{:.3}  {:.3}±{:.3}  {:.3}±{:.3}",
+        s.homogeneity_mean,
+        s.homogeneity_std,
+        s.completeness_mean,
+        s.completeness_std,
+        s.v_measure_mean,
+        s.v_measure_std
+    );
+    let theirs = paper.map_or(String::new(), |p| {
+        format!(
+            "{:.3}±{:.3}  {:.3}±{:.3}  {:.3}±{:.3}",
+            p[0], p[1], p[2], p[3], p[4], p[5]
+        )
+    });
+    println!("{name:<22} {ours}   {:>5.1}   {theirs}", s.iterations_mean);
+}
+
+fn motion(outcomes: &[PairOutcome]) {
+    let (found, total, centroid, rotation) = motion_error_summary(outcomes);
+    println!(
+        "{:<22} moving objects found {found} of {total}; median motion error {} m at the object centroid, {} rad",
+        "",
+        centroid.map_or("-".into(), |x| format!("{x:.3}")),
+        rotation.map_or("-".into(), |x| format!("{x:.4}"))
+    );
+}
+
+fn header(title: &str) {
+    println!("\n{title}");
+    println!(
+        "{:<22} {:<40} {:>7}   {}",
+        "method", "H                C                V", "iters", "paper (H, C, V)"
+    );
+}
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().collect();
+    let quick = args.iter().any(|a| a == "--quick");
+    let sim_pairs = args
+        .iter()
+        .position(|a| a == "--sim-pairs")
+        .and_then(|i| args.get(i + 1))
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(if quick { 10 } else { 50 });
+    let icp = AssociationSource::NearestAfterIcp(NearestParams::default());
+    let config = match SimConfig::default().check() {
+        Ok(c) => c,
+        Err(e) => {
+            eprintln!("table1: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let sim = simulate_pairs(&config, 1, sim_pairs);
+    header(&format!(
+        "(a) simulated pairs: preset mixed, seed 1, {sim_pairs} pairs (training used seed 1000)"
+    ));
+    let rows = [
+        ("CBD", Method::Cbd, icp, Some(&PAPER[0].1)),
+        (
+            "K-Means (true assoc.)",
+            Method::KMeans,
+            AssociationSource::GroundTruth,
+            Some(&PAPER[1].1),
+        ),
+        ("K-Means (ICP assoc.)", Method::KMeans, icp, None),
+        (
+            "CRF-T",
+            Method::Crf,
+            AssociationSource::GroundTruth,
+            Some(&PAPER[2].1),
+        ),
+        ("CRF, ICP assoc.", Method::Crf, icp, Some(&PAPER[3].1)),
+        ("one cluster", Method::OneCluster, icp, None),
+    ];
+    for (name, method, associations, paper) in rows {
+        match run(&sim, method, associations) {
+            Ok((s, outcomes)) => {
+                row(name, &s, paper);
+                if method == Method::Crf {
+                    motion(&outcomes);
+                }
+            }
+            Err(e) => {
+                eprintln!("table1: {name}: {e}");
+                return ExitCode::from(2);
+            }
+        }
+    }
+    let Some(dir) = pgm_datasets::testdata::shared_data_dir() else {
+        println!("\n(b) leigh-gtm1 skipped: shared data folder not found");
+        return ExitCode::SUCCESS;
+    };
+    let base = dir.join("leigh-gtm1");
+    let loaded = (|| -> Result<_, String> {
+        let mut log = leigh::read_scans(base.join("scans.txt")).map_err(|e| e.to_string())?;
+        let odometry = base.join("odom_at_scan.txt");
+        let odo = leigh::read_odometry(&odometry).map_err(|e| e.to_string())?;
+        leigh::attach_odometry(&mut log, &odo, &odometry).map_err(|e| e.to_string())?;
+        let people = leigh::read_people(base.join("people_gt.txt")).map_err(|e| e.to_string())?;
+        Ok((log, people))
+    })();
+    let (log, people) = match loaded {
+        Ok(x) => x,
+        Err(e) => {
+            eprintln!("table1: leigh-gtm1: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    for k in [1usize, 3, 5] {
+        let options = LeighPairOptions {
+            k,
+            ..LeighPairOptions::default()
+        };
+        let pairs = match leigh_pairs(&log, &people, &options) {
+            Ok(p) => p,
+            Err(e) => {
+                eprintln!("table1: leigh-gtm1 k={k}: {e}");
+                return ExitCode::from(2);
+            }
+        };
+        let moving = pairs
+            .iter()
+            .filter(|p| {
+                p.truth
+                    .as_ref()
+                    .and_then(|t| t.labels.as_ref())
+                    .is_some_and(|l| l.iter().any(|x| x.is_some_and(|v| v > 0)))
+            })
+            .count();
+        header(&format!("(b) leigh-gtm1, k = {k}: {} pairs ({moving} with a moving person), all annotated pairs, odometry given", pairs.len()));
+        for (name, method) in [
+            ("CBD (odometry)", Method::Cbd),
+            ("K-Means (ICP assoc.)", Method::KMeans),
+            ("CRF, ICP assoc.", Method::Crf),
+            ("one cluster", Method::OneCluster),
+        ] {
+            match run(&pairs, method, icp) {
+                Ok((s, outcomes)) => {
+                    row(name, &s, None);
+                    if method == Method::Crf {
+                        motion(&outcomes);
+                    }
+                }
+                Err(e) => {
+                    eprintln!("table1: {name}: {e}");
+                    return ExitCode::from(2);
+                }
+            }
+        }
+    }
+    ExitCode::SUCCESS
+}

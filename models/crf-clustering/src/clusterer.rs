@@ -1,0 +1,645 @@
+//! CRF-Clustering of one scan pair, end to end: initial segmentation, hybrid
+//! inference, merging by the effective number of clusters, ego-motion selection.
+//!
+//! 1. **Input** ([`ClusteringInput`]): the valid points `s_i` of the current scan in
+//!    beam order, each with its associated reference point `g_i` (or none), and the
+//!    odometry prior if any.
+//! 2. **Initial clusters** ([`crate::segmentation`]): gap segmentation capped at
+//!    [`ClusteringParams::max_clusters`] (section V-A).
+//! 3. **Inference** (section IV-D): a chain CRF ([`crate::model`]) whose cluster
+//!    motions are observed-continuous nodes; [`HybridInference`] alternates message
+//!    passing with closed-form motion solves (eq. 3) until the motions and messages
+//!    are stable. Messages are max-product (log space, no exponentials in the inner
+//!    loop: about ten times faster than sum-product here); labels are the MAP
+//!    assignment and the beliefs used for merging are the max-marginals normalised
+//!    to sum to one. With [`UpdateSchedule::EverySweep`]
+//!    (default) the motions are re-solved after every forward-backward sweep over the
+//!    chain ([`Sequential::default`], exact on a chain for fixed motions); with
+//!    [`UpdateSchedule::EveryVisit`] after every variable visit (Algorithm 1 of the
+//!    joint-model paper).
+//! 4. **Merging** (section IV-E, eq. 8): the effective number of clusters of a point
+//!    is `N_eff = 1 / Σ_c p_c²` of its normalised max-marginal `p`; a cluster whose points have a mean
+//!    `N_eff` above [`ClusteringParams::merge_threshold`] (1.7) is removed and its
+//!    points go to their second-best cluster, then inference runs again; clusters
+//!    left without points are dropped. One cluster (the worst) is removed per round.
+//! 5. **Ego-motion**: the cluster whose motion is nearest to the odometry prior in
+//!    Mahalanobis distance (diagonal covariance from
+//!    [`ClusteringParams::odometry_sigma`]) is the background; without odometry the
+//!    largest cluster is. Every other cluster with at least
+//!    [`ClusteringParams::min_object_points`] associated points is a moving object
+//!    when (a) its motion moves its points on average at least
+//!    [`ClusteringParams::min_object_displacement`] away from where the background
+//!    motion would put them, and (b) the data agree: under the background motion its
+//!    points lie on average at least that much farther from their partners than under
+//!    their own motion. (b) rejects clusters whose own motion merely overfits the
+//!    association noise of a static segment (any cluster's own fit is at least as good
+//!    as the background's on its points). The rest join the background.
+
+use crate::associations::PointAssociations;
+use crate::model::{build_edges, ClusterMotionNodes, MAX_CLUSTERS};
+use crate::segmentation::initial_clusters;
+use crate::weights::ClusteringWeights;
+use crate::{Error, Result};
+use nalgebra::Point2;
+use pgm_core::hybrid::{HybridInference, UpdatePolicy};
+use pgm_core::{BeliefPropagation, Mode, Sequential, VariableId};
+use pgm_datasets::{Association, ScanPair};
+use pgm_features::clustering::association_variance;
+use pgm_features::{wrap_angle, Pose2};
+
+/// The median absolute difference between consecutive beam angles (0 for fewer than
+/// two beams).
+pub fn angle_increment(angles: &[f64]) -> f64 {
+    let mut d: Vec<f64> = angles
+        .windows(2)
+        .map(|w| (w[1] - w[0]).abs())
+        .filter(|x| x.is_finite())
+        .collect();
+    if d.is_empty() {
+        return 0.0;
+    }
+    let mid = d.len() / 2;
+    *d.select_nth_unstable_by(mid, f64::total_cmp).1
+}
+use serde::Serialize;
+
+/// When the cluster motions are re-solved during message passing.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum UpdateSchedule {
+    /// After every forward-backward sweep (default; see the module docs).
+    #[default]
+    EverySweep,
+    /// After every variable visit (Algorithm 1 of the joint-model paper).
+    EveryVisit,
+}
+
+/// Parameters of CRF-Clustering, unchecked; [`ClusteringParams::check`] turns them
+/// into a [`Clusterer`].
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ClusteringParams {
+    /// Gap (m) between consecutive points that starts a new initial segment (0.5).
+    pub segment_gap: f64,
+    /// Largest number of clusters (initial segments are merged down to it; 8, at most 32).
+    pub max_clusters: usize,
+    /// Extra edges to each point's `knn` nearest neighbours besides the chain (0).
+    pub knn: usize,
+    /// Adds an outlier state whose local log-potential equals the distance feature of
+    /// a partner this far away (m); `None` (default): no outlier state.
+    pub outlier_distance: Option<f64>,
+    /// Mean effective number of clusters above which a cluster is merged away (1.7).
+    pub merge_threshold: f64,
+    /// Largest number of sweeps per inference round (30).
+    pub max_sweeps: usize,
+    /// Motions count as converged when no parameter changes by more than this (1e-6).
+    pub motion_tolerance: f64,
+    /// When motions are re-solved.
+    pub update: UpdateSchedule,
+    /// Standard deviations (x m, y m, θ rad) of the odometry prior for the Mahalanobis
+    /// distance that picks the background cluster ([0.3, 0.3, 0.1]).
+    pub odometry_sigma: [f64; 3],
+    /// Fewest points of a moving object (3).
+    pub min_object_points: usize,
+    /// Smallest mean displacement (m) of an object's points relative to the background
+    /// motion for it to count as moving (0.15).
+    pub min_object_displacement: f64,
+    /// The learned weights (default: the shipped ones).
+    pub weights: ClusteringWeights,
+}
+
+impl Default for ClusteringParams {
+    fn default() -> Self {
+        Self {
+            segment_gap: 0.5,
+            max_clusters: 8,
+            knn: 0,
+            outlier_distance: None,
+            merge_threshold: 1.7,
+            max_sweeps: 30,
+            motion_tolerance: 1e-6,
+            update: UpdateSchedule::EverySweep,
+            odometry_sigma: [0.3, 0.3, 0.1],
+            min_object_points: 3,
+            min_object_displacement: 0.15,
+            weights: ClusteringWeights::default(),
+        }
+    }
+}
+
+fn invalid(name: &'static str, value: impl std::fmt::Debug, expected: &'static str) -> Error {
+    Error::InvalidParameter {
+        name,
+        value: format!("{value:?}"),
+        expected,
+    }
+}
+
+impl ClusteringParams {
+    /// Checks every value once.
+    pub fn check(&self) -> Result<Clusterer> {
+        let positive = |x: f64| x.is_finite() && x > 0.0;
+        if !positive(self.segment_gap) {
+            return Err(invalid(
+                "segment_gap",
+                self.segment_gap,
+                "a positive number of metres",
+            ));
+        }
+        if !(1..=MAX_CLUSTERS).contains(&self.max_clusters) {
+            return Err(invalid("max_clusters", self.max_clusters, "1..=32"));
+        }
+        if self.knn > 16 {
+            return Err(invalid("knn", self.knn, "0..=16"));
+        }
+        if let Some(d) = self.outlier_distance {
+            if !positive(d) {
+                return Err(invalid(
+                    "outlier_distance",
+                    d,
+                    "a positive number of metres",
+                ));
+            }
+        }
+        if !(self.merge_threshold.is_finite() && self.merge_threshold >= 1.0) {
+            return Err(invalid(
+                "merge_threshold",
+                self.merge_threshold,
+                "a number >= 1",
+            ));
+        }
+        if self.max_sweeps == 0 {
+            return Err(invalid("max_sweeps", self.max_sweeps, "at least 1"));
+        }
+        if !(self.motion_tolerance.is_finite() && self.motion_tolerance >= 0.0) {
+            return Err(invalid(
+                "motion_tolerance",
+                self.motion_tolerance,
+                "a number >= 0",
+            ));
+        }
+        if !self.odometry_sigma.iter().all(|&s| positive(s)) {
+            return Err(invalid(
+                "odometry_sigma",
+                self.odometry_sigma,
+                "three positive standard deviations",
+            ));
+        }
+        if !(self.min_object_displacement.is_finite() && self.min_object_displacement >= 0.0) {
+            return Err(invalid(
+                "min_object_displacement",
+                self.min_object_displacement,
+                "a number of metres >= 0",
+            ));
+        }
+        if !self.weights.to_vec().iter().all(|w| w.is_finite()) {
+            return Err(invalid("weights", self.weights, "finite weights"));
+        }
+        let [d0, d1] = self.weights.distance;
+        let smallest = pgm_features::clustering::ASSOCIATION_NOISE.powi(2);
+        if d0 + d1 / smallest >= 0.0 {
+            return Err(invalid(
+                "weights.distance",
+                self.weights.distance,
+                "weights that penalise distance at least for near points (w_sq + w_norm / σ0² < 0)",
+            ));
+        }
+        Ok(Clusterer {
+            params: self.clone(),
+        })
+    }
+}
+
+/// The points of one pair as the model sees them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ClusteringInput {
+    /// Beam index of each point in the current scan.
+    pub beams: Vec<usize>,
+    /// Number of beams of the current scan.
+    pub beam_count: usize,
+    /// The valid points `s_i` of the current scan, in beam order (sensor frame).
+    pub points: Vec<Point2<f64>>,
+    /// The associated reference point `g_i` of each point (reference sensor frame).
+    pub partners: Vec<Option<Point2<f64>>>,
+    /// Expected squared distance to a correct partner of each point
+    /// ([`association_variance`] of its range and the scan's beam spacing).
+    pub variances: Vec<f64>,
+    /// Odometry prior on the ego-motion, if any.
+    pub odometry: Option<Pose2>,
+}
+
+impl ClusteringInput {
+    /// The input of `pair` with `associations` (one per current beam).
+    pub fn from_pair(pair: &ScanPair, associations: &PointAssociations) -> Result<Self> {
+        let a = &associations.associations;
+        if a.len() != pair.current.len() {
+            return Err(Error::AssociationCount {
+                pair: pair.name.clone(),
+                associations: a.len(),
+                beams: pair.current.len(),
+            });
+        }
+        let (points, beams) = pair.current.points();
+        let increment = angle_increment(&pair.current.angles);
+        let variances = beams
+            .iter()
+            .map(|&k| association_variance(pair.current.ranges[k], increment))
+            .collect();
+        let mut partners = Vec::with_capacity(points.len());
+        for &k in &beams {
+            partners.push(match a[k] {
+                Some(Association::Point(r)) => {
+                    if r >= pair.reference.len() || !pair.reference.valid[r] {
+                        return Err(Error::BadPair {
+                            pair: pair.name.clone(),
+                            problem: format!("association of current beam {k} names reference beam {r}, which has no return"),
+                        });
+                    }
+                    Some(pair.reference.beam_point(r))
+                }
+                _ => None,
+            });
+        }
+        Ok(Self {
+            beams,
+            beam_count: pair.current.len(),
+            points,
+            partners,
+            variances,
+            odometry: pair.odometry,
+        })
+    }
+}
+
+/// How the background cluster was chosen.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum BackgroundChoice {
+    /// Nearest to the odometry prior (Mahalanobis).
+    Odometry,
+    /// The largest cluster (no odometry).
+    LargestCluster,
+    /// No point to cluster.
+    Empty,
+}
+
+/// One cluster of the result.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Cluster {
+    /// Output label: 0 for the background, 1, 2, … for moving objects.
+    pub label: u32,
+    /// Estimated motion mapping current points of the cluster onto the reference scan.
+    pub motion: Pose2,
+    /// Number of points.
+    pub points: usize,
+    /// Mean distance (m) between where this motion and the background motion put the
+    /// cluster's points (0 for the background).
+    pub displacement: f64,
+    /// True for the background cluster.
+    pub background: bool,
+}
+
+/// The result of CRF-Clustering on one pair.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Clustering {
+    /// Per beam of the current scan: 0 background, 1, 2, … moving objects, `None` for
+    /// beams without a return and points in the outlier state.
+    pub labels: Vec<Option<u32>>,
+    /// The clusters, background first.
+    pub clusters: Vec<Cluster>,
+    /// The background motion (ego-motion estimate).
+    pub background_motion: Pose2,
+    /// How the background was chosen.
+    pub background_choice: BackgroundChoice,
+    /// Total number of message-passing sweeps over all inference rounds.
+    pub iterations: usize,
+    /// Number of inference rounds (1 + number of merges).
+    pub rounds: usize,
+    /// Number of clusters after the initial segmentation.
+    pub initial_clusters: usize,
+    /// Number of clusters the inference ended with (before non-moving clusters joined
+    /// the background).
+    pub final_clusters: usize,
+    /// Whether the last round's messages and motions converged.
+    pub converged: bool,
+}
+
+/// CRF-Clustering with checked parameters.
+#[derive(Clone, Debug)]
+pub struct Clusterer {
+    params: ClusteringParams,
+}
+
+impl Default for Clusterer {
+    fn default() -> Self {
+        ClusteringParams::default()
+            .check()
+            .expect("default parameters are valid")
+    }
+}
+
+/// The end state of the inference rounds.
+struct Inferred {
+    labels: Vec<usize>,
+    motions: Vec<Pose2>,
+    clusters: usize,
+    iterations: usize,
+    rounds: usize,
+    converged: bool,
+}
+
+impl Clusterer {
+    /// The parameters.
+    pub fn params(&self) -> &ClusteringParams {
+        &self.params
+    }
+
+    /// Clusters `pair` with `associations`.
+    pub fn cluster_pair(
+        &self,
+        pair: &ScanPair,
+        associations: &PointAssociations,
+    ) -> Result<Clustering> {
+        let input = ClusteringInput::from_pair(pair, associations)?;
+        self.cluster(&input)
+    }
+
+    /// Clusters the points of `input` (see the module docs).
+    pub fn cluster(&self, input: &ClusteringInput) -> Result<Clustering> {
+        let p = &self.params;
+        let n = input.points.len();
+        if input.partners.len() != n
+            || input.beams.len() != n
+            || input.variances.len() != n
+            || input.variances.iter().any(|v| !(v.is_finite() && *v > 0.0))
+            || input.beams.iter().any(|&b| b >= input.beam_count)
+        {
+            return Err(Error::InvalidParameter {
+                name: "clustering input",
+                value: format!(
+                    "{} points, {} partners, {} beam indices for {} beams",
+                    n,
+                    input.partners.len(),
+                    input.beams.len(),
+                    input.beam_count
+                ),
+                expected:
+                    "one partner, one positive variance and one beam index (< beam count) per point",
+            });
+        }
+        if n == 0 {
+            return Ok(Clustering {
+                labels: vec![None; input.beam_count],
+                clusters: Vec::new(),
+                background_motion: input.odometry.unwrap_or_default(),
+                background_choice: BackgroundChoice::Empty,
+                iterations: 0,
+                rounds: 0,
+                initial_clusters: 0,
+                final_clusters: 0,
+                converged: true,
+            });
+        }
+        let (labels, k) = initial_clusters(
+            &input.points,
+            &input.partners,
+            &input.variances,
+            p.segment_gap,
+            p.max_clusters,
+        );
+        let inferred = self.infer(input, labels, k)?;
+        Ok(self.finish(input, inferred, k))
+    }
+
+    /// Inference rounds with merging by the effective number of clusters.
+    fn infer(
+        &self,
+        input: &ClusteringInput,
+        mut labels: Vec<usize>,
+        mut k: usize,
+    ) -> Result<Inferred> {
+        let p = &self.params;
+        let n = input.points.len();
+        let edges = build_edges(&input.points, p.knn);
+        let outlier = p.outlier_distance.is_some();
+        let mut motions = vec![input.odometry.unwrap_or_default(); k];
+        let bp = BeliefPropagation::new(Mode::MaxProduct)
+            .max_iterations(p.max_sweeps)
+            .tolerance(1e-6);
+        let policy = match p.update {
+            UpdateSchedule::EverySweep => UpdatePolicy::EverySweep,
+            UpdateSchedule::EveryVisit => UpdatePolicy::EveryVisit,
+        };
+        let hybrid = HybridInference::new(bp, policy).continuous_tolerance(p.motion_tolerance);
+        let mut iterations = 0;
+        let mut rounds = 0;
+        loop {
+            rounds += 1;
+            let (mut graph, mut nodes) = ClusterMotionNodes::build(
+                &input.points,
+                &input.partners,
+                &input.variances,
+                &edges,
+                motions,
+                p.weights,
+                p.outlier_distance,
+            )?;
+            let result = match p.update {
+                UpdateSchedule::EverySweep => hybrid.run(
+                    &mut graph,
+                    &mut nodes,
+                    &mut Sequential::default(),
+                    Some(&labels),
+                )?,
+                UpdateSchedule::EveryVisit => {
+                    let order = (0..n).map(VariableId).collect();
+                    hybrid.run(
+                        &mut graph,
+                        &mut nodes,
+                        &mut Sequential::variables(order),
+                        Some(&labels),
+                    )?
+                }
+            };
+            iterations += result.discrete.iterations;
+            labels = result.discrete.assignment;
+            motions = nodes.motions().to_vec();
+            let converged = result.messages_converged && result.continuous_converged;
+            // Eq. (8): mean effective number of clusters per cluster.
+            let mut count = vec![0usize; k];
+            let mut neff = vec![0.0f64; k];
+            for (i, &l) in labels.iter().enumerate() {
+                if l < k {
+                    let b = &result.discrete.beliefs[i];
+                    let sq: f64 = b.iter().map(|x| x * x).sum();
+                    count[l] += 1;
+                    neff[l] += if sq > 0.0 { 1.0 / sq } else { 1.0 };
+                }
+            }
+            let mut drop: Vec<bool> = count.iter().map(|&c| c == 0).collect();
+            let nonempty = count.iter().filter(|&&c| c > 0).count();
+            if nonempty >= 2 {
+                let worst = (0..k)
+                    .filter(|&l| count[l] > 0)
+                    .map(|l| (neff[l] / count[l] as f64, l))
+                    .filter(|(m, _)| *m > p.merge_threshold)
+                    .max_by(|a, b| a.0.total_cmp(&b.0));
+                if let Some((_, l)) = worst {
+                    drop[l] = true;
+                }
+            }
+            if !drop.iter().any(|d| *d) || rounds > MAX_CLUSTERS + 1 {
+                return Ok(Inferred {
+                    labels,
+                    motions,
+                    clusters: k,
+                    iterations,
+                    rounds,
+                    converged,
+                });
+            }
+            // Remove the dropped states: points of a removed cluster go to their best
+            // remaining state (the second best overall).
+            let mut map = vec![usize::MAX; k + usize::from(outlier)];
+            let mut next = 0;
+            for l in 0..k {
+                if !drop[l] {
+                    map[l] = next;
+                    next += 1;
+                }
+            }
+            if outlier {
+                map[k] = next;
+            }
+            for (i, l) in labels.iter_mut().enumerate() {
+                if map[*l] == usize::MAX {
+                    let b = &result.discrete.beliefs[i];
+                    let best = (0..b.len())
+                        .filter(|&s| map[s] != usize::MAX)
+                        .max_by(|&x, &y| b[x].total_cmp(&b[y]))
+                        .unwrap_or(0);
+                    *l = best;
+                }
+                *l = map[*l];
+            }
+            motions = (0..k).filter(|&l| !drop[l]).map(|l| motions[l]).collect();
+            k = next;
+        }
+    }
+
+    fn finish(&self, input: &ClusteringInput, inferred: Inferred, initial: usize) -> Clustering {
+        let p = &self.params;
+        let k = inferred.clusters;
+        let mut count = vec![0usize; k];
+        for &l in &inferred.labels {
+            if l < k {
+                count[l] += 1;
+            }
+        }
+        let candidates: Vec<usize> = (0..k).filter(|&l| count[l] > 0).collect();
+        let (background, choice) = match input.odometry {
+            Some(odo) => {
+                let [sx, sy, st] = p.odometry_sigma;
+                let d2 = |m: &Pose2| {
+                    ((m.x() - odo.x()) / sx).powi(2)
+                        + ((m.y() - odo.y()) / sy).powi(2)
+                        + (wrap_angle(m.theta() - odo.theta()) / st).powi(2)
+                };
+                let best = candidates
+                    .iter()
+                    .copied()
+                    .min_by(|&a, &b| d2(&inferred.motions[a]).total_cmp(&d2(&inferred.motions[b])));
+                (best.unwrap_or(0), BackgroundChoice::Odometry)
+            }
+            None => {
+                let best = candidates
+                    .iter()
+                    .copied()
+                    .max_by_key(|&l| (count[l], std::cmp::Reverse(l)));
+                (best.unwrap_or(0), BackgroundChoice::LargestCluster)
+            }
+        };
+        let bg_motion = inferred
+            .motions
+            .get(background)
+            .copied()
+            .unwrap_or_default();
+        // Displacement of each cluster's points relative to the background motion.
+        let mut displacement = vec![0.0f64; k];
+        for (i, &l) in inferred.labels.iter().enumerate() {
+            if l < k {
+                let s = &input.points[i];
+                displacement[l] +=
+                    (inferred.motions[l].transform_point(s) - bg_motion.transform_point(s)).norm();
+            }
+        }
+        // Evidence: how much farther from their partners the points are under the
+        // background motion than under their own.
+        let mut evidence = vec![0.0f64; k];
+        let mut associated = vec![0usize; k];
+        for (i, &l) in inferred.labels.iter().enumerate() {
+            if let (true, Some(g)) = (l < k, &input.partners[i]) {
+                let s = &input.points[i];
+                evidence[l] += (bg_motion.transform_point(s) - g).norm()
+                    - (inferred.motions[l].transform_point(s) - g).norm();
+                associated[l] += 1;
+            }
+        }
+        let mut output = vec![Some(0u32); k];
+        let mut moving = vec![false; k];
+        for l in 0..k {
+            if count[l] > 0 {
+                displacement[l] /= count[l] as f64;
+            }
+            if associated[l] > 0 {
+                evidence[l] /= associated[l] as f64;
+            }
+            moving[l] = l != background
+                && associated[l] >= p.min_object_points
+                && displacement[l] >= p.min_object_displacement
+                && evidence[l] >= p.min_object_displacement;
+        }
+        // Number moving clusters by first appearance.
+        let mut next = 1u32;
+        for &l in &inferred.labels {
+            if l < k && moving[l] && output[l] == Some(0) {
+                output[l] = Some(next);
+                next += 1;
+            }
+        }
+        let mut labels = vec![None; input.beam_count];
+        for (i, &l) in inferred.labels.iter().enumerate() {
+            labels[input.beams[i]] = if l < k { output[l] } else { None };
+        }
+        let bg_points: usize = (0..k).filter(|&l| !moving[l]).map(|l| count[l]).sum();
+        let mut clusters = vec![Cluster {
+            label: 0,
+            motion: bg_motion,
+            points: bg_points,
+            displacement: 0.0,
+            background: true,
+        }];
+        let mut objects: Vec<Cluster> = (0..k)
+            .filter(|&l| moving[l])
+            .map(|l| Cluster {
+                label: output[l].unwrap_or(0),
+                motion: inferred.motions[l],
+                points: count[l],
+                displacement: displacement[l],
+                background: false,
+            })
+            .collect();
+        objects.sort_by_key(|c| c.label);
+        clusters.extend(objects);
+        Clustering {
+            labels,
+            clusters,
+            background_motion: bg_motion,
+            background_choice: choice,
+            iterations: inferred.iterations,
+            rounds: inferred.rounds,
+            initial_clusters: initial,
+            final_clusters: candidates.len(),
+            converged: inferred.converged,
+        }
+    }
+}

@@ -1,0 +1,58 @@
+//! CRF-Clustering on leigh-gtm1 pairs 5 scans apart with the moving-person labels of
+//! the data README (all annotated pairs; the weights were trained on simulated data
+//! only). Skipped without the shared data folder, a failure under CI.
+//!
+//! The issue's target is a mean V-measure of at least 0.6, above both baselines and
+//! above the one-cluster labelling. The current model reaches about 0.50 (CBD 0.54,
+//! K-Means 0.05, one cluster 0.75 on these labels; notes/issue7.md), so this test
+//! pins the level it reaches and that it beats motion K-Means; it does not (yet) meet
+//! the target.
+
+use pgm_crf_clustering::evaluation::{evaluate_pair, summarize, EvaluationConfig, Method, Summary};
+use pgm_crf_clustering::{AssociationSource, Clusterer, NearestParams};
+use pgm_datasets::builders::{leigh_pairs, LeighPairOptions};
+use pgm_datasets::{leigh, testdata, ScanPair};
+
+fn score(pairs: &[ScanPair], method: Method) -> Summary {
+    let config = EvaluationConfig {
+        method,
+        associations: AssociationSource::NearestAfterIcp(NearestParams::default()),
+        clusterer: Clusterer::default(),
+        kmeans: Default::default(),
+        cbd: Default::default(),
+    };
+    summarize(
+        &pairs
+            .iter()
+            .map(|p| evaluate_pair(p, &config).expect("evaluates"))
+            .collect::<Vec<_>>(),
+    )
+}
+
+#[test]
+fn leigh_gtm1_k5() {
+    let Some(dir) = testdata::shared_data_dir() else {
+        return;
+    };
+    let base = dir.join("leigh-gtm1");
+    let mut log = leigh::read_scans(base.join("scans.txt")).expect("scans");
+    let odometry = base.join("odom_at_scan.txt");
+    let odo = leigh::read_odometry(&odometry).expect("odometry");
+    leigh::attach_odometry(&mut log, &odo, &odometry).expect("attach");
+    let people = leigh::read_people(base.join("people_gt.txt")).expect("people");
+    let pairs = leigh_pairs(&log, &people, &LeighPairOptions::default()).expect("pairs");
+    assert!(pairs.len() >= 80, "{} pairs", pairs.len());
+    let crf = score(&pairs, Method::Crf);
+    let kmeans = score(&pairs, Method::KMeans);
+    let cbd = score(&pairs, Method::Cbd);
+    eprintln!(
+        "leigh-gtm1 k=5: CRF V {:.3}, CBD {:.3}, K-Means {:.3}",
+        crf.v_measure_mean, cbd.v_measure_mean, kmeans.v_measure_mean
+    );
+    assert!(
+        crf.v_measure_mean >= 0.45,
+        "CRF V-measure {:.3}",
+        crf.v_measure_mean
+    );
+    assert!(crf.v_measure_mean > kmeans.v_measure_mean + 0.2);
+}

@@ -1,0 +1,270 @@
+//! `pgm cluster`: CRF-Clustering of one scan pair (see [`pgm_crf_clustering`]).
+//!
+//! The pair comes from a stored data set (`--pairs PATH --pair NAME|INDEX`) or from a
+//! leigh-gtm1 style log (`--scans FILE --reference I --current J [--odometry FILE]`).
+//! Prints one JSON object: per-beam cluster labels (0 background, 1, 2, … moving
+//! objects, null without a return), the clusters with motion, point count and
+//! background flag, the number of sweeps and rounds and whether inference converged.
+//! `--svg FILE` draws the result like Fig. 4/5 of the paper: points coloured by
+//! cluster, motion arrows and boxes around moving objects.
+
+use super::{CliError, CliResult};
+use clap::{Args, ValueEnum};
+use pgm::plot::PairPicture;
+use pgm_crf_clustering::{
+    AssociationProvider, AssociationSource, Clusterer, Clustering, ClusteringParams,
+    ClusteringWeights, NearestParams, UpdateSchedule,
+};
+use pgm_datasets::{builders, leigh, ClusterMotion, ScanPair};
+use serde::Serialize;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+/// Where point associations come from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum AssociationArg {
+    /// The pair's ground-truth associations (simulated data).
+    True,
+    /// Nearest neighbour after ICP.
+    Icp,
+}
+
+/// When motions are re-solved.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum UpdateArg {
+    /// After every forward-backward sweep.
+    EverySweep,
+    /// After every variable visit.
+    EveryVisit,
+}
+
+/// CRF-Clustering options shared by `pgm cluster` and `pgm eval clustering`.
+#[derive(Args, Debug, Clone)]
+pub struct CrfArgs {
+    /// Weight file written by `pgm train clustering` (default: the shipped weights).
+    #[arg(long)]
+    pub weights: Option<PathBuf>,
+    /// Largest number of clusters.
+    #[arg(long, default_value_t = ClusteringParams::default().max_clusters)]
+    pub max_clusters: usize,
+    /// Extra edges to each point's K nearest neighbours (0: chain only).
+    #[arg(long, default_value_t = 0)]
+    pub knn: usize,
+    /// Add an outlier state at this partner distance (m).
+    #[arg(long)]
+    pub outlier_distance: Option<f64>,
+    /// Gap (m) that starts a new initial segment.
+    #[arg(long, default_value_t = ClusteringParams::default().segment_gap)]
+    pub segment_gap: f64,
+    /// Mean effective number of clusters above which a cluster is merged (eq. 8).
+    #[arg(long, default_value_t = ClusteringParams::default().merge_threshold)]
+    pub merge_threshold: f64,
+    /// Smallest displacement (m) of a moving object relative to the background.
+    #[arg(long, default_value_t = ClusteringParams::default().min_object_displacement)]
+    pub min_displacement: f64,
+    /// When motions are re-solved during message passing.
+    #[arg(long, value_enum, default_value = "every-sweep")]
+    pub update: UpdateArg,
+    /// ICP associations: gate (m) of the nearest-neighbour search.
+    #[arg(long, default_value_t = NearestParams::default().gate)]
+    pub gate: f64,
+}
+
+impl CrfArgs {
+    /// The checked clusterer.
+    pub fn clusterer(&self) -> Result<Clusterer, CliError> {
+        let weights = match &self.weights {
+            Some(path) => ClusteringWeights::load(path)
+                .map_err(|e| CliError(format!("{}: {e}", path.display())))?,
+            None => ClusteringWeights::default(),
+        };
+        ClusteringParams {
+            weights,
+            max_clusters: self.max_clusters,
+            knn: self.knn,
+            outlier_distance: self.outlier_distance,
+            segment_gap: self.segment_gap,
+            merge_threshold: self.merge_threshold,
+            min_object_displacement: self.min_displacement,
+            update: match self.update {
+                UpdateArg::EverySweep => UpdateSchedule::EverySweep,
+                UpdateArg::EveryVisit => UpdateSchedule::EveryVisit,
+            },
+            ..ClusteringParams::default()
+        }
+        .check()
+        .map_err(CliError::from_display)
+    }
+
+    /// The association source.
+    pub fn associations(&self, which: AssociationArg) -> AssociationSource {
+        match which {
+            AssociationArg::True => AssociationSource::GroundTruth,
+            AssociationArg::Icp => AssociationSource::NearestAfterIcp(NearestParams {
+                gate: self.gate,
+                ..NearestParams::default()
+            }),
+        }
+    }
+}
+
+/// `pgm cluster`.
+#[derive(Args, Debug)]
+pub struct ClusterArgs {
+    /// Stored data set (directory, index.json or pair file).
+    #[arg(long, conflicts_with = "scans")]
+    pub pairs: Option<PathBuf>,
+    /// Which pair of the data set: its name or its index from 0.
+    #[arg(long, default_value = "0")]
+    pub pair: String,
+    /// leigh-gtm1 style scan log.
+    #[arg(long, requires_all = ["reference", "current"])]
+    pub scans: Option<PathBuf>,
+    /// Odometry per scan of the log (optional).
+    #[arg(long, requires = "scans")]
+    pub odometry: Option<PathBuf>,
+    /// Index of the reference scan in the log.
+    #[arg(long)]
+    pub reference: Option<usize>,
+    /// Index of the current scan in the log.
+    #[arg(long)]
+    pub current: Option<usize>,
+    /// Point associations (default: true when the pair has them, else ICP).
+    #[arg(long, value_enum)]
+    pub associations: Option<AssociationArg>,
+    /// CRF-Clustering options.
+    #[command(flatten)]
+    pub crf: CrfArgs,
+    /// Draw the result into this SVG file.
+    #[arg(long)]
+    pub svg: Option<PathBuf>,
+}
+
+/// Loads the pair named by the arguments.
+fn load_pair(args: &ClusterArgs) -> Result<ScanPair, CliError> {
+    if let Some(path) = &args.pairs {
+        let pairs = pgm_datasets::read_pairs(path).map_err(CliError::from_display)?;
+        let found = pairs
+            .iter()
+            .position(|p| p.name == args.pair)
+            .or_else(|| args.pair.parse::<usize>().ok().filter(|&i| i < pairs.len()));
+        return match found {
+            Some(i) => Ok(pairs[i].clone()),
+            None => Err(CliError(format!(
+                "{}: no pair named {:?} and no index {:?} among its {} pairs",
+                path.display(),
+                args.pair,
+                args.pair,
+                pairs.len()
+            ))),
+        };
+    }
+    let (Some(scans), Some(i), Some(j)) = (&args.scans, args.reference, args.current) else {
+        return Err(CliError(
+            "give --pairs PATH [--pair NAME|INDEX] or --scans FILE --reference I --current J"
+                .into(),
+        ));
+    };
+    let mut log = leigh::read_scans(scans).map_err(CliError::from_display)?;
+    if let Some(path) = &args.odometry {
+        let odo = leigh::read_odometry(path).map_err(CliError::from_display)?;
+        leigh::attach_odometry(&mut log, &odo, path).map_err(CliError::from_display)?;
+    }
+    let get = |k: usize| {
+        log.get(k)
+            .ok_or_else(|| CliError(format!("{}: no scan with index {k}", scans.display())))
+    };
+    let (a, b) = (get(i)?, get(j)?);
+    Ok(ScanPair {
+        name: format!(
+            "{}:{i}-{j}",
+            scans
+                .file_stem()
+                .map_or("log".into(), |s| s.to_string_lossy())
+        ),
+        odometry: builders::odometry_prior(&a.scan, &b.scan),
+        reference: a.scan.clone(),
+        current: b.scan.clone(),
+        truth: None,
+    })
+}
+
+/// The default association source of a pair: true if it has them, else ICP.
+pub fn default_associations(pair: &ScanPair) -> AssociationArg {
+    if pair
+        .truth
+        .as_ref()
+        .is_some_and(|t| t.associations.is_some())
+    {
+        AssociationArg::True
+    } else {
+        AssociationArg::Icp
+    }
+}
+
+#[derive(Serialize)]
+struct Output<'a> {
+    pair: &'a str,
+    associations: &'a str,
+    #[serde(flatten)]
+    clustering: &'a Clustering,
+}
+
+/// Draws `clustering` of `pair` into `path`.
+pub fn draw(
+    pair: &ScanPair,
+    clustering: &Clustering,
+    title: String,
+    path: &std::path::Path,
+) -> Result<(), CliError> {
+    let motions: Vec<ClusterMotion> = clustering
+        .clusters
+        .iter()
+        .filter(|c| !c.background)
+        .map(|c| ClusterMotion {
+            label: c.label,
+            motion: c.motion,
+            kind: "moving".into(),
+        })
+        .collect();
+    let mut picture = PairPicture::new(pair);
+    picture.labels = Some(&clustering.labels);
+    picture.motions = &motions;
+    picture.alignment = clustering.background_motion;
+    picture.title = title;
+    picture.write_svg(path).map_err(CliError::from_display)
+}
+
+/// Runs `pgm cluster`.
+pub fn run(args: ClusterArgs) -> CliResult {
+    let pair = load_pair(&args)?;
+    let clusterer = args.crf.clusterer()?;
+    let which = args
+        .associations
+        .unwrap_or_else(|| default_associations(&pair));
+    let source = args.crf.associations(which);
+    let associations = source.associate(&pair).map_err(CliError::from_display)?;
+    let clustering = clusterer
+        .cluster_pair(&pair, &associations)
+        .map_err(CliError::from_display)?;
+    let output = Output {
+        pair: &pair.name,
+        associations: source.name(),
+        clustering: &clustering,
+    };
+    println!(
+        "{}",
+        serde_json::to_string(&output).map_err(CliError::from_display)?
+    );
+    if let Some(path) = &args.svg {
+        let title = format!(
+            "{}: CRF-Clustering ({} associations), {} moving",
+            pair.name,
+            source.name(),
+            clustering.clusters.len().saturating_sub(1)
+        );
+        draw(&pair, &clustering, title, path)?;
+        eprintln!("pgm: drew {} into {}", pair.name, path.display());
+    }
+    Ok(ExitCode::SUCCESS)
+}

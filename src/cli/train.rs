@@ -1,0 +1,137 @@
+//! `pgm train`: learn model weights from labelled data.
+//!
+//! `pgm train clustering (--data DIR | --simulate N [--seed S] [--preset P])
+//! --out weights.json [--associations true|icp|both] [--prior-variance V]` learns the
+//! CRF-Clustering weights by pseudo-likelihood (L-BFGS) from labelled pairs: each
+//! pair's CRF with features computed from the motions of its true clusters
+//! ([`pgm_crf_clustering::learning`]). `both` uses every pair twice, once with true
+//! and once with ICP associations.
+
+use super::cluster::CrfArgs;
+use super::{CliError, CliResult};
+use clap::{Args, Subcommand, ValueEnum};
+use pgm_crf_clustering::learning::{learn, training_instance};
+use pgm_crf_clustering::{AssociationProvider, AssociationSource};
+use pgm_datasets::sim::{simulate_pairs, Preset, SimConfig};
+use rayon::prelude::*;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+/// `pgm train …`.
+#[derive(Args, Debug)]
+pub struct TrainArgs {
+    /// What to train.
+    #[command(subcommand)]
+    pub command: TrainCommand,
+}
+
+/// The `pgm train` subcommands.
+#[derive(Subcommand, Debug)]
+pub enum TrainCommand {
+    /// CRF-Clustering weights by pseudo-likelihood.
+    Clustering(TrainClusteringArgs),
+}
+
+/// Which associations the training features use.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum TrainAssociations {
+    /// Ground-truth associations.
+    True,
+    /// Nearest neighbour after ICP.
+    Icp,
+    /// Every pair once with each.
+    Both,
+}
+
+/// `pgm train clustering`.
+#[derive(Args, Debug)]
+pub struct TrainClusteringArgs {
+    /// Labelled scan-pair data set (directory written by `pgm sim --out` / `pgm data pairs`).
+    #[arg(long, conflicts_with = "simulate")]
+    pub data: Option<PathBuf>,
+    /// Instead of --data: simulate this many pairs.
+    #[arg(long)]
+    pub simulate: Option<usize>,
+    /// Simulator seed for --simulate (keep it disjoint from evaluation seeds).
+    #[arg(long, default_value_t = 1000)]
+    pub seed: u64,
+    /// Simulator preset for --simulate.
+    #[arg(long, default_value = "mixed")]
+    pub preset: String,
+    /// Output weight file (JSON).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Associations used for the training features.
+    #[arg(long, value_enum, default_value = "true")]
+    pub associations: TrainAssociations,
+    /// Variance of the Gaussian prior on each weight.
+    #[arg(long, default_value_t = 10.0)]
+    pub prior_variance: f64,
+    /// CRF options (only --knn and --gate matter for training).
+    #[command(flatten)]
+    pub crf: CrfArgs,
+}
+
+/// Runs `pgm train …`.
+pub fn run(args: TrainArgs) -> CliResult {
+    match args.command {
+        TrainCommand::Clustering(a) => run_clustering(a),
+    }
+}
+
+fn run_clustering(args: TrainClusteringArgs) -> CliResult {
+    let pairs = match (&args.data, args.simulate) {
+        (Some(dir), _) => pgm_datasets::read_pairs(dir).map_err(CliError::from_display)?,
+        (None, Some(n)) => {
+            let preset: Preset = args.preset.parse().map_err(CliError::from_display)?;
+            let config = SimConfig {
+                preset,
+                ..SimConfig::default()
+            }
+            .check()
+            .map_err(CliError::from_display)?;
+            simulate_pairs(&config, args.seed, n)
+        }
+        (None, None) => return Err(CliError("give --data DIR or --simulate N".into())),
+    };
+    let clusterer = args.crf.clusterer()?;
+    let icp = args.crf.associations(super::cluster::AssociationArg::Icp);
+    let sources: Vec<AssociationSource> = match args.associations {
+        TrainAssociations::True => vec![AssociationSource::GroundTruth],
+        TrainAssociations::Icp => vec![icp],
+        TrainAssociations::Both => vec![AssociationSource::GroundTruth, icp],
+    };
+    let built: Vec<_> = pairs
+        .par_iter()
+        .flat_map_iter(|p| sources.iter().map(move |s| (p, s)))
+        .map(|(p, s)| {
+            let a = s.associate(p)?;
+            training_instance(p, &a, clusterer.params())
+        })
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(CliError::from_display)?;
+    let instances: Vec<_> = built.into_iter().flatten().collect();
+    if instances.is_empty() {
+        return Err(CliError(format!(
+            "none of the {} pairs has ground-truth labels",
+            pairs.len()
+        )));
+    }
+    let (weights, result) =
+        learn(&instances, args.prior_variance).map_err(CliError::from_display)?;
+    let named = weights.to_weights().map_err(CliError::from_display)?;
+    named
+        .save(&args.out)
+        .map_err(|e| CliError(format!("{}: {e}", args.out.display())))?;
+    eprintln!(
+        "pgm: learned from {} instances ({} pairs) in {} iterations (converged: {}, objective {:.3}); wrote {}",
+        instances.len(),
+        pairs.len(),
+        result.iterations,
+        result.converged,
+        result.objective,
+        args.out.display()
+    );
+    println!("{named}");
+    Ok(ExitCode::SUCCESS)
+}
