@@ -9,13 +9,19 @@
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
 use nalgebra::Point2;
 use pgm_core::hybrid::{HybridInference, UpdatePolicy};
-use pgm_core::{BeliefPropagation, FactorGraph, Mode, PottsFactor, Sequential, TableFactor, VariableId};
+use pgm_core::{
+    BeliefPropagation, FactorGraph, Mode, PottsFactor, Sequential, TableFactor, VariableId,
+};
 use pgm_features::{Pose2, RigidMotionNodes};
 use std::time::Duration;
 
 fn problem(n: usize) -> (FactorGraph, RigidMotionNodes, Vec<usize>) {
     let k = 3;
-    let truth = [Pose2::new(0.5, 0.1, 0.05), Pose2::new(-1.2, 0.4, -0.2), Pose2::new(0.3, -0.9, 0.35)];
+    let truth = [
+        Pose2::new(0.5, 0.1, 0.05),
+        Pose2::new(-1.2, 0.4, -0.2),
+        Pose2::new(0.3, -0.9, 0.35),
+    ];
     let labels: Vec<usize> = (0..n).map(|i| (i * k) / n).collect();
     let pairs = (0..n)
         .map(|i| {
@@ -26,20 +32,32 @@ fn problem(n: usize) -> (FactorGraph, RigidMotionNodes, Vec<usize>) {
         .collect();
     let mut graph = FactorGraph::with_variables(&vec![k; n]).unwrap();
     let local = (0..n)
-        .map(|i| graph.add_factor(TableFactor::new(vec![VariableId(i)], vec![k], vec![0.0; k]).unwrap()).unwrap())
+        .map(|i| {
+            graph
+                .add_factor(TableFactor::new(vec![VariableId(i)], vec![k], vec![0.0; k]).unwrap())
+                .unwrap()
+        })
         .collect();
     for i in 1..n {
-        graph.add_factor(PottsFactor::new(VariableId(i - 1), VariableId(i), k, 2.0, 0.0).unwrap()).unwrap();
+        graph
+            .add_factor(PottsFactor::new(VariableId(i - 1), VariableId(i), k, 2.0, 0.0).unwrap())
+            .unwrap();
     }
     let nodes = RigidMotionNodes::new(pairs, local, truth.to_vec(), 50.0, Vec::new()).unwrap();
     // Start every fourth label wrong so the sweep moves points between clusters.
-    let initial = labels.iter().enumerate().map(|(i, &l)| if i % 4 == 0 { (l + 1) % k } else { l }).collect();
+    let initial = labels
+        .iter()
+        .enumerate()
+        .map(|(i, &l)| if i % 4 == 0 { (l + 1) % k } else { l })
+        .collect();
     (graph, nodes, initial)
 }
 
 fn per_visit(c: &mut Criterion) {
     let mut group = c.benchmark_group("hybrid_sweep_every_visit");
-    group.sample_size(20).measurement_time(Duration::from_secs(5));
+    group
+        .sample_size(20)
+        .measurement_time(Duration::from_secs(5));
     for n in [100usize, 1_000, 10_000] {
         group.throughput(Throughput::Elements(2 * n as u64));
         group.bench_function(format!("{n}_variables"), |b| {
@@ -51,7 +69,12 @@ fn per_visit(c: &mut Criterion) {
                         BeliefPropagation::new(Mode::MaxProduct).max_iterations(1),
                         UpdatePolicy::EveryVisit,
                     )
-                    .run(&mut graph, &mut nodes, &mut Sequential::variables(order), Some(&initial))
+                    .run(
+                        &mut graph,
+                        &mut nodes,
+                        &mut Sequential::variables(order),
+                        Some(&initial),
+                    )
                     .unwrap();
                     std::hint::black_box(r.solves)
                 },

@@ -10,8 +10,8 @@
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
 use pgm_core::{
-    BeliefPropagation, FactorGraph, Flooding, Messages, Mode, PottsFactor, Residual, Schedule, Sequential,
-    ShiftedIdentityFactor, TableFactor, VariableId,
+    BeliefPropagation, FactorGraph, Flooding, Messages, Mode, PottsFactor, Residual, Schedule,
+    Sequential, ShiftedIdentityFactor, TableFactor, VariableId,
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -23,18 +23,21 @@ fn potts_grid(n: usize, k: usize, seed: u64) -> FactorGraph {
     let mut g = FactorGraph::with_variables(&vec![k; n * n]).unwrap();
     for v in 0..n * n {
         let t: Vec<f64> = (0..k).map(|_| rng.sample(StandardNormal)).collect();
-        g.add_factor(TableFactor::new(vec![VariableId(v)], vec![k], t).unwrap()).unwrap();
+        g.add_factor(TableFactor::new(vec![VariableId(v)], vec![k], t).unwrap())
+            .unwrap();
     }
     for r in 0..n {
         for c in 0..n - 1 {
             let v = r * n + c;
-            g.add_factor(PottsFactor::new(VariableId(v), VariableId(v + 1), k, 1.0, 0.0).unwrap()).unwrap();
+            g.add_factor(PottsFactor::new(VariableId(v), VariableId(v + 1), k, 1.0, 0.0).unwrap())
+                .unwrap();
         }
     }
     for r in 0..n - 1 {
         for c in 0..n {
             let v = r * n + c;
-            g.add_factor(PottsFactor::new(VariableId(v), VariableId(v + n), k, 1.0, 0.0).unwrap()).unwrap();
+            g.add_factor(PottsFactor::new(VariableId(v), VariableId(v + n), k, 1.0, 0.0).unwrap())
+                .unwrap();
         }
     }
     g
@@ -45,25 +48,38 @@ fn chain(len: usize, states: usize, dense: bool, seed: u64) -> FactorGraph {
     let mut g = FactorGraph::with_variables(&vec![states; len]).unwrap();
     for v in 0..len {
         let t: Vec<f64> = (0..states).map(|_| rng.sample(StandardNormal)).collect();
-        g.add_factor(TableFactor::new(vec![VariableId(v)], vec![states], t).unwrap()).unwrap();
+        g.add_factor(TableFactor::new(vec![VariableId(v)], vec![states], t).unwrap())
+            .unwrap();
     }
     for v in 0..len - 1 {
         let (a, b) = (VariableId(v), VariableId(v + 1));
         if dense {
-            let t: Vec<f64> = (0..states * states).map(|_| rng.sample(StandardNormal)).collect();
-            g.add_factor(TableFactor::new(vec![a, b], vec![states, states], t).unwrap()).unwrap();
+            let t: Vec<f64> = (0..states * states)
+                .map(|_| rng.sample(StandardNormal))
+                .collect();
+            g.add_factor(TableFactor::new(vec![a, b], vec![states, states], t).unwrap())
+                .unwrap();
         } else {
-            g.add_factor(ShiftedIdentityFactor::new(a, b, states, states, 1, 2.0, 0.0).unwrap()).unwrap();
+            g.add_factor(ShiftedIdentityFactor::new(a, b, states, states, 1, 2.0, 0.0).unwrap())
+                .unwrap();
         }
     }
     g
 }
 
 fn pool(threads: usize) -> rayon::ThreadPool {
-    rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap()
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
 }
 
-fn iterations(bp: &BeliefPropagation, graph: &FactorGraph, schedule: &mut dyn Schedule, start: Messages) {
+fn iterations(
+    bp: &BeliefPropagation,
+    graph: &FactorGraph,
+    schedule: &mut dyn Schedule,
+    start: Messages,
+) {
     let p = bp.propagate(graph, schedule, start).unwrap();
     assert!(p.iterations >= 1);
     std::hint::black_box(p);
@@ -71,22 +87,36 @@ fn iterations(bp: &BeliefPropagation, graph: &FactorGraph, schedule: &mut dyn Sc
 
 fn grid(c: &mut Criterion) {
     let graph = potts_grid(100, 5, 1);
-    let bp = BeliefPropagation::new(Mode::MaxProduct).tolerance(0.0).max_iterations(10);
+    let bp = BeliefPropagation::new(Mode::MaxProduct)
+        .tolerance(0.0)
+        .max_iterations(10);
     let one = pool(1);
     let two = pool(2);
     let mut group = c.benchmark_group("potts_grid_100x100_k5_max_product_10_iterations");
-    group.sample_size(20).measurement_time(Duration::from_secs(8));
+    group
+        .sample_size(20)
+        .measurement_time(Duration::from_secs(8));
     let runs: Vec<(&str, &rayon::ThreadPool, Box<dyn Fn() -> Box<dyn Schedule>>)> = vec![
         ("flooding_1_thread", &one, Box::new(|| Box::new(Flooding))),
         ("flooding_2_threads", &two, Box::new(|| Box::new(Flooding))),
-        ("sequential_1_thread", &one, Box::new(|| Box::new(Sequential::default()))),
-        ("residual_1_thread", &one, Box::new(|| Box::new(Residual::default()))),
+        (
+            "sequential_1_thread",
+            &one,
+            Box::new(|| Box::new(Sequential::default())),
+        ),
+        (
+            "residual_1_thread",
+            &one,
+            Box::new(|| Box::new(Residual::default())),
+        ),
     ];
     for (name, pool, make) in runs {
         group.bench_function(name, |b| {
             b.iter_batched(
                 || (make(), Messages::uniform(&graph, Mode::MaxProduct)),
-                |(mut schedule, start)| pool.install(|| iterations(&bp, &graph, schedule.as_mut(), start)),
+                |(mut schedule, start)| {
+                    pool.install(|| iterations(&bp, &graph, schedule.as_mut(), start))
+                },
                 BatchSize::LargeInput,
             )
         });
@@ -95,11 +125,15 @@ fn grid(c: &mut Criterion) {
 }
 
 fn chains(c: &mut Criterion) {
-    let bp = BeliefPropagation::new(Mode::MaxProduct).tolerance(0.0).max_iterations(1);
+    let bp = BeliefPropagation::new(Mode::MaxProduct)
+        .tolerance(0.0)
+        .max_iterations(1);
     let one = pool(1);
     let two = pool(2);
     let mut group = c.benchmark_group("chain_361x362_max_product_one_sweep");
-    group.sample_size(10).measurement_time(Duration::from_secs(10));
+    group
+        .sample_size(10)
+        .measurement_time(Duration::from_secs(10));
     let shifted = chain(361, 362, false, 2);
     group.bench_function("shifted_identity_sequential_1_thread", |b| {
         b.iter_batched(

@@ -11,8 +11,8 @@
 //! Run: `cargo run --release --example custom_schedule`.
 
 use pgm_core::{
-    BeliefPropagation, FactorGraph, Flooding, MessagePasser, Mode, PottsFactor, Residual, Schedule, Sequential,
-    TableFactor, VariableId,
+    BeliefPropagation, FactorGraph, Flooding, MessagePasser, Mode, PottsFactor, Residual, Schedule,
+    Sequential, TableFactor, VariableId,
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -47,18 +47,24 @@ fn grid(side: usize, k: usize, seed: u64) -> FactorGraph {
     let mut g = FactorGraph::with_variables(&vec![k; side * side]).expect("cardinalities");
     for v in 0..side * side {
         let t = (0..k).map(|_| rng.random_range(-1.0..1.0)).collect();
-        g.add_factor(TableFactor::new(vec![VariableId(v)], vec![k], t).expect("table")).expect("factor");
+        g.add_factor(TableFactor::new(vec![VariableId(v)], vec![k], t).expect("table"))
+            .expect("factor");
     }
     for r in 0..side {
         for c in 0..side {
             let v = r * side + c;
             if c + 1 < side {
-                g.add_factor(PottsFactor::new(VariableId(v), VariableId(v + 1), k, 0.6, 0.0).expect("potts"))
-                    .expect("factor");
+                g.add_factor(
+                    PottsFactor::new(VariableId(v), VariableId(v + 1), k, 0.6, 0.0).expect("potts"),
+                )
+                .expect("factor");
             }
             if r + 1 < side {
-                g.add_factor(PottsFactor::new(VariableId(v), VariableId(v + side), k, 0.6, 0.0).expect("potts"))
-                    .expect("factor");
+                g.add_factor(
+                    PottsFactor::new(VariableId(v), VariableId(v + side), k, 0.6, 0.0)
+                        .expect("potts"),
+                )
+                .expect("factor");
             }
         }
     }
@@ -68,7 +74,10 @@ fn grid(side: usize, k: usize, seed: u64) -> FactorGraph {
 fn main() {
     let side = 30;
     let graph = grid(side, 4, 3);
-    let bp = BeliefPropagation::new(Mode::MaxProduct).damping(0.2).tolerance(1e-6).max_iterations(300);
+    let bp = BeliefPropagation::new(Mode::MaxProduct)
+        .damping(0.2)
+        .tolerance(1e-6)
+        .max_iterations(300);
     let mut schedules: Vec<Box<dyn Schedule>> = vec![
         Box::new(Flooding),
         Box::new(Sequential::default()),
@@ -76,9 +85,18 @@ fn main() {
         Box::new(Checkerboard { side }),
     ];
     println!("max-product on a {side}x{side} Potts grid, 4 labels, damping 0.2, tolerance 1e-6");
-    println!("{:<14} {:>10} {:>10} {:>14}", "schedule", "iterations", "converged", "MAP log-score");
+    println!(
+        "{:<14} {:>10} {:>10} {:>14}",
+        "schedule", "iterations", "converged", "MAP log-score"
+    );
     for s in schedules.iter_mut() {
         let r = bp.run(&graph, s).expect("valid run");
-        println!("{:<14} {:>10} {:>10} {:>14.4}", s.name(), r.iterations, r.converged, r.log_score);
+        println!(
+            "{:<14} {:>10} {:>10} {:>14.4}",
+            s.name(),
+            r.iterations,
+            r.converged,
+            r.log_score
+        );
     }
 }

@@ -6,7 +6,9 @@
 //! log-potentials are drawn N(0, 1) and equal neighbours get log-potential 1, the
 //! distribution of `gen_models.py potts` (with our own draws).
 
-use pgm_core::{BeliefPropagation, FactorGraph, Mode, PottsFactor, ScheduleKind, TableFactor, VariableId};
+use pgm_core::{
+    BeliefPropagation, FactorGraph, Mode, PottsFactor, ScheduleKind, TableFactor, VariableId,
+};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
@@ -30,15 +32,31 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         for c in 0..side {
             let v = r * side + c;
             if c + 1 < side {
-                g.add_factor(PottsFactor::new(VariableId(v), VariableId(v + 1), k, 1.0, 0.0)?)?;
+                g.add_factor(PottsFactor::new(
+                    VariableId(v),
+                    VariableId(v + 1),
+                    k,
+                    1.0,
+                    0.0,
+                )?)?;
             }
             if r + 1 < side {
-                g.add_factor(PottsFactor::new(VariableId(v), VariableId(v + side), k, 1.0, 0.0)?)?;
+                g.add_factor(PottsFactor::new(
+                    VariableId(v),
+                    VariableId(v + side),
+                    k,
+                    1.0,
+                    0.0,
+                )?)?;
             }
         }
     }
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build()?;
-    let bp = BeliefPropagation::new(Mode::MaxProduct).tolerance(0.0).max_iterations(iterations);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()?;
+    let bp = BeliefPropagation::new(Mode::MaxProduct)
+        .tolerance(0.0)
+        .max_iterations(iterations);
     let mut schedule = kind.build();
     let start = Instant::now();
     let result = pool.install(|| bp.run(&g, &mut schedule))?;

@@ -14,7 +14,9 @@
 
 use nalgebra::Point2;
 use pgm_core::hybrid::{HybridInference, UpdatePolicy};
-use pgm_core::{BeliefPropagation, FactorGraph, Mode, PottsFactor, Sequential, TableFactor, VariableId};
+use pgm_core::{
+    BeliefPropagation, FactorGraph, Mode, PottsFactor, Sequential, TableFactor, VariableId,
+};
 use pgm_features::{Pose2, RigidAlignment, RigidMotionNodes};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -44,12 +46,21 @@ fn main() -> ExitCode {
             let r = 6.0 + (i as f64 * 0.1).sin();
             let s = Point2::new(r * t.cos(), r * t.sin());
             let g = truth[labels[i]].transform_point(&s);
-            (s, Point2::new(g.x + noise.sample(&mut rng), g.y + noise.sample(&mut rng)))
+            (
+                s,
+                Point2::new(g.x + noise.sample(&mut rng), g.y + noise.sample(&mut rng)),
+            )
         })
         .collect();
     let initial: Vec<usize> = labels
         .iter()
-        .map(|&l| if rng.random::<f64>() < 0.3 { rng.random_range(0..k) } else { l })
+        .map(|&l| {
+            if rng.random::<f64>() < 0.3 {
+                rng.random_range(0..k)
+            } else {
+                l
+            }
+        })
         .collect();
     let wrong_at_start = initial.iter().zip(&labels).filter(|(a, b)| a != b).count();
 
@@ -57,11 +68,19 @@ fn main() -> ExitCode {
     // factors between consecutive points.
     let mut graph = FactorGraph::with_variables(&vec![k; n]).expect("valid cardinalities");
     let local: Vec<_> = (0..n)
-        .map(|i| graph.add_factor(TableFactor::new(vec![VariableId(i)], vec![k], vec![0.0; k]).expect("table")).expect("factor"))
+        .map(|i| {
+            graph
+                .add_factor(
+                    TableFactor::new(vec![VariableId(i)], vec![k], vec![0.0; k]).expect("table"),
+                )
+                .expect("factor")
+        })
         .collect();
     for i in 1..n {
         graph
-            .add_factor(PottsFactor::new(VariableId(i - 1), VariableId(i), k, 2.0, 0.0).expect("potts"))
+            .add_factor(
+                PottsFactor::new(VariableId(i - 1), VariableId(i), k, 2.0, 0.0).expect("potts"),
+            )
             .expect("factor");
     }
     // Initial motions: the least-squares fit to the (wrong) starting labels.
@@ -74,12 +93,21 @@ fn main() -> ExitCode {
             stats.solve().map_or(Pose2::identity(), |a| a.motion)
         })
         .collect();
-    let mut nodes = RigidMotionNodes::new(pairs, local, start_motions.clone(), 50.0, Vec::new()).expect("valid nodes");
+    let mut nodes = RigidMotionNodes::new(pairs, local, start_motions.clone(), 50.0, Vec::new())
+        .expect("valid nodes");
 
     let order: Vec<VariableId> = (0..n).map(VariableId).collect();
-    let inference = HybridInference::new(BeliefPropagation::new(Mode::MaxProduct).max_iterations(50), UpdatePolicy::EveryVisit)
-        .continuous_tolerance(1e-9);
-    let result = match inference.run(&mut graph, &mut nodes, &mut Sequential::variables(order), Some(&initial)) {
+    let inference = HybridInference::new(
+        BeliefPropagation::new(Mode::MaxProduct).max_iterations(50),
+        UpdatePolicy::EveryVisit,
+    )
+    .continuous_tolerance(1e-9);
+    let result = match inference.run(
+        &mut graph,
+        &mut nodes,
+        &mut Sequential::variables(order),
+        Some(&initial),
+    ) {
         Ok(r) => r,
         Err(e) => {
             eprintln!("hybrid_motions: inference failed: {e}");
@@ -87,11 +115,22 @@ fn main() -> ExitCode {
         }
     };
 
-    let correct = result.discrete.assignment.iter().zip(&labels).filter(|(a, b)| a == b).count();
-    println!("Hybrid inference: chain CRF over {n} point pairs, {k} rigid motions as continuous nodes");
+    let correct = result
+        .discrete
+        .assignment
+        .iter()
+        .zip(&labels)
+        .filter(|(a, b)| a == b)
+        .count();
+    println!(
+        "Hybrid inference: chain CRF over {n} point pairs, {k} rigid motions as continuous nodes"
+    );
     println!(
         "iterations {} (messages converged: {}, motions converged: {}), motion solves {}",
-        result.discrete.iterations, result.messages_converged, result.continuous_converged, result.solves
+        result.discrete.iterations,
+        result.messages_converged,
+        result.continuous_converged,
+        result.solves
     );
     println!(
         "labels correct: {correct}/{n} (at the start: {}/{n})",

@@ -23,7 +23,13 @@ fn random_tree(seed: u64) -> FactorGraph {
     let mut g = FactorGraph::with_variables(&cards).unwrap();
     let mut draw = |size: usize, rng: &mut ChaCha8Rng| -> Vec<f64> {
         let mut t: Vec<f64> = (0..size)
-            .map(|_| if rng.random::<f64>() < 0.1 { f64::NEG_INFINITY } else { rng.random_range(-3.0..3.0) })
+            .map(|_| {
+                if rng.random::<f64>() < 0.1 {
+                    f64::NEG_INFINITY
+                } else {
+                    rng.random_range(-3.0..3.0)
+                }
+            })
             .collect();
         if t.iter().all(|x| *x == f64::NEG_INFINITY) {
             t[0] = 0.0;
@@ -32,20 +38,31 @@ fn random_tree(seed: u64) -> FactorGraph {
     };
     for v in 0..n {
         let t = draw(cards[v], &mut rng);
-        g.add_factor(TableFactor::new(vec![VariableId(v)], vec![cards[v]], t).unwrap()).unwrap();
+        g.add_factor(TableFactor::new(vec![VariableId(v)], vec![cards[v]], t).unwrap())
+            .unwrap();
     }
     for v in 1..n {
         let p = rng.random_range(0..v);
         let (a, b) = if rng.random::<bool>() { (p, v) } else { (v, p) };
         let t = draw(cards[a] * cards[b], &mut rng);
-        g.add_factor(TableFactor::new(vec![VariableId(a), VariableId(b)], vec![cards[a], cards[b]], t).unwrap())
-            .unwrap();
+        g.add_factor(
+            TableFactor::new(
+                vec![VariableId(a), VariableId(b)],
+                vec![cards[a], cards[b]],
+                t,
+            )
+            .unwrap(),
+        )
+        .unwrap();
     }
     g
 }
 
 fn pgm(args: &[&str]) -> (String, String, bool) {
-    let out = Command::new(env!("CARGO_BIN_EXE_pgm")).args(args).output().unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_pgm"))
+        .args(args)
+        .output()
+        .unwrap();
     (
         String::from_utf8(out.stdout).unwrap(),
         String::from_utf8(out.stderr).unwrap(),
@@ -54,7 +71,9 @@ fn pgm(args: &[&str]) -> (String, String, bool) {
 }
 
 fn numbers(line: &str) -> Vec<f64> {
-    line.split_whitespace().map(|t| t.parse().unwrap()).collect()
+    line.split_whitespace()
+        .map(|t| t.parse().unwrap())
+        .collect()
 }
 
 fn check(model: &Path, evidence: Option<&Path>, schedule: &str) {
@@ -62,10 +81,15 @@ fn check(model: &Path, evidence: Option<&Path>, schedule: &str) {
     let mut graph = uai.to_factor_graph().unwrap();
     let mut args = vec![model.to_str().unwrap(), "--schedule", schedule];
     if let Some(e) = evidence {
-        Evidence::read(e, &uai.cardinalities).unwrap().apply(&mut graph).unwrap();
+        Evidence::read(e, &uai.cardinalities)
+            .unwrap()
+            .apply(&mut graph)
+            .unwrap();
         args.extend(["--evidence", e.to_str().unwrap()]);
     }
-    let Ok(exact) = brute_force(&graph, BruteForceLimit::default()) else { return };
+    let Ok(exact) = brute_force(&graph, BruteForceLimit::default()) else {
+        return;
+    };
     let (out, err, ok) = pgm(&[&["map"], &args[..]].concat());
     assert!(ok, "{err}");
     let lines: Vec<&str> = out.lines().collect();
@@ -74,7 +98,11 @@ fn check(model: &Path, evidence: Option<&Path>, schedule: &str) {
     assert_eq!(values[0] as usize, graph.num_variables());
     let assignment: Vec<usize> = values[1..].iter().map(|&x| x as usize).collect();
     let score = graph.log_score(&assignment).unwrap();
-    assert!((score - exact.map_log_score).abs() < 1e-9, "{schedule}: {score} vs {}", exact.map_log_score);
+    assert!(
+        (score - exact.map_log_score).abs() < 1e-9,
+        "{schedule}: {score} vs {}",
+        exact.map_log_score
+    );
 
     let (out, err, ok) = pgm(&[&["marginals"], &args[..]].concat());
     assert!(ok, "{err}");
@@ -114,7 +142,9 @@ fn map_and_marginals_are_exact_on_trees() {
 fn stats_line_is_json_on_stderr() {
     let dir = temp_dir("stats");
     let model = dir.join("m.uai");
-    UaiModel::from_factor_graph(&random_tree(99)).write(&model).unwrap();
+    UaiModel::from_factor_graph(&random_tree(99))
+        .write(&model)
+        .unwrap();
     let (out, err, ok) = pgm(&["map", model.to_str().unwrap(), "--stats"]);
     assert!(ok);
     assert!(out.starts_with("MPE\n"));
@@ -132,13 +162,24 @@ fn malformed_input_names_file_line_and_expectation() {
     std::fs::write(&model, "MARKOV\n2\n2 2\n1\n2 0 1\n\n4\n0.5 1 nope 2\n").unwrap();
     let (out, err, ok) = pgm(&["map", model.to_str().unwrap()]);
     assert!(!ok && out.is_empty());
-    assert!(err.contains("bad.uai:8:") && err.contains("entry 2 of the table of function 0"), "{err}");
+    assert!(
+        err.contains("bad.uai:8:") && err.contains("entry 2 of the table of function 0"),
+        "{err}"
+    );
     std::fs::write(&model, "MARKOV\n2\n2 2\n1\n2 0 1\n\n4\n0.5 1 1 2\n").unwrap();
     let evid = dir.join("e.evid");
     std::fs::write(&evid, "1 1 7\n").unwrap();
-    let (_, err, ok) = pgm(&["map", model.to_str().unwrap(), "--evidence", evid.to_str().unwrap()]);
+    let (_, err, ok) = pgm(&[
+        "map",
+        model.to_str().unwrap(),
+        "--evidence",
+        evid.to_str().unwrap(),
+    ]);
     assert!(!ok);
-    assert!(err.contains("e.evid:1:") && err.contains("state 7 of variable 1"), "{err}");
+    assert!(
+        err.contains("e.evid:1:") && err.contains("state 7 of variable 1"),
+        "{err}"
+    );
     let (_, err, ok) = pgm(&["map", model.to_str().unwrap(), "--damping", "1.5"]);
     assert!(!ok && err.contains("damping"), "{err}");
 }

@@ -213,7 +213,11 @@ impl BeliefPropagation {
     }
 
     /// Runs from uniform messages.
-    pub fn run<S: Schedule + ?Sized>(&self, graph: &FactorGraph, schedule: &mut S) -> Result<BpResult> {
+    pub fn run<S: Schedule + ?Sized>(
+        &self,
+        graph: &FactorGraph,
+        schedule: &mut S,
+    ) -> Result<BpResult> {
         self.run_from(graph, schedule, Messages::uniform(graph, self.mode))
     }
 
@@ -256,7 +260,8 @@ impl BeliefPropagation {
                 Ok(self.finish(g, p))
             }
             GraphRef::Exclusive(g) => {
-                let p = self.drive_messages(GraphRef::Exclusive(&mut *g), hook, schedule, messages)?;
+                let p =
+                    self.drive_messages(GraphRef::Exclusive(&mut *g), hook, schedule, messages)?;
                 Ok(self.finish(g, p))
             }
         }
@@ -447,7 +452,13 @@ impl Passer<'_, '_> {
 /// the variable's contiguous block of incoming messages. A single-variable factor's
 /// message ignores its input, so nothing is gathered for it.
 #[inline]
-fn gather(graph: &FactorGraph, messages: &[f64], a: FactorId, skip: Option<usize>, scratch: &mut Scratch) {
+fn gather(
+    graph: &FactorGraph,
+    messages: &[f64],
+    a: FactorId,
+    skip: Option<usize>,
+    scratch: &mut Scratch,
+) {
     let ix = graph.index();
     let (first_edge, end_edge) = (ix.factor_edge_start[a.0], ix.factor_edge_start[a.0 + 1]);
     scratch.offsets.clear();
@@ -500,7 +511,14 @@ fn gather(graph: &FactorGraph, messages: &[f64], a: FactorId, skip: Option<usize
 
 /// Computes the normalised message of scope position `slot` of factor `a` into
 /// `scratch.out`, assuming `gather` was called. Returns false on a contradiction.
-fn compute(graph: &FactorGraph, a: FactorId, slot: usize, mode: Mode, how: Normalisation, scratch: &mut Scratch) -> bool {
+fn compute(
+    graph: &FactorGraph,
+    a: FactorId,
+    slot: usize,
+    mode: Mode,
+    how: Normalisation,
+    scratch: &mut Scratch,
+) -> bool {
     let factor = graph.factor(a);
     let k = scratch.offsets[slot + 1] - scratch.offsets[slot];
     // `Factor::message` writes every entry, so the buffer is not cleared.
@@ -574,7 +592,12 @@ impl PassState {
             }
             compute_raw(graph, a, slot, self.mode, &mut self.scratch);
             let range = graph.message_range(EdgeId(e));
-            let (r, ok) = commit_raw(&mut self.messages.values[range], &mut self.scratch.out, self.damping, self.normalisation);
+            let (r, ok) = commit_raw(
+                &mut self.messages.values[range],
+                &mut self.scratch.out,
+                self.damping,
+                self.normalisation,
+            );
             self.contradictions += usize::from(!ok);
             self.residual = self.residual.max(r);
         }
@@ -583,10 +606,21 @@ impl PassState {
     fn update_edge(&mut self, graph: &FactorGraph, e: EdgeId) {
         let a = graph.edge_factor(e);
         let slot = graph.edge_slot(e);
-        gather(graph, &self.messages.values, a, Some(slot), &mut self.scratch);
+        gather(
+            graph,
+            &self.messages.values,
+            a,
+            Some(slot),
+            &mut self.scratch,
+        );
         compute_raw(graph, a, slot, self.mode, &mut self.scratch);
         let range = graph.message_range(e);
-        let (r, ok) = commit_raw(&mut self.messages.values[range], &mut self.scratch.out, self.damping, self.normalisation);
+        let (r, ok) = commit_raw(
+            &mut self.messages.values[range],
+            &mut self.scratch.out,
+            self.damping,
+            self.normalisation,
+        );
         self.contradictions += usize::from(!ok);
         self.residual = self.residual.max(r);
     }
@@ -609,8 +643,21 @@ impl PassState {
         }
         let a = graph.edge_factor(e);
         let slot = graph.edge_slot(e);
-        gather(graph, &self.messages.values, a, Some(slot), &mut self.scratch);
-        if !compute(graph, a, slot, self.mode, self.normalisation, &mut self.scratch) {
+        gather(
+            graph,
+            &self.messages.values,
+            a,
+            Some(slot),
+            &mut self.scratch,
+        );
+        if !compute(
+            graph,
+            a,
+            slot,
+            self.mode,
+            self.normalisation,
+            &mut self.scratch,
+        ) {
             self.contradictions += 1;
         }
         let range = graph.message_range(e);
@@ -657,7 +704,9 @@ impl PassState {
             .into_par_iter()
             .map(|(variables, out)| {
                 let mut scratch = Scratch::default();
-                let base = graph.variable_message_range(VariableId(variables.start)).start;
+                let base = graph
+                    .variable_message_range(VariableId(variables.start))
+                    .start;
                 let mut residual = 0.0f64;
                 let mut contradictions = 0usize;
                 for v in variables {
@@ -796,7 +845,14 @@ pub fn decode_map(graph: &FactorGraph, messages: &Messages) -> Vec<usize> {
                         dst[x] = 0.0;
                     }
                 }
-                compute(graph, a, slot, Mode::MaxProduct, Normalisation::Max, &mut scratch);
+                compute(
+                    graph,
+                    a,
+                    slot,
+                    Mode::MaxProduct,
+                    Normalisation::Max,
+                    &mut scratch,
+                );
                 for (s, m) in score.iter_mut().zip(&scratch.out) {
                     *s += m;
                 }

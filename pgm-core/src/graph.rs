@@ -138,11 +138,14 @@ impl FactorGraph {
     /// Replaces a factor by one with the same scope and shape (used by hooks that
     /// refresh potentials, e.g. factors that depend on continuous nodes).
     pub fn replace_factor(&mut self, id: FactorId, factor: Box<dyn Factor>) -> Result<()> {
-        let old = self.factors.get(id.0).ok_or_else(|| Error::InvalidParameter {
-            name: "factor id",
-            value: id.0.to_string(),
-            expected: "an existing factor",
-        })?;
+        let old = self
+            .factors
+            .get(id.0)
+            .ok_or_else(|| Error::InvalidParameter {
+                name: "factor id",
+                value: id.0.to_string(),
+                expected: "an existing factor",
+            })?;
         if old.scope() != factor.scope() || old.shape() != factor.shape() {
             return Err(Error::InvalidParameter {
                 name: "replacement factor",
@@ -160,7 +163,11 @@ impl FactorGraph {
         if scope.len() != shape.len() {
             return Err(Error::InvalidParameter {
                 name: "factor shape",
-                value: format!("{} scope entries, {} shape entries", scope.len(), shape.len()),
+                value: format!(
+                    "{} scope entries, {} shape entries",
+                    scope.len(),
+                    shape.len()
+                ),
                 expected: "one shape entry per scope variable",
             });
         }

@@ -61,7 +61,12 @@ pub trait UpdateHook {
     /// After every iteration. Returns whether the hook's own state (for example the
     /// continuous values it maintains) is stable; the run converges only when both the
     /// messages and the hook are stable.
-    fn after_iteration(&mut self, iteration: usize, potentials: &mut Potentials<'_>, messages: &Messages) -> bool {
+    fn after_iteration(
+        &mut self,
+        iteration: usize,
+        potentials: &mut Potentials<'_>,
+        messages: &Messages,
+    ) -> bool {
         let _ = (iteration, potentials, messages);
         true
     }

@@ -53,4 +53,6 @@ pub use factor::{Factor, Incoming, Mode, PottsFactor, ShiftedIdentityFactor, Tab
 pub use graph::{EdgeId, FactorGraph, FactorId, VariableId};
 pub use hook::{Potentials, UpdateHook};
 pub use learning::{FeatureSet, Learner, LearnerParams, LogLinearModel, PseudoLikelihood, Weights};
-pub use schedule::{Flooding, MessagePasser, Residual, Schedule, ScheduleKind, Sequential, SequentialUnit, Visit};
+pub use schedule::{
+    Flooding, MessagePasser, Residual, Schedule, ScheduleKind, Sequential, SequentialUnit, Visit,
+};

@@ -109,7 +109,10 @@ mod tests {
     #[test]
     fn log_add_exp_handles_neg_infinity() {
         assert_eq!(log_add_exp(f64::NEG_INFINITY, 1.5), 1.5);
-        assert_eq!(log_add_exp(f64::NEG_INFINITY, f64::NEG_INFINITY), f64::NEG_INFINITY);
+        assert_eq!(
+            log_add_exp(f64::NEG_INFINITY, f64::NEG_INFINITY),
+            f64::NEG_INFINITY
+        );
         assert!((log_add_exp(0.0, 0.0) - 2f64.ln()).abs() < 1e-15);
     }
 

@@ -49,13 +49,23 @@ impl GraphSpec {
                 FactorSpec::Table { scope, log_table } => {
                     let shape = scope.iter().map(|&v| self.cardinalities[v]).collect();
                     let scope = scope.iter().map(|&v| VariableId(v)).collect();
-                    g.add_factor(TableFactor::new(scope, shape, log_table.clone()).expect("valid table"))
-                        .expect("valid factor");
+                    g.add_factor(
+                        TableFactor::new(scope, shape, log_table.clone()).expect("valid table"),
+                    )
+                    .expect("valid factor");
                 }
-                FactorSpec::Potts { a, b, same, different } => {
+                FactorSpec::Potts {
+                    a,
+                    b,
+                    same,
+                    different,
+                } => {
                     let k = self.cardinalities[*a];
-                    g.add_factor(PottsFactor::new(VariableId(*a), VariableId(*b), k, *same, *different).expect("valid"))
-                        .expect("valid factor");
+                    g.add_factor(
+                        PottsFactor::new(VariableId(*a), VariableId(*b), k, *same, *different)
+                            .expect("valid"),
+                    )
+                    .expect("valid factor");
                 }
             }
         }
@@ -70,23 +80,32 @@ impl GraphSpec {
 
 /// Log-potentials in `[-range, range]`, with probability `hard_zero` of −∞.
 pub fn log_potential(range: f64, hard_zero: f64) -> impl Strategy<Value = f64> {
-    (0.0..1.0f64, -range..=range).prop_map(move |(u, x)| if u < hard_zero { f64::NEG_INFINITY } else { x })
+    (0.0..1.0f64, -range..=range)
+        .prop_map(move |(u, x)| if u < hard_zero { f64::NEG_INFINITY } else { x })
 }
 
 /// A log-table of `size` entries; at least one entry is kept finite so that the table
 /// alone is not a contradiction.
 pub fn log_table(size: usize, range: f64, hard_zero: f64) -> impl Strategy<Value = Vec<f64>> {
-    (proptest::collection::vec(log_potential(range, hard_zero), size), 0..size.max(1), -range..=range).prop_map(
-        |(mut t, keep, value)| {
+    (
+        proptest::collection::vec(log_potential(range, hard_zero), size),
+        0..size.max(1),
+        -range..=range,
+    )
+        .prop_map(|(mut t, keep, value)| {
             if t.iter().all(|x| *x == f64::NEG_INFINITY) && !t.is_empty() {
                 t[keep] = value;
             }
             t
-        },
-    )
+        })
 }
 
-fn table_factor(scope: Vec<usize>, cards: &[usize], range: f64, hard_zero: f64) -> BoxedStrategy<FactorSpec> {
+fn table_factor(
+    scope: Vec<usize>,
+    cards: &[usize],
+    range: f64,
+    hard_zero: f64,
+) -> BoxedStrategy<FactorSpec> {
     let size: usize = scope.iter().map(|&v| cards[v]).product();
     log_table(size, range, hard_zero)
         .prop_map(move |log_table| FactorSpec::Table {
@@ -98,7 +117,12 @@ fn table_factor(scope: Vec<usize>, cards: &[usize], range: f64, hard_zero: f64) 
 
 /// Unary factors on every variable plus pairwise factors on the given edges (scope
 /// order randomised by `flip`).
-fn with_factors(cards: Vec<usize>, edges: Vec<(usize, usize)>, range: f64, hard_zero: f64) -> BoxedStrategy<GraphSpec> {
+fn with_factors(
+    cards: Vec<usize>,
+    edges: Vec<(usize, usize)>,
+    range: f64,
+    hard_zero: f64,
+) -> BoxedStrategy<GraphSpec> {
     let mut parts: Vec<BoxedStrategy<FactorSpec>> = Vec::new();
     for v in 0..cards.len() {
         parts.push(table_factor(vec![v], &cards, range, hard_zero));
@@ -117,12 +141,20 @@ fn with_factors(cards: Vec<usize>, edges: Vec<(usize, usize)>, range: f64, hard_
 /// Random trees: 1..=`max_vars` variables of cardinality 1..=`max_card`, each variable
 /// after the first attached to a random earlier one (scope order random), unary
 /// factors everywhere, log-potentials in `[-range, range]` with some −∞.
-pub fn tree(max_vars: usize, max_card: usize, range: f64, hard_zero: f64) -> BoxedStrategy<GraphSpec> {
+pub fn tree(
+    max_vars: usize,
+    max_card: usize,
+    range: f64,
+    hard_zero: f64,
+) -> BoxedStrategy<GraphSpec> {
     (1..=max_vars)
         .prop_flat_map(move |n| {
             (
                 proptest::collection::vec(1..=max_card, n),
-                proptest::collection::vec((any::<prop::sample::Index>(), any::<bool>()), n.saturating_sub(1)),
+                proptest::collection::vec(
+                    (any::<prop::sample::Index>(), any::<bool>()),
+                    n.saturating_sub(1),
+                ),
             )
         })
         .prop_flat_map(move |(cards, attach)| {
@@ -145,7 +177,12 @@ pub fn tree(max_vars: usize, max_card: usize, range: f64, hard_zero: f64) -> Box
 }
 
 /// Random chains in variable order (scope order random).
-pub fn chain(max_vars: usize, max_card: usize, range: f64, hard_zero: f64) -> BoxedStrategy<GraphSpec> {
+pub fn chain(
+    max_vars: usize,
+    max_card: usize,
+    range: f64,
+    hard_zero: f64,
+) -> BoxedStrategy<GraphSpec> {
     (1..=max_vars)
         .prop_flat_map(move |n| {
             (
@@ -166,20 +203,32 @@ pub fn chain(max_vars: usize, max_card: usize, range: f64, hard_zero: f64) -> Bo
 
 /// Random loopy graphs: a random tree plus `extra` random extra edges and optionally
 /// one ternary factor; log-potentials in `[-range, range]` with some −∞.
-pub fn loopy(max_vars: usize, max_card: usize, extra: usize, range: f64, hard_zero: f64) -> BoxedStrategy<GraphSpec> {
+pub fn loopy(
+    max_vars: usize,
+    max_card: usize,
+    extra: usize,
+    range: f64,
+    hard_zero: f64,
+) -> BoxedStrategy<GraphSpec> {
     (3..=max_vars.max(3))
         .prop_flat_map(move |n| {
             (
                 proptest::collection::vec(1..=max_card, n),
                 proptest::collection::vec(any::<prop::sample::Index>(), n - 1),
-                proptest::collection::vec((any::<prop::sample::Index>(), any::<prop::sample::Index>()), extra),
+                proptest::collection::vec(
+                    (any::<prop::sample::Index>(), any::<prop::sample::Index>()),
+                    extra,
+                ),
                 any::<bool>(),
             )
         })
         .prop_flat_map(move |(cards, attach, extras, ternary)| {
             let n = cards.len();
-            let mut edges: Vec<(usize, usize)> =
-                attach.iter().enumerate().map(|(i, idx)| (idx.index(i + 1), i + 1)).collect();
+            let mut edges: Vec<(usize, usize)> = attach
+                .iter()
+                .enumerate()
+                .map(|(i, idx)| (idx.index(i + 1), i + 1))
+                .collect();
             for (x, y) in extras {
                 let (a, b) = (x.index(n), y.index(n));
                 if a != b {
@@ -189,12 +238,19 @@ pub fn loopy(max_vars: usize, max_card: usize, extra: usize, range: f64, hard_ze
             let cards2 = cards.clone();
             with_factors(cards, edges, range, hard_zero).prop_flat_map(move |spec| {
                 let cards = cards2.clone();
-                let triple = if ternary { vec![0usize, n / 2, n - 1] } else { Vec::new() };
-                let extra_factor: BoxedStrategy<Option<FactorSpec>> = if triple.len() == 3 && triple[1] != 0 && triple[1] != n - 1 {
-                    table_factor(triple, &cards, range, hard_zero).prop_map(Some).boxed()
+                let triple = if ternary {
+                    vec![0usize, n / 2, n - 1]
                 } else {
-                    Just(None).boxed()
+                    Vec::new()
                 };
+                let extra_factor: BoxedStrategy<Option<FactorSpec>> =
+                    if triple.len() == 3 && triple[1] != 0 && triple[1] != n - 1 {
+                        table_factor(triple, &cards, range, hard_zero)
+                            .prop_map(Some)
+                            .boxed()
+                    } else {
+                        Just(None).boxed()
+                    };
                 (Just(spec), extra_factor).prop_map(|(mut spec, f)| {
                     if let Some(f) = f {
                         spec.factors.push(f);
@@ -238,7 +294,12 @@ pub fn potts_grid(max_side: usize, max_k: usize, range: f64) -> BoxedStrategy<Gr
                         })
                         .collect();
                     for (&(a, b), &(same, different)) in edges.iter().zip(&couplings) {
-                        factors.push(FactorSpec::Potts { a, b, same, different });
+                        factors.push(FactorSpec::Potts {
+                            a,
+                            b,
+                            same,
+                            different,
+                        });
                     }
                     GraphSpec {
                         cardinalities: vec![k; n],

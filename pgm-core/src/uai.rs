@@ -95,9 +95,12 @@ impl Tokens {
 
     fn integer(&mut self, what: &str, min: usize, max: usize) -> Result<usize> {
         let (t, line) = self.token(what)?;
-        let v: usize = t
-            .parse()
-            .map_err(|_| self.error(line, format!("expected {what} (an integer >= {min}), found {t:?}")))?;
+        let v: usize = t.parse().map_err(|_| {
+            self.error(
+                line,
+                format!("expected {what} (an integer >= {min}), found {t:?}"),
+            )
+        })?;
         if v < min || v > max {
             return Err(self.error(line, format!("{what} = {v} is outside [{min}, {max}]")));
         }
@@ -110,7 +113,10 @@ impl Tokens {
             .parse()
             .map_err(|_| self.error(line, format!("expected {what} (a number), found {t:?}")))?;
         if !(v.is_finite() && v >= 0.0) {
-            return Err(self.error(line, format!("{what} = {t}: potentials must be finite and >= 0")));
+            return Err(self.error(
+                line,
+                format!("{what} = {t}: potentials must be finite and >= 0"),
+            ));
         }
         Ok(v)
     }
@@ -118,7 +124,10 @@ impl Tokens {
     fn expect_end(&self) -> Result<()> {
         match self.tokens.get(self.next) {
             None => Ok(()),
-            Some((t, line)) => Err(self.error(*line, format!("unexpected trailing token {t:?} after the last table"))),
+            Some((t, line)) => Err(self.error(
+                *line,
+                format!("unexpected trailing token {t:?} after the last table"),
+            )),
         }
     }
 }
@@ -146,7 +155,11 @@ impl UaiModel {
         let n = tk.integer("the number of variables", 0, LIMIT)?;
         let mut cardinalities = Vec::with_capacity(n.min(1 << 20));
         for i in 0..n {
-            cardinalities.push(tk.integer(&format!("the cardinality of variable {i}"), 1, LIMIT)?);
+            cardinalities.push(tk.integer(
+                &format!("the cardinality of variable {i}"),
+                1,
+                LIMIT,
+            )?);
         }
         let num_functions = tk.integer("the number of functions", 0, LIMIT)?;
         let mut scopes = Vec::with_capacity(num_functions.min(1 << 20));
@@ -162,12 +175,18 @@ impl UaiModel {
                 )?;
                 if scope.contains(&v) {
                     let line = tk.tokens[before].1;
-                    return Err(tk.error(line, format!("function {f} lists variable {v} twice in its scope")));
+                    return Err(tk.error(
+                        line,
+                        format!("function {f} lists variable {v} twice in its scope"),
+                    ));
                 }
                 scope.push(v);
             }
             if kind == UaiKind::Bayes && arity == 0 {
-                return Err(tk.error(tk.last_line(), format!("function {f}: a BAYES table needs a child variable")));
+                return Err(tk.error(
+                    tk.last_line(),
+                    format!("function {f}: a BAYES table needs a child variable"),
+                ));
             }
             scopes.push(scope);
         }
@@ -214,8 +233,14 @@ impl UaiModel {
         Self {
             kind: UaiKind::Markov,
             cardinalities: graph.cardinalities().to_vec(),
-            scopes: graph.factors().map(|f| f.scope().iter().map(|v| v.0).collect()).collect(),
-            tables: graph.factors().map(|f| f.log_table().iter().map(|l| l.exp()).collect()).collect(),
+            scopes: graph
+                .factors()
+                .map(|f| f.scope().iter().map(|v| v.0).collect())
+                .collect(),
+            tables: graph
+                .factors()
+                .map(|f| f.log_table().iter().map(|l| l.exp()).collect())
+                .collect(),
         }
     }
 
@@ -299,20 +324,34 @@ impl Evidence {
         let q = tk.integer("the number of observed variables", 0, n)?;
         let mut pairs = Vec::with_capacity(q);
         for i in 0..q {
-            let v = tk.integer(&format!("the variable of observation {i}"), 0, n.saturating_sub(1))?;
+            let v = tk.integer(
+                &format!("the variable of observation {i}"),
+                0,
+                n.saturating_sub(1),
+            )?;
             let before = tk.next;
-            let x = tk.integer(&format!("the state of observation {i} (variable {v})"), 0, usize::MAX)?;
+            let x = tk.integer(
+                &format!("the state of observation {i} (variable {v})"),
+                0,
+                usize::MAX,
+            )?;
             if x >= cardinalities[v] {
                 let line = tk.tokens[before].1;
                 return Err(tk.error(
                     line,
-                    format!("observation {i}: state {x} of variable {v}, which has {} states", cardinalities[v]),
+                    format!(
+                        "observation {i}: state {x} of variable {v}, which has {} states",
+                        cardinalities[v]
+                    ),
                 ));
             }
             if let Some(&(_, prev)) = pairs.iter().find(|(u, _)| *u == v) {
                 if prev != x {
                     let line = tk.tokens[before].1;
-                    return Err(tk.error(line, format!("variable {v} observed twice, as {prev} and {x}")));
+                    return Err(tk.error(
+                        line,
+                        format!("variable {v} observed twice, as {prev} and {x}"),
+                    ));
                 }
             }
             pairs.push((v, x));

@@ -88,11 +88,20 @@ fn every_visit_updates_recover_well_separated_means() {
         .iter()
         .map(|v| {
             (0..3)
-                .min_by(|&a, &b| (v - start[a]).abs().partial_cmp(&(v - start[b]).abs()).unwrap())
+                .min_by(|&a, &b| {
+                    (v - start[a])
+                        .abs()
+                        .partial_cmp(&(v - start[b]).abs())
+                        .unwrap()
+                })
                 .unwrap()
         })
         .collect();
-    for policy in [UpdatePolicy::EveryVisit, UpdatePolicy::EveryVisits(5), UpdatePolicy::EverySweep] {
+    for policy in [
+        UpdatePolicy::EveryVisit,
+        UpdatePolicy::EveryVisits(5),
+        UpdatePolicy::EverySweep,
+    ] {
         for summary in [DiscreteSummary::MapLabels, DiscreteSummary::Beliefs] {
             let (mut graph, model) = ClusterMeans::chain(&y, &start, 1.0, 1.0).unwrap();
             let mut model = model.with_summary(summary);
@@ -102,19 +111,35 @@ fn every_visit_updates_recover_well_separated_means() {
             };
             let r = HybridInference::new(BeliefPropagation::new(mode).max_iterations(100), policy)
                 .continuous_tolerance(1e-6)
-                .run(&mut graph, &mut model, &mut Sequential::default(), Some(&initial))
+                .run(
+                    &mut graph,
+                    &mut model,
+                    &mut Sequential::default(),
+                    Some(&initial),
+                )
                 .unwrap();
             let mut m = model.means().to_vec();
             m.sort_by(|a, b| a.partial_cmp(b).unwrap());
             let truth = [-5.0, 0.0, 4.0];
             for (got, want) in m.iter().zip(truth) {
-                assert!((got - want).abs() < 0.05, "{policy:?} {summary:?}: means {m:?}");
+                assert!(
+                    (got - want).abs() < 0.05,
+                    "{policy:?} {summary:?}: means {m:?}"
+                );
             }
-            assert!(r.continuous_converged, "{policy:?} {summary:?}: change {}", r.continuous_change);
+            assert!(
+                r.continuous_converged,
+                "{policy:?} {summary:?}: change {}",
+                r.continuous_change
+            );
             assert!(r.solves > 1);
             // Labels are constant on each true segment.
             for seg in r.discrete.assignment.chunks(20) {
-                assert!(seg.iter().all(|&l| l == seg[0]), "{policy:?} {summary:?}: {:?}", r.discrete.assignment);
+                assert!(
+                    seg.iter().all(|&l| l == seg[0]),
+                    "{policy:?} {summary:?}: {:?}",
+                    r.discrete.assignment
+                );
             }
         }
     }
@@ -147,13 +172,24 @@ impl pgm_core::Schedule for EverySecondVisit {
 
 #[test]
 fn schedules_can_drive_continuous_updates() {
-    let y: Vec<f64> = (0..40).map(|i| if i < 20 { 1.0 + 0.01 * i as f64 } else { 6.0 - 0.01 * i as f64 }).collect();
+    let y: Vec<f64> = (0..40)
+        .map(|i| {
+            if i < 20 {
+                1.0 + 0.01 * i as f64
+            } else {
+                6.0 - 0.01 * i as f64
+            }
+        })
+        .collect();
     let initial: Vec<usize> = (0..40).map(|i| usize::from(i >= 25)).collect();
     let (mut graph, mut model) = ClusterMeans::chain(&y, &[0.0, 3.0], 1.0, 1.0).unwrap();
     let mut schedule = EverySecondVisit { n: 40, requests: 0 };
-    let r = HybridInference::new(BeliefPropagation::new(Mode::MaxProduct).max_iterations(30), UpdatePolicy::OnRequest)
-        .run(&mut graph, &mut model, &mut schedule, Some(&initial))
-        .unwrap();
+    let r = HybridInference::new(
+        BeliefPropagation::new(Mode::MaxProduct).max_iterations(30),
+        UpdatePolicy::OnRequest,
+    )
+    .run(&mut graph, &mut model, &mut schedule, Some(&initial))
+    .unwrap();
     // One solve at initialisation, one per request, one in the final decoding.
     assert_eq!(r.solves, schedule.requests + 2);
     assert_eq!(&r.discrete.assignment[..20], &[0; 20]);

@@ -4,8 +4,8 @@ use pgm_core::exact::{brute_force, forward_backward, tree_marginals, viterbi, Br
 use pgm_core::strategies::{self, GraphSpec};
 use pgm_core::uai::UaiModel;
 use pgm_core::{
-    BeliefPropagation, Factor, FactorGraph, Flooding, Incoming, Mode, PottsFactor, Residual, Schedule, Sequential,
-    ShiftedIdentityFactor, TableFactor, VariableId,
+    BeliefPropagation, Factor, FactorGraph, Flooding, Incoming, Mode, PottsFactor, Residual,
+    Schedule, Sequential, ShiftedIdentityFactor, TableFactor, VariableId,
 };
 use proptest::prelude::*;
 use proptest::test_runner::FileFailurePersistence;
@@ -37,7 +37,11 @@ fn check_exact_on_tree(spec: &GraphSpec) -> Result<(), TestCaseError> {
             .max_iterations(200)
             .run(&graph, &mut schedule)
             .unwrap();
-        prop_assert!(map.converged, "{name}: max-product did not converge ({} iterations)", map.iterations);
+        prop_assert!(
+            map.converged,
+            "{name}: max-product did not converge ({} iterations)",
+            map.iterations
+        );
         prop_assert!(
             close(map.log_score, exact.map_log_score, 1e-9),
             "{name}: MAP score {} vs exact {}",
@@ -51,7 +55,10 @@ fn check_exact_on_tree(spec: &GraphSpec) -> Result<(), TestCaseError> {
         prop_assert!(mar.converged, "{name}: sum-product did not converge");
         for (v, (b, e)) in mar.beliefs.iter().zip(&exact.marginals).enumerate() {
             for (x, (p, q)) in b.iter().zip(e).enumerate() {
-                prop_assert!((p - q).abs() <= 1e-9, "{name}: P(x{v} = {x}) = {p}, exact {q}");
+                prop_assert!(
+                    (p - q).abs() <= 1e-9,
+                    "{name}: P(x{v} = {x}) = {p}, exact {q}"
+                );
             }
         }
         match &first_marginals {
@@ -241,16 +248,28 @@ proptest! {
 fn warm_start_from_converged_messages_converges_at_once() {
     let mut g = FactorGraph::with_variables(&[3; 6]).unwrap();
     for v in 0..6 {
-        g.add_factor(TableFactor::new(vec![VariableId(v)], vec![3], vec![0.1 * v as f64, 0.0, -0.2]).unwrap())
-            .unwrap();
+        g.add_factor(
+            TableFactor::new(
+                vec![VariableId(v)],
+                vec![3],
+                vec![0.1 * v as f64, 0.0, -0.2],
+            )
+            .unwrap(),
+        )
+        .unwrap();
     }
     for (a, b) in [(0, 1), (1, 2), (2, 3), (3, 4), (4, 5), (5, 0)] {
-        g.add_factor(PottsFactor::new(VariableId(a), VariableId(b), 3, 0.7, 0.0).unwrap()).unwrap();
+        g.add_factor(PottsFactor::new(VariableId(a), VariableId(b), 3, 0.7, 0.0).unwrap())
+            .unwrap();
     }
-    let bp = BeliefPropagation::new(Mode::SumProduct).tolerance(1e-12).max_iterations(500);
+    let bp = BeliefPropagation::new(Mode::SumProduct)
+        .tolerance(1e-12)
+        .max_iterations(500);
     let first = bp.run(&g, &mut Flooding).unwrap();
     assert!(first.converged && first.iterations > 2);
-    let second = bp.run_from(&g, &mut Flooding, first.messages.clone()).unwrap();
+    let second = bp
+        .run_from(&g, &mut Flooding, first.messages.clone())
+        .unwrap();
     assert!(second.converged);
     assert_eq!(second.iterations, 1);
 }
@@ -261,10 +280,13 @@ fn ties_decode_to_one_consistent_map() {
     // max-marginals would mix them; consistent decoding must pick one.
     let mut g = FactorGraph::with_variables(&[2; 5]).unwrap();
     for v in 0..4 {
-        g.add_factor(PottsFactor::new(VariableId(v), VariableId(v + 1), 2, 0.0, 1.0).unwrap()).unwrap();
+        g.add_factor(PottsFactor::new(VariableId(v), VariableId(v + 1), 2, 0.0, 1.0).unwrap())
+            .unwrap();
     }
     for (_, mut s) in schedules() {
-        let r = BeliefPropagation::new(Mode::MaxProduct).run(&g, &mut s).unwrap();
+        let r = BeliefPropagation::new(Mode::MaxProduct)
+            .run(&g, &mut s)
+            .unwrap();
         assert_eq!(r.log_score, 4.0, "{:?}", r.assignment);
         assert_eq!(r.assignment, vec![0, 1, 0, 1, 0]);
     }
@@ -274,13 +296,21 @@ fn ties_decode_to_one_consistent_map() {
 fn damping_slows_but_does_not_fake_convergence() {
     let mut g = FactorGraph::with_variables(&[2; 4]).unwrap();
     for v in 0..4 {
-        g.add_factor(TableFactor::new(vec![VariableId(v)], vec![2], vec![0.3, -0.1 * v as f64]).unwrap()).unwrap();
+        g.add_factor(
+            TableFactor::new(vec![VariableId(v)], vec![2], vec![0.3, -0.1 * v as f64]).unwrap(),
+        )
+        .unwrap();
     }
     for (a, b) in [(0, 1), (1, 2), (2, 3), (3, 0)] {
-        g.add_factor(PottsFactor::new(VariableId(a), VariableId(b), 2, 0.4, 0.0).unwrap()).unwrap();
+        g.add_factor(PottsFactor::new(VariableId(a), VariableId(b), 2, 0.4, 0.0).unwrap())
+            .unwrap();
     }
     let tol = 1e-10;
-    let undamped = BeliefPropagation::new(Mode::SumProduct).tolerance(tol).max_iterations(1000).run(&g, &mut Flooding).unwrap();
+    let undamped = BeliefPropagation::new(Mode::SumProduct)
+        .tolerance(tol)
+        .max_iterations(1000)
+        .run(&g, &mut Flooding)
+        .unwrap();
     let damped = BeliefPropagation::new(Mode::SumProduct)
         .tolerance(tol)
         .damping(0.9)
@@ -289,7 +319,12 @@ fn damping_slows_but_does_not_fake_convergence() {
         .unwrap();
     assert!(undamped.converged && damped.converged);
     assert!(damped.iterations > undamped.iterations);
-    for (a, b) in undamped.beliefs.iter().flatten().zip(damped.beliefs.iter().flatten()) {
+    for (a, b) in undamped
+        .beliefs
+        .iter()
+        .flatten()
+        .zip(damped.beliefs.iter().flatten())
+    {
         assert!((a - b).abs() < 1e-8, "{a} vs {b}");
     }
 }
@@ -297,7 +332,10 @@ fn damping_slows_but_does_not_fake_convergence() {
 #[test]
 fn invalid_parameters_are_errors() {
     let g = FactorGraph::with_variables(&[2]).unwrap();
-    let err = BeliefPropagation::new(Mode::MaxProduct).damping(1.0).run(&g, &mut Flooding).unwrap_err();
+    let err = BeliefPropagation::new(Mode::MaxProduct)
+        .damping(1.0)
+        .run(&g, &mut Flooding)
+        .unwrap_err();
     assert!(err.to_string().contains("damping = 1"), "{err}");
     let err = TableFactor::new(vec![VariableId(0)], vec![2], vec![0.0, f64::NAN]).unwrap_err();
     assert!(err.to_string().contains("NaN"), "{err}");
@@ -315,13 +353,26 @@ fn uai_errors_name_file_line_and_expectation() {
     let err = UaiModel::parse_str("m.uai", short).unwrap_err().to_string();
     assert!(err.contains("unexpected end of file"), "{err}");
     let wrong_size = "MARKOV\n2\n2 2\n1\n2 0 1\n\n3\n1 2 3\n";
-    let err = UaiModel::parse_str("m.uai", wrong_size).unwrap_err().to_string();
-    assert!(err.contains("m.uai:7:") && err.contains("4 joint states"), "{err}");
+    let err = UaiModel::parse_str("m.uai", wrong_size)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("m.uai:7:") && err.contains("4 joint states"),
+        "{err}"
+    );
     let scope = "MARKOV\n2\n2 2\n1\n2 0 2\n";
     let err = UaiModel::parse_str("m.uai", scope).unwrap_err().to_string();
-    assert!(err.contains("m.uai:5:") && err.contains("outside [0, 1]"), "{err}");
-    let err = pgm_core::uai::Evidence::parse_str("e.evid", "1 0 5", &[2, 2]).unwrap_err().to_string();
-    assert!(err.contains("e.evid:1:") && err.contains("state 5 of variable 0"), "{err}");
+    assert!(
+        err.contains("m.uai:5:") && err.contains("outside [0, 1]"),
+        "{err}"
+    );
+    let err = pgm_core::uai::Evidence::parse_str("e.evid", "1 0 5", &[2, 2])
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("e.evid:1:") && err.contains("state 5 of variable 0"),
+        "{err}"
+    );
     let ev = pgm_core::uai::Evidence::parse_str("e.evid", "1\n1 1 0\n", &[2, 2]).unwrap();
     assert_eq!(ev.0, vec![(1, 0)]);
 }

@@ -55,14 +55,19 @@ impl RigidMotionNodes {
                 expected: "a positive finite number",
             });
         }
-        if let Some(i) = pairs.iter().position(|(s, g)| !(s.x.is_finite() && s.y.is_finite() && g.x.is_finite() && g.y.is_finite())) {
+        if let Some(i) = pairs.iter().position(|(s, g)| {
+            !(s.x.is_finite() && s.y.is_finite() && g.x.is_finite() && g.y.is_finite())
+        }) {
             return Err(Error::InvalidParameter {
                 name: "point pair",
                 value: i.to_string(),
                 expected: "finite coordinates",
             });
         }
-        if let Some(x) = extra_states.iter().find(|x| x.is_nan() || **x == f64::INFINITY) {
+        if let Some(x) = extra_states
+            .iter()
+            .find(|x| x.is_nan() || **x == f64::INFINITY)
+        {
             return Err(Error::InvalidParameter {
                 name: "extra state log-potential",
                 value: x.to_string(),
@@ -119,8 +124,15 @@ impl ContinuousModel for RigidMotionNodes {
         DiscreteSummary::MapLabels
     }
 
-    fn update_variable(&mut self, v: VariableId, old: Option<VariableState<'_>>, new: VariableState<'_>) {
-        let Some((s, g)) = self.pairs.get(v.0).copied() else { return };
+    fn update_variable(
+        &mut self,
+        v: VariableId,
+        old: Option<VariableState<'_>>,
+        new: VariableState<'_>,
+    ) {
+        let Some((s, g)) = self.pairs.get(v.0).copied() else {
+            return;
+        };
         let k = self.motions.len();
         if let Some(VariableState::Label(l)) = old {
             if l < k {
@@ -139,7 +151,9 @@ impl ContinuousModel for RigidMotionNodes {
         for (m, stats) in self.motions.iter_mut().zip(&self.stats) {
             // An empty cluster keeps its motion.
             if let Some(a) = stats.solve() {
-                change = change.max(a.motion.translation_error(m)).max(a.motion.rotation_error(m));
+                change = change
+                    .max(a.motion.translation_error(m))
+                    .max(a.motion.rotation_error(m));
                 *m = a.motion;
             }
         }
@@ -155,7 +169,11 @@ impl ContinuousModel for RigidMotionNodes {
             return Ok(());
         };
         let (s, g) = &self.pairs[*i];
-        match potentials.factor_mut(a).as_any_mut().and_then(|f| f.downcast_mut::<TableFactor>()) {
+        match potentials
+            .factor_mut(a)
+            .as_any_mut()
+            .and_then(|f| f.downcast_mut::<TableFactor>())
+        {
             Some(t) if t.table().len() == self.motions.len() + self.extra_states.len() => {
                 // Written in place: motions give finite values, extra states were checked.
                 let table = t.table_mut();

@@ -45,9 +45,12 @@ pub struct InferArgs {
 /// Runs `pgm map` or `pgm marginals`.
 pub fn run(args: InferArgs, task: Task) -> CliResult {
     let model = UaiModel::read(&args.model).map_err(CliError::from_display)?;
-    let mut graph = model.to_factor_graph().map_err(|e| CliError(format!("{}: {e}", args.model.display())))?;
+    let mut graph = model
+        .to_factor_graph()
+        .map_err(|e| CliError(format!("{}: {e}", args.model.display())))?;
     if let Some(path) = &args.evidence {
-        let evidence = Evidence::read(path, &model.cardinalities).map_err(CliError::from_display)?;
+        let evidence =
+            Evidence::read(path, &model.cardinalities).map_err(CliError::from_display)?;
         evidence
             .apply(&mut graph)
             .map_err(|e| CliError(format!("{}: {e}", path.display())))?;
@@ -63,7 +66,9 @@ pub fn run(args: InferArgs, task: Task) -> CliResult {
         .max_iterations(args.max_iters);
     let mut schedule = kind.build();
     let started = Instant::now();
-    let result = bp.run(&graph, &mut schedule).map_err(CliError::from_display)?;
+    let result = bp
+        .run(&graph, &mut schedule)
+        .map_err(CliError::from_display)?;
     let seconds = started.elapsed().as_secs_f64();
     if result.contradictions > 0 {
         eprintln!(

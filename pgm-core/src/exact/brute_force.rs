@@ -27,7 +27,10 @@ pub fn brute_force(graph: &FactorGraph, limit: BruteForceLimit) -> Result<ExactS
     if states_count > limit.0 {
         return Err(Error::NotApplicable {
             method: "brute force",
-            reason: format!("{states_count} joint states exceed the limit of {}", limit.0),
+            reason: format!(
+                "{states_count} joint states exceed the limit of {}",
+                limit.0
+            ),
         });
     }
     // Factors grouped by their highest variable.

@@ -33,7 +33,10 @@ pub fn chain_order(graph: &FactorGraph) -> Result<Vec<VariableId>> {
         }
     }
     if let Some(v) = neighbours.iter().position(|nb| nb.len() > 2) {
-        return Err(not_chain(format!("variable {v} has {} neighbours", neighbours[v].len())));
+        return Err(not_chain(format!(
+            "variable {v} has {} neighbours",
+            neighbours[v].len()
+        )));
     }
     let start = (0..n)
         .find(|&v| neighbours[v].len() <= 1)
@@ -75,7 +78,9 @@ fn tables(graph: &FactorGraph, order: &[VariableId]) -> ChainTables {
     }
     let cards: Vec<usize> = order.iter().map(|&v| graph.cardinality(v)).collect();
     let mut unary: Vec<Vec<f64>> = cards.iter().map(|&k| vec![0.0; k]).collect();
-    let mut pair: Vec<Vec<f64>> = (0..n.saturating_sub(1)).map(|i| vec![0.0; cards[i] * cards[i + 1]]).collect();
+    let mut pair: Vec<Vec<f64>> = (0..n.saturating_sub(1))
+        .map(|i| vec![0.0; cards[i] * cards[i + 1]])
+        .collect();
     let mut constant = 0.0;
     for f in graph.factors() {
         match f.scope() {
@@ -200,7 +205,11 @@ pub fn forward_backward(graph: &FactorGraph) -> Result<ExactSolution> {
         }
     }
     let log_partition = log_sum_exp(&alpha[n - 1]) + t.constant;
-    let mut marginals: Vec<Vec<f64>> = graph.cardinalities().iter().map(|&k| vec![0.0; k]).collect();
+    let mut marginals: Vec<Vec<f64>> = graph
+        .cardinalities()
+        .iter()
+        .map(|&k| vec![0.0; k])
+        .collect();
     for i in 0..n {
         let joint: Vec<f64> = alpha[i].iter().zip(&beta[i]).map(|(a, b)| a + b).collect();
         let z = log_sum_exp(&joint);

@@ -60,7 +60,13 @@ fn root(graph: &FactorGraph) -> Result<Rooted> {
 }
 
 /// Aggregates `table + Σ_j msgs[j][x_j]` over all positions but `target`.
-fn factor_to_var(shape: &[usize], table: &[f64], msgs: &[Option<&[f64]>], target: usize, agg: Agg) -> Vec<f64> {
+fn factor_to_var(
+    shape: &[usize],
+    table: &[f64],
+    msgs: &[Option<&[f64]>],
+    target: usize,
+    agg: Agg,
+) -> Vec<f64> {
     let mut terms: Vec<Vec<f64>> = vec![Vec::new(); shape[target]];
     let mut states = vec![0usize; shape.len()];
     for &t in table {
@@ -84,8 +90,17 @@ fn factor_to_var(shape: &[usize], table: &[f64], msgs: &[Option<&[f64]>], target
 
 /// Upward messages: `up_var[v]` (variable to its parent factor) and `up_factor[a]`
 /// (factor to its parent variable).
-fn upward(graph: &FactorGraph, r: &Rooted, agg: Agg, tables: &[Vec<f64>]) -> (Vec<Vec<f64>>, Vec<Vec<f64>>) {
-    let mut up_var: Vec<Vec<f64>> = graph.cardinalities().iter().map(|&k| vec![0.0; k]).collect();
+fn upward(
+    graph: &FactorGraph,
+    r: &Rooted,
+    agg: Agg,
+    tables: &[Vec<f64>],
+) -> (Vec<Vec<f64>>, Vec<Vec<f64>>) {
+    let mut up_var: Vec<Vec<f64>> = graph
+        .cardinalities()
+        .iter()
+        .map(|&k| vec![0.0; k])
+        .collect();
     let mut up_factor: Vec<Vec<f64>> = vec![Vec::new(); graph.num_factors()];
     for &v in r.var_order.iter().rev() {
         let mut m = vec![0.0; graph.cardinality(VariableId(v))];
@@ -180,7 +195,11 @@ pub fn tree_marginals(graph: &FactorGraph) -> Result<ExactSolution> {
     let (up_var, up_factor) = upward(graph, &r, Agg::Sum, &tables);
     let n = graph.num_variables();
     // down_var[v]: message into v from its parent factor (0 for roots).
-    let mut down_var: Vec<Vec<f64>> = graph.cardinalities().iter().map(|&k| vec![0.0; k]).collect();
+    let mut down_var: Vec<Vec<f64>> = graph
+        .cardinalities()
+        .iter()
+        .map(|&k| vec![0.0; k])
+        .collect();
     let mut log_partition = constant(graph);
     for &v in &r.var_order {
         if r.var_parent[v].is_none() {
@@ -218,7 +237,11 @@ pub fn tree_marginals(graph: &FactorGraph) -> Result<ExactSolution> {
     }
     let marginals = (0..n)
         .map(|v| {
-            let b: Vec<f64> = down_var[v].iter().zip(&up_var[v]).map(|(d, u)| d + u).collect();
+            let b: Vec<f64> = down_var[v]
+                .iter()
+                .zip(&up_var[v])
+                .map(|(d, u)| d + u)
+                .collect();
             crate::logspace::to_probabilities(&b)
         })
         .collect();

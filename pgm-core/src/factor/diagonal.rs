@@ -162,7 +162,14 @@ impl Factor for ShiftedIdentityFactor {
 
 /// `out[y] = agg(q[y + offset] + on, off + agg_{x ≠ y + offset} q[x])`, with the first
 /// term absent when `y + offset` is out of range.
-pub(crate) fn diagonal_message(q: &[f64], out: &mut [f64], offset: isize, on: f64, off: f64, mode: Mode) {
+pub(crate) fn diagonal_message(
+    q: &[f64],
+    out: &mut [f64],
+    offset: isize,
+    on: f64,
+    off: f64,
+    mode: Mode,
+) {
     let n = q.len() as isize;
     let n_out = out.len() as isize;
     // Targets y whose partner y + offset is a valid state of the other variable.
@@ -174,7 +181,8 @@ pub(crate) fn diagonal_message(q: &[f64], out: &mut [f64], offset: isize, on: f6
             // position, and the maximum of everything else (three packed passes).
             let best = crate::logspace::max(q);
             let best_at = q.iter().position(|&v| v == best).unwrap_or(0);
-            let second = crate::logspace::max(&q[..best_at]).max(crate::logspace::max(&q[(best_at + 1).min(q.len())..]));
+            let second = crate::logspace::max(&q[..best_at])
+                .max(crate::logspace::max(&q[(best_at + 1).min(q.len())..]));
             let all = off + best;
             out[..lo].iter_mut().for_each(|o| *o = all);
             out[hi..].iter_mut().for_each(|o| *o = all);

@@ -21,12 +21,18 @@ impl TableFactor {
         if scope.len() != shape.len() {
             return Err(Error::InvalidParameter {
                 name: "table factor shape",
-                value: format!("{} scope entries, {} shape entries", scope.len(), shape.len()),
+                value: format!(
+                    "{} scope entries, {} shape entries",
+                    scope.len(),
+                    shape.len()
+                ),
                 expected: "one shape entry per scope variable",
             });
         }
         if let Some(p) = shape.iter().position(|&k| k == 0) {
-            return Err(Error::ZeroCardinality { variable: scope[p].0 });
+            return Err(Error::ZeroCardinality {
+                variable: scope[p].0,
+            });
         }
         let expected: usize = shape.iter().product();
         if expected != log_table.len() {
@@ -49,7 +55,11 @@ impl TableFactor {
     }
 
     /// A table from potentials (not logs): zeros become −∞; negative or NaN entries are errors.
-    pub fn from_potentials(scope: Vec<VariableId>, shape: Vec<usize>, potentials: &[f64]) -> Result<Self> {
+    pub fn from_potentials(
+        scope: Vec<VariableId>,
+        shape: Vec<usize>,
+        potentials: &[f64],
+    ) -> Result<Self> {
         let mut logs = Vec::with_capacity(potentials.len());
         for (index, &p) in potentials.iter().enumerate() {
             if p.is_nan() || p < 0.0 || p == f64::INFINITY {
@@ -120,7 +130,15 @@ impl Factor for TableFactor {
     fn message(&self, target: usize, incoming: &Incoming<'_>, mode: Mode, out: &mut [f64]) {
         match self.shape.len() {
             1 => out.copy_from_slice(&self.log_table),
-            2 => pairwise_message(&self.log_table, self.shape[0], self.shape[1], target, incoming, mode, out),
+            2 => pairwise_message(
+                &self.log_table,
+                self.shape[0],
+                self.shape[1],
+                target,
+                incoming,
+                mode,
+                out,
+            ),
             _ => strided_message(self, target, incoming, mode, out),
         }
     }
@@ -197,15 +215,20 @@ fn pairwise_message(
 }
 
 /// Messages of tables of arity three and more: one walk over the table.
-fn strided_message(f: &TableFactor, target: usize, incoming: &Incoming<'_>, mode: Mode, out: &mut [f64]) {
+fn strided_message(
+    f: &TableFactor,
+    target: usize,
+    incoming: &Incoming<'_>,
+    mode: Mode,
+    out: &mut [f64],
+) {
     let arity = f.shape.len();
     let mut states = vec![0usize; arity];
     // Partial sums of incoming messages are recomputed only for changed positions.
     let mut incoming_sum = 0.0;
     let others: Vec<usize> = (0..arity).filter(|&j| j != target).collect();
-    let recompute = |states: &[usize]| -> f64 {
-        others.iter().map(|&j| incoming.slot(j)[states[j]]).sum()
-    };
+    let recompute =
+        |states: &[usize]| -> f64 { others.iter().map(|&j| incoming.slot(j)[states[j]]).sum() };
     incoming_sum += recompute(&states);
     match mode {
         Mode::MaxProduct => {

@@ -33,7 +33,12 @@ impl ClusterMeans {
     /// (refreshed from the means) and Potts factors of log-potential `coupling` for equal
     /// neighbours, plus the means model starting at `initial_means`. `weight` must be
     /// positive and finite.
-    pub fn chain(observations: &[f64], initial_means: &[f64], weight: f64, coupling: f64) -> Result<(FactorGraph, Self)> {
+    pub fn chain(
+        observations: &[f64],
+        initial_means: &[f64],
+        weight: f64,
+        coupling: f64,
+    ) -> Result<(FactorGraph, Self)> {
         let k = initial_means.len();
         if k == 0 {
             return Err(Error::InvalidParameter {
@@ -49,7 +54,11 @@ impl ClusterMeans {
                 expected: "a positive finite number",
             });
         }
-        if let Some(i) = observations.iter().chain(initial_means).position(|y| !y.is_finite()) {
+        if let Some(i) = observations
+            .iter()
+            .chain(initial_means)
+            .position(|y| !y.is_finite())
+        {
             return Err(Error::InvalidParameter {
                 name: "observation or initial mean",
                 value: format!("entry {i} is not finite"),
@@ -61,13 +70,23 @@ impl ClusterMeans {
         let mut dependent = Vec::with_capacity(n);
         let mut factor_variable = Vec::new();
         for i in 0..n {
-            let a = graph.add_factor(TableFactor::new(vec![VariableId(i)], vec![k], vec![0.0; k])?)?;
+            let a = graph.add_factor(TableFactor::new(
+                vec![VariableId(i)],
+                vec![k],
+                vec![0.0; k],
+            )?)?;
             dependent.push(vec![a]);
             factor_variable.resize(a.0 + 1, None);
             factor_variable[a.0] = Some(i);
         }
         for i in 1..n {
-            graph.add_factor(PottsFactor::new(VariableId(i - 1), VariableId(i), k, coupling, 0.0)?)?;
+            graph.add_factor(PottsFactor::new(
+                VariableId(i - 1),
+                VariableId(i),
+                k,
+                coupling,
+                0.0,
+            )?)?;
         }
         let model = Self {
             observations: observations.to_vec(),
@@ -116,8 +135,15 @@ impl ContinuousModel for ClusterMeans {
         self.summary
     }
 
-    fn update_variable(&mut self, v: VariableId, old: Option<VariableState<'_>>, new: VariableState<'_>) {
-        let Some(&y) = self.observations.get(v.0) else { return };
+    fn update_variable(
+        &mut self,
+        v: VariableId,
+        old: Option<VariableState<'_>>,
+        new: VariableState<'_>,
+    ) {
+        let Some(&y) = self.observations.get(v.0) else {
+            return;
+        };
         if let Some(old) = old {
             self.accumulate(y, old, -1.0);
         }
@@ -147,8 +173,16 @@ impl ContinuousModel for ClusterMeans {
             return Ok(());
         };
         let y = self.observations[*i];
-        let table: Vec<f64> = self.means.iter().map(|m| -self.weight * (y - m) * (y - m)).collect();
-        match potentials.factor_mut(a).as_any_mut().and_then(|f| f.downcast_mut::<TableFactor>()) {
+        let table: Vec<f64> = self
+            .means
+            .iter()
+            .map(|m| -self.weight * (y - m) * (y - m))
+            .collect();
+        match potentials
+            .factor_mut(a)
+            .as_any_mut()
+            .and_then(|f| f.downcast_mut::<TableFactor>())
+        {
             Some(t) => t.set_table(table),
             None => Err(Error::InvalidParameter {
                 name: "dependent factor",

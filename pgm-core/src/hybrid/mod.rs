@@ -80,7 +80,12 @@ pub trait ContinuousModel: Send {
     /// The state of attached variable `v` changed from `old` (`None` the first time)
     /// to `new`. Update sufficient statistics here, in O(1) per affected node.
     /// Variables the model does not attach to may be ignored.
-    fn update_variable(&mut self, v: VariableId, old: Option<VariableState<'_>>, new: VariableState<'_>);
+    fn update_variable(
+        &mut self,
+        v: VariableId,
+        old: Option<VariableState<'_>>,
+        new: VariableState<'_>,
+    );
 
     /// Re-solves every continuous value in closed form from the statistics; returns
     /// the largest change of any value (the continuous part's residual).
@@ -285,7 +290,11 @@ impl HybridInference {
 
 /// Recomputes the messages of single-variable factors (whose potentials may have been
 /// refreshed) so decoding sees the refreshed local evidence.
-fn refresh_single_variable_messages(graph: &FactorGraph, mut messages: Messages, mode: Mode) -> Messages {
+fn refresh_single_variable_messages(
+    graph: &FactorGraph,
+    mut messages: Messages,
+    mode: Mode,
+) -> Messages {
     let how = match mode {
         Mode::MaxProduct => logspace::Normalisation::Max,
         Mode::SumProduct => logspace::Normalisation::Sum,
@@ -341,14 +350,22 @@ impl HybridHook<'_> {
     fn set_state(&mut self, v: VariableId, new: StoredState) {
         let old = self.states[v.0].take();
         if old.as_ref() != Some(&new) {
-            self.model.update_variable(v, old.as_ref().map(|o| o.view()), new.view());
+            self.model
+                .update_variable(v, old.as_ref().map(|o| o.view()), new.view());
         }
         self.states[v.0] = Some(new);
     }
 
-    fn current_state(&self, graph: &FactorGraph, messages: &Messages, v: VariableId) -> StoredState {
+    fn current_state(
+        &self,
+        graph: &FactorGraph,
+        messages: &Messages,
+        v: VariableId,
+    ) -> StoredState {
         match self.summary {
-            DiscreteSummary::MapLabels => StoredState::Label(first_argmax(&messages.log_belief(graph, v))),
+            DiscreteSummary::MapLabels => {
+                StoredState::Label(first_argmax(&messages.log_belief(graph, v)))
+            }
             DiscreteSummary::Beliefs => StoredState::Belief(messages.belief(graph, v)),
         }
     }
@@ -419,7 +436,10 @@ impl HybridHook<'_> {
 
     fn refresh_if_dependent(&mut self, a: FactorId, potentials: &mut Potentials<'_>) {
         let scope: Vec<VariableId> = potentials.graph().factor(a).scope().to_vec();
-        if scope.iter().any(|&v| self.model.dependent_factors(v).contains(&a)) {
+        if scope
+            .iter()
+            .any(|&v| self.model.dependent_factors(v).contains(&a))
+        {
             self.refresh(a, potentials);
         }
     }
@@ -471,7 +491,12 @@ impl HybridHook<'_> {
 }
 
 impl UpdateHook for HybridHook<'_> {
-    fn before_visit(&mut self, visit: Visit, potentials: &mut Potentials<'_>, _messages: &Messages) {
+    fn before_visit(
+        &mut self,
+        visit: Visit,
+        potentials: &mut Potentials<'_>,
+        _messages: &Messages,
+    ) {
         if self.policy != UpdatePolicy::Frozen {
             self.refresh_for(visit, potentials);
         }
@@ -501,7 +526,12 @@ impl UpdateHook for HybridHook<'_> {
         }
     }
 
-    fn after_iteration(&mut self, _iteration: usize, potentials: &mut Potentials<'_>, messages: &Messages) -> bool {
+    fn after_iteration(
+        &mut self,
+        _iteration: usize,
+        potentials: &mut Potentials<'_>,
+        messages: &Messages,
+    ) -> bool {
         match self.policy {
             UpdatePolicy::Frozen => true,
             UpdatePolicy::OnRequest => self.last_change <= self.tolerance,
@@ -513,7 +543,8 @@ impl UpdateHook for HybridHook<'_> {
                     for a in all {
                         self.refresh(a, potentials);
                     }
-                    self.scores.push(potentials.graph().log_score_unchecked(&labels));
+                    self.scores
+                        .push(potentials.graph().log_score_unchecked(&labels));
                 }
                 self.last_change <= self.tolerance
             }

@@ -156,7 +156,12 @@ pub fn two_pass_edges(graph: &FactorGraph) -> Vec<EdgeId> {
         position[v.0] = i;
     }
     let parent = |a: FactorId| -> Option<VariableId> {
-        graph.factor(a).scope().iter().copied().min_by_key(|v| position[v.0])
+        graph
+            .factor(a)
+            .scope()
+            .iter()
+            .copied()
+            .min_by_key(|v| position[v.0])
     };
     let mut edges = Vec::with_capacity(graph.num_edges());
     for &v in order.iter().rev() {
