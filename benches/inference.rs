@@ -96,7 +96,8 @@ fn grid(c: &mut Criterion) {
     group
         .sample_size(20)
         .measurement_time(Duration::from_secs(8));
-    let runs: Vec<(&str, &rayon::ThreadPool, Box<dyn Fn() -> Box<dyn Schedule>>)> = vec![
+    type MakeSchedule = Box<dyn Fn() -> Box<dyn Schedule>>;
+    let runs: Vec<(&str, &rayon::ThreadPool, MakeSchedule)> = vec![
         ("flooding_1_thread", &one, Box::new(|| Box::new(Flooding))),
         ("flooding_2_threads", &two, Box::new(|| Box::new(Flooding))),
         (

@@ -84,8 +84,8 @@ fn motion(outcomes: &[PairOutcome]) {
 fn header(title: &str) {
     println!("\n{title}");
     println!(
-        "{:<22} {:<40} {:>7}   {}",
-        "method", "H                C                V", "iters", "paper (H, C, V)"
+        "{:<22} {:<40} {:>7}   paper (H, C, V)",
+        "method", "H                C                V", "iters"
     );
 }
 

@@ -21,7 +21,7 @@ fn random_tree(seed: u64) -> FactorGraph {
     let n = rng.random_range(2..11);
     let cards: Vec<usize> = (0..n).map(|_| rng.random_range(1..5)).collect();
     let mut g = FactorGraph::with_variables(&cards).unwrap();
-    let mut draw = |size: usize, rng: &mut ChaCha8Rng| -> Vec<f64> {
+    let draw = |size: usize, rng: &mut ChaCha8Rng| -> Vec<f64> {
         let mut t: Vec<f64> = (0..size)
             .map(|_| {
                 if rng.random::<f64>() < 0.1 {
@@ -36,9 +36,9 @@ fn random_tree(seed: u64) -> FactorGraph {
         }
         t
     };
-    for v in 0..n {
-        let t = draw(cards[v], &mut rng);
-        g.add_factor(TableFactor::new(vec![VariableId(v)], vec![cards[v]], t).unwrap())
+    for (v, &k) in cards.iter().enumerate() {
+        let t = draw(k, &mut rng);
+        g.add_factor(TableFactor::new(vec![VariableId(v)], vec![k], t).unwrap())
             .unwrap();
     }
     for v in 1..n {

@@ -2,7 +2,7 @@
 //! files, and MPE / MAR result files.
 //!
 //! Model tables list entries with the last scope variable changing fastest (row-major),
-//! the same order as [`TableFactor`](crate::TableFactor). Values are potentials (not
+//! the same order as [`TableFactor`]. Values are potentials (not
 //! logs); zeros become −∞ log-potentials. BAYES tables are conditional probability
 //! tables with the child last; semantically the model is the product of all tables,
 //! so both kinds convert to the same factor graph. Lines starting with `c` are comments

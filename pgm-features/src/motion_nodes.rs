@@ -1,5 +1,5 @@
 //! Per-cluster rigid motions as observed-continuous nodes (a
-//! [`ContinuousModel`](pgm_core::hybrid::ContinuousModel) of the inference core).
+//! [`ContinuousModel`] of the inference core).
 //!
 //! Variable `i` labels a point pair `(s_i, g_i)` (current point, its partner in the
 //! reference) with a cluster `l`. Each cluster has a rigid motion `m_l = (R_l, T_l)`,

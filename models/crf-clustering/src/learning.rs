@@ -1,5 +1,5 @@
 //! Learning the weights by pseudo-likelihood (section III of the CRF-Clustering paper)
-//! with the core's [`Learner`] (L-BFGS).
+//! with the core's [`Learner`](pgm_core::learning::Learner) (L-BFGS).
 //!
 //! A training instance is one labelled pair: the CRF over its current scan's valid
 //! points (the same chain and edges as at inference time) whose states are the pair's
