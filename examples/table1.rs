@@ -99,6 +99,7 @@ fn main() -> ExitCode {
         .and_then(|v| v.parse().ok())
         .unwrap_or(if quick { 10 } else { 50 });
     let icp = AssociationSource::NearestAfterIcp(NearestParams::default());
+    let segment = AssociationSource::automatic();
     let config = match SimConfig::default().check() {
         Ok(c) => c,
         Err(e) => {
@@ -125,7 +126,14 @@ fn main() -> ExitCode {
             AssociationSource::GroundTruth,
             Some(&PAPER[2].1),
         ),
-        ("CRF, ICP assoc.", Method::Crf, icp, Some(&PAPER[3].1)),
+        ("K-Means (seg.-ICP assoc.)", Method::KMeans, segment, None),
+        ("CRF, ICP assoc.", Method::Crf, icp, None),
+        (
+            "CRF, seg.-ICP assoc.",
+            Method::Crf,
+            segment,
+            Some(&PAPER[3].1),
+        ),
         ("one cluster", Method::OneCluster, icp, None),
     ];
     for (name, method, associations, paper) in rows {
@@ -184,13 +192,14 @@ fn main() -> ExitCode {
             })
             .count();
         header(&format!("(b) leigh-gtm1, k = {k}: {} pairs ({moving} with a moving person), all annotated pairs, odometry given", pairs.len()));
-        for (name, method) in [
-            ("CBD (odometry)", Method::Cbd),
-            ("K-Means (ICP assoc.)", Method::KMeans),
-            ("CRF, ICP assoc.", Method::Crf),
-            ("one cluster", Method::OneCluster),
+        for (name, method, associations) in [
+            ("CBD (odometry)", Method::Cbd, icp),
+            ("K-Means (ICP assoc.)", Method::KMeans, icp),
+            ("CRF, ICP assoc.", Method::Crf, icp),
+            ("CRF, seg.-ICP assoc.", Method::Crf, segment),
+            ("one cluster", Method::OneCluster, icp),
         ] {
-            match run(&pairs, method, icp) {
+            match run(&pairs, method, associations) {
                 Ok((s, outcomes)) => {
                     row(name, &s, None);
                     if method == Method::Crf {

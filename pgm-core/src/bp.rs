@@ -484,7 +484,7 @@ fn gather(
         let k = ix.cardinalities[v];
         let own = ix.edge_offset[e];
         let dst = &mut scratch.incoming[lo..lo + k];
-        let block = &messages[ix.variable_start[v]..ix.variable_start[v + 1]];
+        let block = &messages[ix.variable_start[v]..ix.variable_end[v]];
         let own = own - ix.variable_start[v];
         let mut first = true;
         let mut start = 0;
@@ -683,16 +683,17 @@ impl PassState {
         let len = self.messages.values.len();
         let mut next = std::mem::take(&mut self.flood_buffer);
         next.resize(len, 0.0);
-        // Chunks of consecutive variables own consecutive message blocks.
-        let n = graph.num_variables();
+        // Chunks of consecutive variables of the layout order own consecutive blocks.
+        let order = graph.layout_order();
+        let n = order.len();
         let per_chunk = (n / (8 * rayon::current_num_threads().max(1))).clamp(32, 4096);
         let mut chunks: Vec<(std::ops::Range<usize>, &mut [f64])> = Vec::new();
         let mut rest: &mut [f64] = &mut next;
         let mut first = 0;
         while first < n {
             let last = (first + per_chunk).min(n);
-            let begin = graph.variable_message_range(VariableId(first)).start;
-            let end = graph.variable_message_range(VariableId(last - 1)).end;
+            let begin = graph.variable_message_range(order[first]).start;
+            let end = graph.variable_message_range(order[last - 1]).end;
             let (head, tail) = std::mem::take(&mut rest).split_at_mut(end - begin);
             chunks.push((first..last, head));
             rest = tail;
@@ -704,13 +705,11 @@ impl PassState {
             .into_par_iter()
             .map(|(variables, out)| {
                 let mut scratch = Scratch::default();
-                let base = graph
-                    .variable_message_range(VariableId(variables.start))
-                    .start;
+                let base = graph.variable_message_range(order[variables.start]).start;
                 let mut residual = 0.0f64;
                 let mut contradictions = 0usize;
-                for v in variables {
-                    for &e in graph.variable_edges(VariableId(v)) {
+                for &v in &order[variables] {
+                    for &e in graph.variable_edges(v) {
                         let a = graph.edge_factor(e);
                         let slot = graph.edge_slot(e);
                         gather(graph, old, a, Some(slot), &mut scratch);

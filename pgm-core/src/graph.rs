@@ -68,6 +68,7 @@ pub struct FactorGraph {
 pub(crate) struct MessageIndex<'g> {
     pub(crate) edge_offset: &'g [usize],
     pub(crate) variable_start: &'g [usize],
+    pub(crate) variable_end: &'g [usize],
     pub(crate) edge_variable: &'g [VariableId],
     pub(crate) cardinalities: &'g [usize],
     pub(crate) factor_edge_start: &'g [usize],
@@ -78,8 +79,14 @@ pub(crate) struct MessageIndex<'g> {
 struct Layout {
     /// Offset of each edge's message.
     edge_offset: Vec<usize>,
-    /// Start of each variable's block; `num_variables + 1` entries.
+    /// Start of each variable's block.
     variable_start: Vec<usize>,
+    /// End of each variable's block.
+    variable_end: Vec<usize>,
+    /// Variables in the order of their blocks.
+    order: Vec<VariableId>,
+    /// Total buffer length.
+    total: usize,
 }
 
 impl FactorGraph {
@@ -267,6 +274,7 @@ impl FactorGraph {
         MessageIndex {
             edge_offset: &layout.edge_offset,
             variable_start: &layout.variable_start,
+            variable_end: &layout.variable_end,
             edge_variable: &self.edge_variable,
             cardinalities: &self.cardinalities,
             factor_edge_start: &self.factor_edge_start,
@@ -275,20 +283,27 @@ impl FactorGraph {
 
     fn layout(&self) -> &Layout {
         self.layout.get_or_init(|| {
+            // Blocks follow the breadth-first order, the order the default sequential
+            // schedule sweeps in, so its reads and writes stay local in memory.
+            let order = self.bfs_order();
             let mut edge_offset = vec![0; self.num_edges()];
-            let mut variable_start = Vec::with_capacity(self.num_variables() + 1);
+            let mut variable_start = vec![0; self.num_variables()];
+            let mut variable_end = vec![0; self.num_variables()];
             let mut next = 0;
-            for (v, edges) in self.variable_edges.iter().enumerate() {
-                variable_start.push(next);
-                for e in edges {
+            for &v in &order {
+                variable_start[v.0] = next;
+                for e in &self.variable_edges[v.0] {
                     edge_offset[e.0] = next;
-                    next += self.cardinalities[v];
+                    next += self.cardinalities[v.0];
                 }
+                variable_end[v.0] = next;
             }
-            variable_start.push(next);
             Layout {
                 edge_offset,
                 variable_start,
+                variable_end,
+                order,
+                total: next,
             }
         })
     }
@@ -305,12 +320,18 @@ impl FactorGraph {
     #[inline]
     pub fn variable_message_range(&self, v: VariableId) -> Range<usize> {
         let l = self.layout();
-        l.variable_start[v.0]..l.variable_start[v.0 + 1]
+        l.variable_start[v.0]..l.variable_end[v.0]
     }
 
     /// Total length of a message buffer.
     pub fn message_len(&self) -> usize {
-        self.layout().variable_start.last().copied().unwrap_or(0)
+        self.layout().total
+    }
+
+    /// The variables in the order their message blocks are laid out (breadth-first);
+    /// consecutive variables of this order own consecutive blocks.
+    pub fn layout_order(&self) -> &[VariableId] {
+        &self.layout().order
     }
 
     /// Checks that an assignment has one in-range state per variable.

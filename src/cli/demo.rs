@@ -48,6 +48,7 @@ pub fn run(args: DemoArgs) -> CliResult {
     let pairs = simulate_pairs(&config, args.seed, args.pairs);
     let clusterer = Clusterer::default();
     let icp = AssociationSource::NearestAfterIcp(NearestParams::default());
+    let segment = AssociationSource::automatic();
     println!(
         "CRF-Clustering on {} simulated pairs (preset mixed, seed {})",
         pairs.len(),
@@ -63,6 +64,7 @@ pub fn run(args: DemoArgs) -> CliResult {
             Method::Crf,
             AssociationSource::GroundTruth,
         ),
+        ("CRF, segment-ICP assoc.", Method::Crf, segment),
         ("CRF, ICP associations", Method::Crf, icp),
         ("CBD", Method::Cbd, icp),
         ("motion K-Means, ICP", Method::KMeans, icp),

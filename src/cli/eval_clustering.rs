@@ -3,7 +3,7 @@
 //!
 //! `pgm eval clustering --method crf|cbd|kmeans|one-cluster (--pairs DIR | --scans FILE
 //! --people FILE [--odometry FILE] --k K [--moving-threshold M]) [--associations
-//! true|icp] [--weights FILE] [--json]` scores every pair with ground-truth labels and
+//! true|icp|segment-icp] [--weights FILE] [--json]` scores every pair with ground-truth labels and
 //! prints the mean and standard deviation over pairs. `--json` prints one object
 //! `{"pairs", "homogeneity_mean", "homogeneity_std", "completeness_mean",
 //! "completeness_std", "v_measure_mean", "v_measure_std", "iterations_mean"}`.

@@ -1,7 +1,7 @@
 //! `pgm train`: learn model weights from labelled data.
 //!
 //! `pgm train clustering (--data DIR | --simulate N [--seed S] [--preset P])
-//! --out weights.json [--associations true|icp|both] [--prior-variance V]` learns the
+//! --out weights.json [--associations true|icp|segment-icp|both] [--prior-variance V]` learns the
 //! CRF-Clustering weights by pseudo-likelihood (L-BFGS) from labelled pairs: each
 //! pair's CRF with features computed from the motions of its true clusters
 //! ([`pgm_crf_clustering::learning`]). `both` uses every pair twice, once with true
@@ -39,7 +39,9 @@ pub enum TrainAssociations {
     True,
     /// Nearest neighbour after ICP.
     Icp,
-    /// Every pair once with each.
+    /// Segment-wise ICP (see `pgm cluster --associations segment-icp`).
+    SegmentIcp,
+    /// Every pair once with true and once with ICP associations.
     Both,
 }
 
@@ -99,6 +101,11 @@ fn run_clustering(args: TrainClusteringArgs) -> CliResult {
     let sources: Vec<AssociationSource> = match args.associations {
         TrainAssociations::True => vec![AssociationSource::GroundTruth],
         TrainAssociations::Icp => vec![icp],
+        TrainAssociations::SegmentIcp => {
+            vec![args
+                .crf
+                .associations(super::cluster::AssociationArg::SegmentIcp)]
+        }
         TrainAssociations::Both => vec![AssociationSource::GroundTruth, icp],
     };
     let built: Vec<_> = pairs

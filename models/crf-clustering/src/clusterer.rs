@@ -34,6 +34,15 @@
 //!    their own motion. (b) rejects clusters whose own motion merely overfits the
 //!    association noise of a static segment (any cluster's own fit is at least as good
 //!    as the background's on its points). The rest join the background.
+//! 6. **Clean-up**: points without a partner keep their label only when an
+//!    associated point of their gap segment has it, else they take the label of the
+//!    nearest associated point of the segment, or the background's
+//!    ([`ClusteringParams::reassign_unassociated`]): a stretch of background revealed
+//!    behind a moving car otherwise follows the car along the chain. A moving cluster
+//!    whose points jump by more than [`ClusteringParams::object_gap`] (in beam order)
+//!    is split into objects (two cars at the same velocity share one motion); pieces
+//!    with fewer than [`ClusteringParams::min_object_points`] points join the
+//!    background.
 
 use crate::associations::PointAssociations;
 use crate::model::{build_edges, ClusterMotionNodes, MAX_CLUSTERS};
@@ -103,6 +112,12 @@ pub struct ClusteringParams {
     /// Smallest mean displacement (m) of an object's points relative to the background
     /// motion for it to count as moving (0.15).
     pub min_object_displacement: f64,
+    /// Largest distance (m) between consecutive points (in beam order) of one moving
+    /// object: a moving cluster with a larger jump is split into several objects (4).
+    pub object_gap: f64,
+    /// Whether points without a partner are checked against the associated points of
+    /// their gap segment after inference (true; see the module docs, step 6).
+    pub reassign_unassociated: bool,
     /// The learned weights (default: the shipped ones).
     pub weights: ClusteringWeights,
 }
@@ -121,6 +136,8 @@ impl Default for ClusteringParams {
             odometry_sigma: [0.3, 0.3, 0.1],
             min_object_points: 3,
             min_object_displacement: 0.15,
+            object_gap: 4.0,
+            reassign_unassociated: true,
             weights: ClusteringWeights::default(),
         }
     }
@@ -189,6 +206,13 @@ impl ClusteringParams {
                 "min_object_displacement",
                 self.min_object_displacement,
                 "a number of metres >= 0",
+            ));
+        }
+        if !positive(self.object_gap) {
+            return Err(invalid(
+                "object_gap",
+                self.object_gap,
+                "a positive number of metres",
             ));
         }
         if !self.weights.to_vec().iter().all(|w| w.is_finite()) {
@@ -526,7 +550,12 @@ impl Clusterer {
         }
     }
 
-    fn finish(&self, input: &ClusteringInput, inferred: Inferred, initial: usize) -> Clustering {
+    fn finish(
+        &self,
+        input: &ClusteringInput,
+        mut inferred: Inferred,
+        initial: usize,
+    ) -> Clustering {
         let p = &self.params;
         let k = inferred.clusters;
         let mut count = vec![0usize; k];
@@ -563,6 +592,15 @@ impl Clusterer {
             .get(background)
             .copied()
             .unwrap_or_default();
+        if p.reassign_unassociated {
+            reassign_unassociated(input, &mut inferred.labels, k, background, p.segment_gap);
+            count.fill(0);
+            for &l in &inferred.labels {
+                if l < k {
+                    count[l] += 1;
+                }
+            }
+        }
         // Displacement of each cluster's points relative to the background motion.
         let mut displacement = vec![0.0f64; k];
         for (i, &l) in inferred.labels.iter().enumerate() {
@@ -584,7 +622,6 @@ impl Clusterer {
                 associated[l] += 1;
             }
         }
-        let mut output = vec![Some(0u32); k];
         let mut moving = vec![false; k];
         for l in 0..k {
             if count[l] > 0 {
@@ -598,19 +635,58 @@ impl Clusterer {
                 && displacement[l] >= p.min_object_displacement
                 && evidence[l] >= p.min_object_displacement;
         }
-        // Number moving clusters by first appearance.
+        // Number moving objects by first appearance; a moving cluster whose points
+        // (in beam order) jump by more than `object_gap` is several objects that
+        // happen to move alike (two cars at the same velocity).
+        let mut current = vec![0u32; k];
+        let mut last: Vec<Option<usize>> = vec![None; k];
         let mut next = 1u32;
-        for &l in &inferred.labels {
-            if l < k && moving[l] && output[l] == Some(0) {
-                output[l] = Some(next);
+        let mut point_labels = vec![0u32; inferred.labels.len()];
+        let mut objects: Vec<Cluster> = Vec::new();
+        for (i, &l) in inferred.labels.iter().enumerate() {
+            if l >= k || !moving[l] {
+                continue;
+            }
+            let jump =
+                last[l].is_none_or(|j| (input.points[i] - input.points[j]).norm() > p.object_gap);
+            if jump {
+                current[l] = next;
                 next += 1;
+                objects.push(Cluster {
+                    label: current[l],
+                    motion: inferred.motions[l],
+                    points: 0,
+                    displacement: displacement[l],
+                    background: false,
+                });
+            }
+            last[l] = Some(i);
+            point_labels[i] = current[l];
+            objects[current[l] as usize - 1].points += 1;
+        }
+        // Pieces too small to be objects on their own join the background; the rest
+        // are renumbered.
+        let mut renumber = vec![0u32; objects.len() + 1];
+        let mut kept = 0u32;
+        for o in &objects {
+            if o.points >= p.min_object_points {
+                kept += 1;
+                renumber[o.label as usize] = kept;
             }
         }
-        let mut labels = vec![None; input.beam_count];
-        for (i, &l) in inferred.labels.iter().enumerate() {
-            labels[input.beams[i]] = if l < k { output[l] } else { None };
+        objects.retain(|o| o.points >= p.min_object_points);
+        for o in &mut objects {
+            o.label = renumber[o.label as usize];
         }
-        let bg_points: usize = (0..k).filter(|&l| !moving[l]).map(|l| count[l]).sum();
+        let mut labels = vec![None; input.beam_count];
+        let mut bg_points = 0;
+        for (i, &l) in inferred.labels.iter().enumerate() {
+            if l < k {
+                let out = renumber[point_labels[i] as usize];
+                bg_points += usize::from(out == 0);
+                labels[input.beams[i]] = Some(out);
+            }
+        }
         let mut clusters = vec![Cluster {
             label: 0,
             motion: bg_motion,
@@ -618,17 +694,6 @@ impl Clusterer {
             displacement: 0.0,
             background: true,
         }];
-        let mut objects: Vec<Cluster> = (0..k)
-            .filter(|&l| moving[l])
-            .map(|l| Cluster {
-                label: output[l].unwrap_or(0),
-                motion: inferred.motions[l],
-                points: count[l],
-                displacement: displacement[l],
-                background: false,
-            })
-            .collect();
-        objects.sort_by_key(|c| c.label);
         clusters.extend(objects);
         Clustering {
             labels,
@@ -641,5 +706,45 @@ impl Clusterer {
             final_clusters: candidates.len(),
             converged: inferred.converged,
         }
+    }
+}
+
+/// Points without a partner carry no motion evidence: the chain gives them the label
+/// of a neighbour, which can drag a newly revealed stretch of background (seen only
+/// in the current scan, behind an object that moved) into the object's cluster.
+/// Each such point keeps its label only when an associated point of its gap segment
+/// has that label; otherwise it takes the label of the nearest associated point of
+/// its segment (in beam order), or the background's when its segment has none.
+fn reassign_unassociated(
+    input: &ClusteringInput,
+    labels: &mut [usize],
+    k: usize,
+    background: usize,
+    gap: f64,
+) {
+    let n = labels.len();
+    let segments = crate::segmentation::segment_by_gap(&input.points, gap);
+    let mut start = 0;
+    while start < n {
+        let mut end = start + 1;
+        while end < n && segments[end] == segments[start] {
+            end += 1;
+        }
+        let associated: Vec<usize> = (start..end)
+            .filter(|&i| input.partners[i].is_some() && labels[i] < k)
+            .collect();
+        for i in start..end {
+            if input.partners[i].is_some() || labels[i] >= k {
+                continue;
+            }
+            if associated.iter().any(|&j| labels[j] == labels[i]) {
+                continue;
+            }
+            labels[i] = associated
+                .iter()
+                .min_by_key(|&&j| j.abs_diff(i))
+                .map_or(background, |&j| labels[j]);
+        }
+        start = end;
     }
 }

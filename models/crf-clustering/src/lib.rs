@@ -9,7 +9,7 @@
 //!
 //! **Big picture.**
 //! - [`associations`]: where each current point's partner in the reference scan comes
-//!   from (ground truth, nearest neighbour after ICP, or your own
+//!   from (ground truth, nearest neighbour after ICP, segment-wise ICP, or your own
 //!   [`AssociationProvider`]).
 //! - [`segmentation`]: the initial clusters (gap segmentation capped by motion-residual
 //!   merging).
@@ -44,7 +44,9 @@ pub mod model;
 pub mod segmentation;
 pub mod weights;
 
-pub use associations::{AssociationProvider, AssociationSource, NearestParams, PointAssociations};
+pub use associations::{
+    AssociationProvider, AssociationSource, NearestParams, PointAssociations, SegmentParams,
+};
 pub use clusterer::{
     BackgroundChoice, Cluster, Clusterer, Clustering, ClusteringInput, ClusteringParams,
     UpdateSchedule,

@@ -196,3 +196,21 @@ fn no_points_is_not_an_error() {
     };
     assert!(Clusterer::default().cluster(&bad).is_err());
 }
+
+#[test]
+fn unassociated_background_next_to_an_object_stays_background() {
+    // The wall points right after the object (in beam order) lose their partners, as
+    // a stretch revealed behind a moved object would; they must stay background.
+    let ego = Pose2::new(0.6, 0.05, 0.02);
+    let object = Pose2::new(-0.4, 0.9, 0.0);
+    let (mut input, is_object) = scene(ego, object);
+    let last = is_object.iter().rposition(|&o| o).expect("object points");
+    for i in last + 1..(last + 15).min(input.points.len()) {
+        input.partners[i] = None;
+    }
+    let result = Clusterer::default().cluster(&input).expect("clusters");
+    assert_eq!(result.clusters.len(), 2, "{:?}", result.clusters);
+    for (i, &obj) in is_object.iter().enumerate() {
+        assert_eq!(result.labels[i], Some(u32::from(obj)), "point {i}");
+    }
+}
