@@ -492,7 +492,14 @@ fn gather(
             if start != own {
                 let src = &block[start..start + k];
                 if first {
-                    dst.copy_from_slice(src);
+                    if k <= 16 {
+                        // A library memcpy call costs more than a few moves.
+                        for (d, s) in dst.iter_mut().zip(src) {
+                            *d = std::hint::black_box(*s);
+                        }
+                    } else {
+                        dst.copy_from_slice(src);
+                    }
                     first = false;
                 } else {
                     for (d, s) in dst.iter_mut().zip(src) {
@@ -549,6 +556,17 @@ fn commit_raw(old: &mut [f64], raw: &mut [f64], damping: f64, how: Normalisation
     if damping == 0.0 && how == Normalisation::Max {
         let m = logspace::max(raw);
         if m.is_finite() {
+            if raw.len() <= 16 {
+                // One fused scalar pass: shift, compare, store.
+                let mut d = 0.0f64;
+                for (o, &x) in old.iter_mut().zip(raw.iter()) {
+                    let n = x - m;
+                    let diff = (n - *o).abs();
+                    d = if diff > d { diff } else { d };
+                    *o = n;
+                }
+                return (d, true);
+            }
             raw.iter_mut().for_each(|x| *x -= m);
             let d = logspace::distance(raw, old);
             old.copy_from_slice(raw);

@@ -162,6 +162,9 @@ impl Factor for ShiftedIdentityFactor {
 
 /// `out[y] = agg(q[y + offset] + on, off + agg_{x ≠ y + offset} q[x])`, with the first
 /// term absent when `y + offset` is out of range.
+/// Up to this many states, max-product messages use scalar single-pass loops.
+const SMALL: usize = 16;
+
 pub(crate) fn diagonal_message(
     q: &[f64],
     out: &mut [f64],
@@ -176,6 +179,36 @@ pub(crate) fn diagonal_message(
     let lo = (-offset).clamp(0, n_out) as usize;
     let hi = (n - offset).clamp(lo as isize, n_out) as usize;
     match mode {
+        Mode::MaxProduct if q.len() <= SMALL && out.len() <= SMALL => {
+            // Few states: one branchy pass for the top two, then one pass over targets.
+            let (mut best, mut best_at, mut second) =
+                (f64::NEG_INFINITY, usize::MAX, f64::NEG_INFINITY);
+            for (x, &v) in q.iter().enumerate() {
+                if v > best || best_at == usize::MAX {
+                    second = best;
+                    best = v;
+                    best_at = x;
+                } else if v > second {
+                    second = v;
+                }
+            }
+            let all = off + best;
+            for (y, o) in out.iter_mut().enumerate() {
+                let p = y as isize + offset;
+                *o = if p >= 0 && p < n {
+                    let p = p as usize;
+                    let rest = off + if p == best_at { second } else { best };
+                    let d = q[p] + on;
+                    if d > rest {
+                        d
+                    } else {
+                        rest
+                    }
+                } else {
+                    all
+                };
+            }
+        }
         Mode::MaxProduct => {
             // Top two entries give max over x ≠ p for any p: the maximum, its first
             // position, and the maximum of everything else (three packed passes).
