@@ -211,10 +211,10 @@ proptest! {
     /// The O(K) structured factors send exactly the messages of their dense tables.
     #[test]
     fn structured_factors_match_dense_tables(
-        k0 in 1usize..7, k1 in 1usize..7, shift in -3isize..4,
+        k0 in prop_oneof![1usize..7, 14usize..40], k1 in prop_oneof![1usize..7, 14usize..40], shift in -3isize..4,
         on in strategies::log_potential(30.0, 0.2), off in strategies::log_potential(30.0, 0.2),
-        q0 in proptest::collection::vec(strategies::log_potential(30.0, 0.2), 7),
-        q1 in proptest::collection::vec(strategies::log_potential(30.0, 0.2), 7),
+        q0 in proptest::collection::vec(strategies::log_potential(30.0, 0.2), 40),
+        q1 in proptest::collection::vec(strategies::log_potential(30.0, 0.2), 40),
     ) {
         let (a, b) = (VariableId(0), VariableId(1));
         let shifted = ShiftedIdentityFactor::new(a, b, k0, k1, shift, on, off).unwrap();
