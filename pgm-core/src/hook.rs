@@ -41,6 +41,30 @@ impl<'a> Potentials<'a> {
 }
 
 /// Called by the engine between updates. All methods default to doing nothing.
+///
+/// ```
+/// use pgm_core::{BeliefPropagation, FactorGraph, Messages, Mode, Potentials, Sequential, TableFactor, UpdateHook, VariableId, Visit};
+///
+/// /// Counts the variable visits of a run.
+/// #[derive(Default)]
+/// struct CountVisits(usize);
+///
+/// impl UpdateHook for CountVisits {
+///     fn after_visit(&mut self, visit: Visit, _: &mut Potentials<'_>, _: &Messages) {
+///         if let Visit::Variable(_) = visit {
+///             self.0 += 1;
+///         }
+///     }
+/// }
+///
+/// let mut g = FactorGraph::with_variables(&[2, 2]).unwrap();
+/// g.add_factor(TableFactor::new(vec![VariableId(0), VariableId(1)], vec![2, 2], vec![0.0, 1.0, 1.0, 0.0]).unwrap()).unwrap();
+/// let mut hook = CountVisits::default();
+/// let mut schedule = Sequential::variables(vec![VariableId(0), VariableId(1)]);
+/// let r = BeliefPropagation::new(Mode::MaxProduct).run_with_hook(&mut g, &mut schedule, &mut hook, None).unwrap();
+/// // Forward and backward over two variables, once per iteration.
+/// assert_eq!(hook.0, 4 * r.iterations);
+/// ```
 pub trait UpdateHook {
     /// Before an update unit.
     fn before_visit(&mut self, visit: Visit, potentials: &mut Potentials<'_>, messages: &Messages) {

@@ -80,6 +80,31 @@ pub trait MessagePasser {
 }
 
 /// A message schedule. Schedules are `Send` so a run can move into a thread pool.
+///
+/// ```
+/// use pgm_core::{BeliefPropagation, FactorGraph, MessagePasser, Mode, PottsFactor, Schedule, VariableId};
+///
+/// /// Visits the variables in reverse index order, once per iteration.
+/// struct Backwards;
+///
+/// impl Schedule for Backwards {
+///     fn name(&self) -> &str {
+///         "backwards"
+///     }
+///     fn iteration(&mut self, passer: &mut dyn MessagePasser) -> Option<f64> {
+///         for v in (0..passer.graph().num_variables()).rev() {
+///             passer.visit_variable(VariableId(v));
+///         }
+///         None // let the engine use the largest message change
+///     }
+/// }
+///
+/// let mut g = FactorGraph::with_variables(&[2, 2, 2]).unwrap();
+/// g.add_factor(PottsFactor::new(VariableId(0), VariableId(1), 2, 1.0, 0.0).unwrap()).unwrap();
+/// g.add_factor(PottsFactor::new(VariableId(1), VariableId(2), 2, 1.0, 0.0).unwrap()).unwrap();
+/// let r = BeliefPropagation::new(Mode::SumProduct).run(&g, &mut Backwards).unwrap();
+/// assert!(r.converged);
+/// ```
 pub trait Schedule: Send {
     /// A short name for reports.
     fn name(&self) -> &str;
