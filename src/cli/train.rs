@@ -10,7 +10,7 @@
 use super::cluster::CrfArgs;
 use super::{CliError, CliResult};
 use clap::{Args, Subcommand, ValueEnum};
-use pgm_crf_clustering::learning::{learn, training_instance};
+use pgm_crf_clustering::learning::{learn_with_observer, training_instance};
 use pgm_crf_clustering::{AssociationProvider, AssociationSource};
 use pgm_datasets::sim::{simulate_pairs, Preset, SimConfig};
 use rayon::prelude::*;
@@ -124,8 +124,23 @@ fn run_clustering(args: TrainClusteringArgs) -> CliResult {
             pairs.len()
         )));
     }
-    let (weights, result) =
-        learn(&instances, args.prior_variance).map_err(CliError::from_display)?;
+    // Progress on stderr (indicatif hides it when stderr is not a terminal).
+    let bar = indicatif::ProgressBar::new_spinner();
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{spinner} L-BFGS {msg} [{elapsed}]")
+            .map_err(CliError::from_display)?,
+    );
+    let mut observer = |p: &pgm_core::learning::Progress| {
+        bar.set_message(format!(
+            "iteration {}: objective {:.4}, |gradient| {:.2e}",
+            p.iteration, p.objective, p.gradient_norm
+        ));
+        bar.tick();
+        std::ops::ControlFlow::Continue(())
+    };
+    let learned = learn_with_observer(&instances, args.prior_variance, &mut observer);
+    bar.finish_and_clear();
+    let (weights, result) = learned.map_err(CliError::from_display)?;
     let named = weights.to_weights().map_err(CliError::from_display)?;
     named
         .save(&args.out)

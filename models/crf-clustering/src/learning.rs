@@ -156,3 +156,19 @@ pub fn learn(
     let result = learner.learn(&features, instances, &mut ())?;
     Ok((ClusteringWeights::from_weights(&result.weights), result))
 }
+
+/// [`learn`] with an observer that sees every L-BFGS iteration (for progress bars or
+/// logs) and may stop learning early.
+pub fn learn_with_observer(
+    instances: &[LabelledInstance],
+    prior_variance: f64,
+    observer: &mut dyn pgm_core::learning::LearningObserver,
+) -> Result<(ClusteringWeights, LearningResult)> {
+    let features = feature_set();
+    let learner = LearnerParams::default()
+        .prior_variance(prior_variance)
+        .max_iterations(500)
+        .check()?;
+    let result = learner.learn(&features, instances, observer)?;
+    Ok((ClusteringWeights::from_weights(&result.weights), result))
+}
