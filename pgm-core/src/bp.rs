@@ -228,7 +228,8 @@ impl BeliefPropagation {
         schedule: &mut S,
         messages: Messages,
     ) -> Result<BpResult> {
-        self.drive(GraphRef::Shared(graph), None, schedule, messages)
+        let p = self.drive_messages(GraphRef::Shared(graph), None, schedule, messages)?;
+        Ok(self.finish(graph, p))
     }
 
     /// Runs with a hook called between updates (see [`UpdateHook`]); `start` gives a
@@ -240,31 +241,25 @@ impl BeliefPropagation {
         hook: &mut dyn UpdateHook,
         start: Option<Messages>,
     ) -> Result<BpResult> {
+        let p = self.propagate_with_hook(graph, schedule, hook, start)?;
+        Ok(self.finish(graph, p))
+    }
+
+    /// [`run_with_hook`](Self::run_with_hook) without decoding (callers that refresh
+    /// potentials before decoding, like hybrid inference, decode with
+    /// [`finish`](Self::finish)).
+    pub fn propagate_with_hook<S: Schedule + ?Sized>(
+        &self,
+        graph: &mut FactorGraph,
+        schedule: &mut S,
+        hook: &mut dyn UpdateHook,
+        start: Option<Messages>,
+    ) -> Result<Propagation> {
         let messages = match start {
             Some(m) => m,
             None => Messages::uniform(graph, self.mode),
         };
-        self.drive(GraphRef::Exclusive(graph), Some(hook), schedule, messages)
-    }
-
-    fn drive<S: Schedule + ?Sized>(
-        &self,
-        graph: GraphRef<'_>,
-        hook: Option<&mut dyn UpdateHook>,
-        schedule: &mut S,
-        messages: Messages,
-    ) -> Result<BpResult> {
-        match graph {
-            GraphRef::Shared(g) => {
-                let p = self.drive_messages(GraphRef::Shared(g), hook, schedule, messages)?;
-                Ok(self.finish(g, p))
-            }
-            GraphRef::Exclusive(g) => {
-                let p =
-                    self.drive_messages(GraphRef::Exclusive(&mut *g), hook, schedule, messages)?;
-                Ok(self.finish(g, p))
-            }
-        }
+        self.drive_messages(GraphRef::Exclusive(graph), Some(hook), schedule, messages)
     }
 
     fn drive_messages<S: Schedule + ?Sized>(

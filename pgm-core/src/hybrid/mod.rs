@@ -230,12 +230,21 @@ impl HybridInference {
                 hook.refresh(a, &mut p);
             }
         }
-        let propagation = self.bp.run_with_hook(graph, schedule, &mut hook, None)?;
+        let propagation = self
+            .bp
+            .propagate_with_hook(graph, schedule, &mut hook, None)?;
         if let Some(e) = hook.error.take() {
             return Err(e);
         }
         let messages_converged = propagation.residual <= self.bp_tolerance();
-        let mut messages = propagation.messages.clone();
+        let crate::bp::Propagation {
+            mut messages,
+            iterations,
+            converged,
+            residual,
+            out_of_time,
+            contradictions,
+        } = propagation;
         // Algorithm 1, lines 16-21: re-solve from the decoded state, refresh, decode.
         if self.policy != UpdatePolicy::Frozen {
             let _ = hook.sync_all(graph, &messages);
@@ -251,29 +260,18 @@ impl HybridInference {
         }
         let continuous_change = hook.last_change;
         let continuous_converged = continuous_change <= self.continuous_tolerance;
-        let assignment = match self.bp.mode() {
-            Mode::MaxProduct => decode_map(graph, &messages),
-            Mode::SumProduct => (0..graph.num_variables())
-                .map(|v| messages.argmax(graph, VariableId(v)))
-                .collect(),
+        let propagation = crate::bp::Propagation {
+            messages,
+            iterations,
+            converged,
+            residual,
+            out_of_time,
+            contradictions,
         };
-        let beliefs = (0..graph.num_variables())
-            .map(|v| messages.belief(graph, VariableId(v)))
-            .collect();
-        let joint_log_score = graph.log_score_unchecked(&assignment);
+        let discrete = self.bp.finish(graph, propagation);
+        let joint_log_score = discrete.log_score;
         Ok(HybridResult {
-            discrete: BpResult {
-                mode: self.bp.mode(),
-                log_score: joint_log_score,
-                assignment,
-                beliefs,
-                iterations: propagation.iterations,
-                converged: propagation.converged,
-                residual: propagation.residual,
-                out_of_time: propagation.out_of_time,
-                contradictions: propagation.contradictions,
-                messages,
-            },
+            discrete,
             messages_converged,
             continuous_converged,
             continuous_change,
