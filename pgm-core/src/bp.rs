@@ -600,19 +600,9 @@ impl PassState {
         };
         gather(graph, &self.messages.values, a, skip, &mut self.scratch);
         for (slot, e) in graph.factor_edges(a).enumerate() {
-            if Some(slot) == except {
-                continue;
+            if Some(slot) != except {
+                self.send(graph, a, slot, EdgeId(e));
             }
-            compute_raw(graph, a, slot, self.mode, &mut self.scratch);
-            let range = graph.message_range(EdgeId(e));
-            let (r, ok) = commit_raw(
-                &mut self.messages.values[range],
-                &mut self.scratch.out,
-                self.damping,
-                self.normalisation,
-            );
-            self.contradictions += usize::from(!ok);
-            self.residual = self.residual.max(r);
         }
     }
 
@@ -626,6 +616,12 @@ impl PassState {
             Some(slot),
             &mut self.scratch,
         );
+        self.send(graph, a, slot, e);
+    }
+
+    /// Computes the message of edge `e` (scope position `slot` of factor `a`) from the
+    /// gathered incoming messages and commits it.
+    fn send(&mut self, graph: &FactorGraph, a: FactorId, slot: usize, e: EdgeId) {
         compute_raw(graph, a, slot, self.mode, &mut self.scratch);
         let range = graph.message_range(e);
         let (r, ok) = commit_raw(
