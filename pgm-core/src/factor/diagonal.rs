@@ -236,12 +236,19 @@ pub(crate) fn diagonal_message(
         }
         Mode::SumProduct => {
             let n = q.len();
-            // prefix[x] = lse(q[..x]), suffix[x] = lse(q[x..]).
-            let mut prefix = vec![f64::NEG_INFINITY; n + 1];
+            // prefix[x] = lse(q[..x]), suffix[x] = lse(q[x..]); on the stack for few states.
+            let mut small = [[f64::NEG_INFINITY; SMALL + 1]; 2];
+            let mut large: Vec<f64> = Vec::new();
+            let (prefix, suffix): (&mut [f64], &mut [f64]) = if n <= SMALL {
+                let [p, s] = &mut small;
+                (&mut p[..n + 1], &mut s[..n + 1])
+            } else {
+                large.resize(2 * (n + 1), f64::NEG_INFINITY);
+                large.split_at_mut(n + 1)
+            };
             for x in 0..n {
                 prefix[x + 1] = log_add_exp(prefix[x], q[x]);
             }
-            let mut suffix = vec![f64::NEG_INFINITY; n + 1];
             for x in (0..n).rev() {
                 suffix[x] = log_add_exp(suffix[x + 1], q[x]);
             }
