@@ -2,7 +2,9 @@
 //! pair 0, true associations): initial segmentation, hybrid inference rounds with
 //! merging, background selection — everything after the associations. Both motion
 //! update policies are measured (motions re-solved after every sweep, the default, or
-//! after every variable visit as in Algorithm 1 of the joint-model paper).
+//! after every variable visit as in Algorithm 1 of the joint-model paper). The default
+//! runs on the dedicated chain solver; `every_visit` on the generic `pgm_core` hybrid
+//! inference.
 //!
 //! Run: `cargo bench --bench clustering`.
 

@@ -65,6 +65,10 @@ pub struct CrfArgs {
     /// Smallest displacement (m) of a moving object relative to the background.
     #[arg(long, default_value_t = ClusteringParams::default().min_object_displacement)]
     pub min_displacement: f64,
+    /// Smallest fraction of a moving object's points that free space shows moved
+    /// (0: no free-space test).
+    #[arg(long, default_value_t = ClusteringParams::default().min_free_fraction)]
+    pub min_free_fraction: f64,
     /// When motions are re-solved during message passing.
     #[arg(long, value_enum, default_value = "every-sweep")]
     pub update: UpdateArg,
@@ -90,6 +94,7 @@ impl CrfArgs {
             segment_gap: self.segment_gap,
             merge_threshold: self.merge_threshold,
             min_object_displacement: self.min_displacement,
+            min_free_fraction: self.min_free_fraction,
             update: match self.update {
                 UpdateArg::EverySweep => UpdateSchedule::EverySweep,
                 UpdateArg::EveryVisit => UpdateSchedule::EveryVisit,

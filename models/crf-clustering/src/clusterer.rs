@@ -16,12 +16,16 @@
 //!    (default) the motions are re-solved after every forward-backward sweep over the
 //!    chain ([`Sequential::default`], exact on a chain for fixed motions); with
 //!    [`UpdateSchedule::EveryVisit`] after every variable visit (Algorithm 1 of the
-//!    joint-model paper).
+//!    joint-model paper). On the chain (no kNN edges) with `EverySweep` a dedicated
+//!    solver ([`ClusteringParams::chain_solver`], `crate::chain`) runs the same
+//!    algorithm as exact Viterbi passes without the generic factor graph.
 //! 4. **Merging** (section IV-E, eq. 8): the effective number of clusters of a point
 //!    is `N_eff = 1 / Σ_c p_c²` of its normalised max-marginal `p`; a cluster whose points have a mean
 //!    `N_eff` above [`ClusteringParams::merge_threshold`] (1.7) is removed and its
 //!    points go to their second-best cluster, then inference runs again; clusters
-//!    left without points are dropped. One cluster (the worst) is removed per round.
+//!    left without points are dropped. One cluster (the worst) is removed per round;
+//!    a round that emptied clusters only drops those (an empty twin of a kept cluster
+//!    would make the kept one look redundant).
 //! 5. **Ego-motion**: the cluster whose motion is nearest to the odometry prior in
 //!    Mahalanobis distance (diagonal covariance from
 //!    [`ClusteringParams::odometry_sigma`]) is the background; without odometry the
@@ -33,7 +37,12 @@
 //!    points lie on average at least that much farther from their partners than under
 //!    their own motion. (b) rejects clusters whose own motion merely overfits the
 //!    association noise of a static segment (any cluster's own fit is at least as good
-//!    as the background's on its points). The rest join the background.
+//!    as the background's on its points), and (c) free space shows it moved: at least
+//!    [`ClusteringParams::min_free_fraction`] of its points lie, under the background
+//!    motion, where the reference scan saw through, or their partners lie where the
+//!    current scan sees through (needs [`ClusteringInput::scans`]). An optional
+//!    likelihood-ratio test ([`ClusteringParams::min_object_chi2`], off by default)
+//!    is also available. The rest join the background.
 //! 6. **Clean-up**: points without a partner keep their label only when an
 //!    associated point of their gap segment has it, else they take the label of the
 //!    nearest associated point of the segment, or the background's
@@ -45,6 +54,7 @@
 //!    background.
 
 use crate::associations::PointAssociations;
+use crate::chain::run_chain;
 use crate::model::{build_edges, ClusterMotionNodes, MAX_CLUSTERS};
 use crate::segmentation::initial_clusters;
 use crate::weights::ClusteringWeights;
@@ -71,6 +81,9 @@ pub fn angle_increment(angles: &[f64]) -> f64 {
     *d.select_nth_unstable_by(mid, f64::total_cmp).1
 }
 use serde::Serialize;
+
+/// Median of the χ² distribution with 2 degrees of freedom (`2 ln 2`).
+const CHI2_2_MEDIAN: f64 = 2.0 * std::f64::consts::LN_2;
 
 /// When the cluster motions are re-solved during message passing.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
@@ -112,12 +125,39 @@ pub struct ClusteringParams {
     /// Smallest mean displacement (m) of an object's points relative to the background
     /// motion for it to count as moving (0.15).
     pub min_object_displacement: f64,
+    /// Smallest likelihood-ratio statistic of a moving object: the sum over its
+    /// associated points of `(‖M_bg s_i − g_i‖² − ‖M_l s_i − g_i‖²) / σ_i²` (how
+    /// much better its own motion `M_l` explains its partners than the background
+    /// motion `M_bg` does, in units of the association variance `σ_i²`). Under the
+    /// hypothesis that the cluster moves with the background this is about χ² with 3
+    /// degrees of freedom (the 3 parameters of its own motion). The threshold is
+    /// multiplied by the association noise scale of the pair: the median of
+    /// `‖M_bg s_i − g_i‖² / σ_i²` over the background's associated points divided by
+    /// its expected value 2 ln 2, at least 1 (automatic associations are noisier than
+    /// `σ_i`). 0 keeps only the displacement tests.
+    pub min_object_chi2: f64,
+    /// Smallest fraction of a moving cluster's points that show it moved by free
+    /// space (0.2; 0: no test): moved by the background motion into the reference frame
+    /// they lie more than [`ClusteringParams::free_space_margin`] in front of the
+    /// reference returns at their bearing (the reference saw through where they are
+    /// now), or their partners, moved back into the current frame, lie that far in
+    /// front of the current returns (the object left). A static surface merely seen
+    /// differently (new view, wrong associations) fails both. Needs
+    /// [`ClusteringInput::scans`].
+    pub min_free_fraction: f64,
+    /// Margin (m) of the free-space test (0.3).
+    pub free_space_margin: f64,
     /// Largest distance (m) between consecutive points (in beam order) of one moving
     /// object: a moving cluster with a larger jump is split into several objects (4).
     pub object_gap: f64,
     /// Whether points without a partner are checked against the associated points of
     /// their gap segment after inference (true; see the module docs, step 6).
     pub reassign_unassociated: bool,
+    /// Whether the chain CRF (`knn == 0`, [`UpdateSchedule::EverySweep`]) runs on the
+    /// dedicated chain solver (true, default: one exact Viterbi pass per sweep, about
+    /// three times faster) rather than on the generic `pgm_core` [`HybridInference`]
+    /// (same algorithm; kept for checking). Ignored for other graphs and schedules.
+    pub chain_solver: bool,
     /// The learned weights (default: the shipped ones).
     pub weights: ClusteringWeights,
 }
@@ -137,7 +177,11 @@ impl Default for ClusteringParams {
             min_object_points: 3,
             min_object_displacement: 0.15,
             object_gap: 4.0,
+            min_object_chi2: 0.0,
+            min_free_fraction: 0.2,
+            free_space_margin: 0.3,
             reassign_unassociated: true,
+            chain_solver: true,
             weights: ClusteringWeights::default(),
         }
     }
@@ -208,6 +252,27 @@ impl ClusteringParams {
                 "a number of metres >= 0",
             ));
         }
+        if !(self.min_object_chi2.is_finite() && self.min_object_chi2 >= 0.0) {
+            return Err(invalid(
+                "min_object_chi2",
+                self.min_object_chi2,
+                "a number >= 0",
+            ));
+        }
+        if !(0.0..=1.0).contains(&self.min_free_fraction) {
+            return Err(invalid(
+                "min_free_fraction",
+                self.min_free_fraction,
+                "a fraction in [0, 1]",
+            ));
+        }
+        if !(self.free_space_margin.is_finite() && self.free_space_margin >= 0.0) {
+            return Err(invalid(
+                "free_space_margin",
+                self.free_space_margin,
+                "a number of metres >= 0",
+            ));
+        }
         if !positive(self.object_gap) {
             return Err(invalid(
                 "object_gap",
@@ -249,6 +314,9 @@ pub struct ClusteringInput {
     pub variances: Vec<f64>,
     /// Odometry prior on the ego-motion, if any.
     pub odometry: Option<Pose2>,
+    /// The reference and current scans, for the free-space test of moving clusters
+    /// ([`ClusteringParams::min_free_fraction`]); `None` skips the test.
+    pub scans: Option<(pgm_features::Scan, pgm_features::Scan)>,
 }
 
 impl ClusteringInput {
@@ -290,6 +358,7 @@ impl ClusteringInput {
             partners,
             variances,
             odometry: pair.odometry,
+            scans: Some((pair.reference.clone(), pair.current.clone())),
         })
     }
 }
@@ -454,46 +523,71 @@ impl Clusterer {
             UpdateSchedule::EveryVisit => UpdatePolicy::EveryVisit,
         };
         let hybrid = HybridInference::new(bp, policy).continuous_tolerance(p.motion_tolerance);
+        // The chain needs no generic factor graph (see `crate::chain`).
+        let chain = p.chain_solver && p.knn == 0 && p.update == UpdateSchedule::EverySweep;
         let mut iterations = 0;
         let mut rounds = 0;
         loop {
             rounds += 1;
-            let (mut graph, mut nodes) = ClusterMotionNodes::build(
-                &input.points,
-                &input.partners,
-                &input.variances,
-                &edges,
-                motions,
-                p.weights,
-                p.outlier_distance,
-            )?;
-            let result = match p.update {
-                UpdateSchedule::EverySweep => hybrid.run(
-                    &mut graph,
-                    &mut nodes,
-                    &mut Sequential::default(),
-                    Some(&labels),
-                )?,
-                UpdateSchedule::EveryVisit => {
-                    let order = (0..n).map(VariableId).collect();
-                    hybrid.run(
+            let (next, beliefs, states, sweeps, converged) = if chain {
+                let mut nodes = ClusterMotionNodes::without_graph(
+                    &input.points,
+                    &input.partners,
+                    &input.variances,
+                    &edges,
+                    motions,
+                    p.weights,
+                    p.outlier_distance,
+                )?;
+                let r = run_chain(&mut nodes, &labels, p.max_sweeps, p.motion_tolerance);
+                motions = nodes.motions().to_vec();
+                (r.labels, r.beliefs, r.states, r.sweeps, r.converged)
+            } else {
+                let (mut graph, mut nodes) = ClusterMotionNodes::build(
+                    &input.points,
+                    &input.partners,
+                    &input.variances,
+                    &edges,
+                    motions,
+                    p.weights,
+                    p.outlier_distance,
+                )?;
+                let result = match p.update {
+                    UpdateSchedule::EverySweep => hybrid.run(
                         &mut graph,
                         &mut nodes,
-                        &mut Sequential::variables(order),
+                        &mut Sequential::default(),
                         Some(&labels),
-                    )?
-                }
+                    )?,
+                    UpdateSchedule::EveryVisit => {
+                        let order = (0..n).map(VariableId).collect();
+                        hybrid.run(
+                            &mut graph,
+                            &mut nodes,
+                            &mut Sequential::variables(order),
+                            Some(&labels),
+                        )?
+                    }
+                };
+                motions = nodes.motions().to_vec();
+                let states = nodes.states();
+                let beliefs: Vec<f64> = result.discrete.beliefs.concat();
+                (
+                    result.discrete.assignment,
+                    beliefs,
+                    states,
+                    result.discrete.iterations,
+                    result.messages_converged && result.continuous_converged,
+                )
             };
-            iterations += result.discrete.iterations;
-            labels = result.discrete.assignment;
-            motions = nodes.motions().to_vec();
-            let converged = result.messages_converged && result.continuous_converged;
+            iterations += sweeps;
+            labels = next;
             // Eq. (8): mean effective number of clusters per cluster.
             let mut count = vec![0usize; k];
             let mut neff = vec![0.0f64; k];
             for (i, &l) in labels.iter().enumerate() {
                 if l < k {
-                    let b = &result.discrete.beliefs[i];
+                    let b = &beliefs[i * states..(i + 1) * states];
                     let sq: f64 = b.iter().map(|x| x * x).sum();
                     count[l] += 1;
                     neff[l] += if sq > 0.0 { 1.0 / sq } else { 1.0 };
@@ -501,7 +595,10 @@ impl Clusterer {
             }
             let mut drop: Vec<bool> = count.iter().map(|&c| c == 0).collect();
             let nonempty = count.iter().filter(|&&c| c > 0).count();
-            if nonempty >= 2 {
+            // A round that emptied clusters only drops them: an empty cluster whose
+            // motion equals a kept one's makes that one look redundant (high N_eff),
+            // and merging it too would send its points to a wrong cluster.
+            if nonempty >= 2 && nonempty == k {
                 let worst = (0..k)
                     .filter(|&l| count[l] > 0)
                     .map(|l| (neff[l] / count[l] as f64, l))
@@ -536,7 +633,7 @@ impl Clusterer {
             }
             for (i, l) in labels.iter_mut().enumerate() {
                 if map[*l] == usize::MAX {
-                    let b = &result.discrete.beliefs[i];
+                    let b = &beliefs[i * states..(i + 1) * states];
                     let best = (0..b.len())
                         .filter(|&s| map[s] != usize::MAX)
                         .max_by(|&x, &y| b[x].total_cmp(&b[y]))
@@ -613,15 +710,41 @@ impl Clusterer {
         // Evidence: how much farther from their partners the points are under the
         // background motion than under their own.
         let mut evidence = vec![0.0f64; k];
+        let mut chi2 = vec![0.0f64; k];
         let mut associated = vec![0usize; k];
         for (i, &l) in inferred.labels.iter().enumerate() {
             if let (true, Some(g)) = (l < k, &input.partners[i]) {
                 let s = &input.points[i];
-                evidence[l] += (bg_motion.transform_point(s) - g).norm()
-                    - (inferred.motions[l].transform_point(s) - g).norm();
+                let bg = (bg_motion.transform_point(s) - g).norm();
+                let own = (inferred.motions[l].transform_point(s) - g).norm();
+                evidence[l] += bg - own;
+                chi2[l] += (bg * bg - own * own) / input.variances[i];
                 associated[l] += 1;
             }
         }
+        // Association noise scale: the median of `‖M_bg s_i − g_i‖² / σ_i²` over the
+        // background's associated points against its expected value for a 2-D
+        // Gaussian residual (the median of χ² with 2 degrees of freedom, 1.386), at
+        // least 1: automatic associations are noisier than `σ_i` says.
+        let mut ratios: Vec<f64> = inferred
+            .labels
+            .iter()
+            .enumerate()
+            .filter_map(|(i, &l)| {
+                let g = input.partners[i].as_ref()?;
+                (l == background).then(|| {
+                    (bg_motion.transform_point(&input.points[i]) - g).norm_squared()
+                        / input.variances[i]
+                })
+            })
+            .collect();
+        let noise_scale = if ratios.is_empty() {
+            1.0
+        } else {
+            let mid = ratios.len() / 2;
+            let median = *ratios.select_nth_unstable_by(mid, f64::total_cmp).1;
+            (median / CHI2_2_MEDIAN).max(1.0)
+        };
         let mut moving = vec![false; k];
         for l in 0..k {
             if count[l] > 0 {
@@ -633,7 +756,35 @@ impl Clusterer {
             moving[l] = l != background
                 && associated[l] >= p.min_object_points
                 && displacement[l] >= p.min_object_displacement
-                && evidence[l] >= p.min_object_displacement;
+                && evidence[l] >= p.min_object_displacement
+                && chi2[l] >= p.min_object_chi2 * noise_scale;
+        }
+        if let (true, Some((reference, current))) = (p.min_free_fraction > 0.0, &input.scans) {
+            let back = bg_motion.inverse();
+            let mut free = vec![0usize; k];
+            for (i, &l) in inferred.labels.iter().enumerate() {
+                if l >= k || !moving[l] {
+                    continue;
+                }
+                let forward = crate::associations::in_free_space(
+                    reference,
+                    &bg_motion.transform_point(&input.points[i]),
+                    p.free_space_margin,
+                );
+                let left = input.partners[i].as_ref().is_some_and(|g| {
+                    crate::associations::in_free_space(
+                        current,
+                        &back.transform_point(g),
+                        p.free_space_margin,
+                    )
+                });
+                free[l] += usize::from(forward || left);
+            }
+            for l in 0..k {
+                if moving[l] && (free[l] as f64) < p.min_free_fraction * count[l] as f64 {
+                    moving[l] = false;
+                }
+            }
         }
         // Number moving objects by first appearance; a moving cluster whose points
         // (in beam order) jump by more than `object_gap` is several objects that

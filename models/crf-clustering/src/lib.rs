@@ -36,6 +36,7 @@
 //! complete; CRF-Matching associations plug in through [`AssociationProvider`].
 
 pub mod associations;
+mod chain;
 pub mod clusterer;
 mod error;
 pub mod evaluation;

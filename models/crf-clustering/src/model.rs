@@ -108,10 +108,10 @@ pub struct ClusterMotionNodes {
 }
 
 impl ClusterMotionNodes {
-    /// Builds the factor graph of the CRF and its motion nodes. `motions` gives the
-    /// starting motion of each of the `K = motions.len()` clusters; `outlier_distance`
-    /// adds the outlier state.
-    pub fn build(
+    /// The motion nodes alone, without a factor graph (for the dedicated chain solver
+    /// of `crate::chain`); [`ContinuousModel::refresh_factor`] does nothing on them.
+    /// Same arguments and checks as [`ClusterMotionNodes::build`].
+    pub fn without_graph(
         points: &[Point2<f64>],
         partners: &[Option<Point2<f64>>],
         variances: &[f64],
@@ -119,7 +119,7 @@ impl ClusterMotionNodes {
         motions: Vec<Pose2>,
         weights: ClusteringWeights,
         outlier_distance: Option<f64>,
-    ) -> Result<(FactorGraph, Self)> {
+    ) -> Result<Self> {
         let k = motions.len();
         if k == 0 || k > MAX_CLUSTERS {
             return Err(Error::InvalidParameter {
@@ -140,7 +140,55 @@ impl ClusterMotionNodes {
                 expected: "one (optional) partner and one variance per point",
             });
         }
-        let states = k + usize::from(outlier_distance.is_some());
+        if edges
+            .iter()
+            .any(|e| e.i >= points.len() || e.j >= points.len())
+        {
+            return Err(Error::InvalidParameter {
+                name: "edges",
+                value: format!("an edge beyond {} points", points.len()),
+                expected: "edges between existing points",
+            });
+        }
+        Ok(Self {
+            points: points.to_vec(),
+            partners: partners.to_vec(),
+            variances: variances.to_vec(),
+            edges: edges.to_vec(),
+            clusters: k,
+            outlier_distance,
+            weights,
+            stats: vec![RigidAlignment::new(); k],
+            motions,
+            roles: Vec::new(),
+            local: Vec::new(),
+            pair_factors: Vec::new(),
+            dependent: Vec::new(),
+        })
+    }
+
+    /// Builds the factor graph of the CRF and its motion nodes. `motions` gives the
+    /// starting motion of each of the `K = motions.len()` clusters; `outlier_distance`
+    /// adds the outlier state.
+    pub fn build(
+        points: &[Point2<f64>],
+        partners: &[Option<Point2<f64>>],
+        variances: &[f64],
+        edges: &[Edge],
+        motions: Vec<Pose2>,
+        weights: ClusteringWeights,
+        outlier_distance: Option<f64>,
+    ) -> Result<(FactorGraph, Self)> {
+        let mut nodes = Self::without_graph(
+            points,
+            partners,
+            variances,
+            edges,
+            motions,
+            weights,
+            outlier_distance,
+        )?;
+        let states = nodes.states();
         let n = points.len();
         let mut graph = FactorGraph::with_variables(&vec![states; n])?;
         let mut roles = Vec::with_capacity(n + edges.len());
@@ -168,21 +216,10 @@ impl ClusterMotionNodes {
             dependent[edge.i].push(a);
             dependent[edge.j].push(a);
         }
-        let nodes = Self {
-            points: points.to_vec(),
-            partners: partners.to_vec(),
-            variances: variances.to_vec(),
-            edges: edges.to_vec(),
-            clusters: k,
-            outlier_distance,
-            weights,
-            stats: vec![RigidAlignment::new(); k],
-            motions,
-            roles,
-            local,
-            pair_factors,
-            dependent,
-        };
+        nodes.roles = roles;
+        nodes.local = local;
+        nodes.pair_factors = pair_factors;
+        nodes.dependent = dependent;
         Ok((graph, nodes))
     }
 
@@ -256,6 +293,60 @@ impl ClusterMotionNodes {
                     } * f;
                 }
                 out[a * states + b] = v;
+            }
+        }
+    }
+
+    /// Writes the local tables of every point (`states()` entries each) and the
+    /// pairwise tables of every edge (`states()²` each, as [`Self::write_pair`]) for
+    /// the current motions, moving each point once per cluster (`moved` is scratch).
+    /// Same values as [`Self::write_local`] and [`Self::write_pair`].
+    pub fn write_tables(&self, moved: &mut Vec<Point2<f64>>, local: &mut [f64], pair: &mut [f64]) {
+        let k = self.clusters;
+        let states = self.states();
+        let n = self.points.len();
+        moved.clear();
+        for s in &self.points {
+            moved.extend(self.motions.iter().map(|m| m.transform_point(s)));
+        }
+        let [w0, w1] = self.weights.distance;
+        for i in 0..n {
+            let out = &mut local[i * states..(i + 1) * states];
+            match &self.partners[i] {
+                Some(g) => {
+                    let scale = (w0 + w1 / self.variances[i]).min(0.0);
+                    for (o, m) in out.iter_mut().zip(&moved[i * k..(i + 1) * k]) {
+                        *o = scale * (m - g).norm_squared();
+                    }
+                    if let Some(d) = self.outlier_distance {
+                        out[k] = scale * d * d;
+                    }
+                }
+                None => out.fill(0.0),
+            }
+        }
+        let w = &self.weights;
+        let stiff = w.stiffness[0] != 0.0 || w.stiffness[1] != 0.0;
+        for (e, edge) in self.edges.iter().enumerate() {
+            let out = &mut pair[e * states * states..(e + 1) * states * states];
+            let same = w.neighbour[0] + w.weighted_neighbour[0] * edge.inverse_distance;
+            let different = w.neighbour[1] + w.weighted_neighbour[1] * edge.inverse_distance;
+            let before = self.points[edge.i] - self.points[edge.j];
+            let mi = &moved[edge.i * k..(edge.i + 1) * k];
+            let mj = &moved[edge.j * k..(edge.j + 1) * k];
+            for a in 0..states {
+                let row = &mut out[a * states..(a + 1) * states];
+                for (b, v) in row.iter_mut().enumerate() {
+                    *v = if a == b { same } else { different };
+                    if stiff && a < k && b < k {
+                        let f = (before - (mi[a] - mj[b])).norm_squared();
+                        *v += if a == b {
+                            w.stiffness[0]
+                        } else {
+                            w.stiffness[1]
+                        } * f;
+                    }
+                }
             }
         }
     }

@@ -47,6 +47,7 @@ fn scene(ego: Pose2, object: Pose2) -> (ClusteringInput, Vec<bool>) {
             partners,
             variances,
             odometry: None,
+            scans: None,
         },
         is_object,
     )
@@ -181,6 +182,7 @@ fn no_points_is_not_an_error() {
         partners: vec![],
         variances: vec![],
         odometry: None,
+        scans: None,
     };
     let result = Clusterer::default()
         .cluster(&input)
@@ -193,6 +195,7 @@ fn no_points_is_not_an_error() {
         partners: vec![None],
         variances: vec![1.0],
         odometry: None,
+        scans: None,
     };
     assert!(Clusterer::default().cluster(&bad).is_err());
 }
@@ -212,5 +215,82 @@ fn unassociated_background_next_to_an_object_stays_background() {
     assert_eq!(result.clusters.len(), 2, "{:?}", result.clusters);
     for (i, &obj) in is_object.iter().enumerate() {
         assert_eq!(result.labels[i], Some(u32::from(obj)), "point {i}");
+    }
+}
+
+#[test]
+fn chain_tables_match_the_factor_tables() {
+    use pgm_crf_clustering::model::{build_edges, ClusterMotionNodes};
+    let ego = Pose2::new(0.6, 0.05, 0.02);
+    let (input, _) = scene(ego, Pose2::new(-0.4, 0.3, -0.1));
+    let mut partners = input.partners.clone();
+    partners[3] = None;
+    let edges = build_edges(&input.points, 0);
+    let motions = vec![ego, Pose2::new(-0.4, 0.3, -0.1), Pose2::default()];
+    let weights = ClusteringWeights::default();
+    let nodes = ClusterMotionNodes::without_graph(
+        &input.points,
+        &partners,
+        &input.variances,
+        &edges,
+        motions,
+        weights,
+        Some(1.0),
+    )
+    .expect("nodes");
+    let (n, s) = (input.points.len(), nodes.states());
+    assert_eq!(s, 4);
+    let mut moved = Vec::new();
+    let mut local = vec![f64::NAN; n * s];
+    let mut pair = vec![f64::NAN; edges.len() * s * s];
+    nodes.write_tables(&mut moved, &mut local, &mut pair);
+    let mut one = vec![0.0; s * s];
+    for i in 0..n {
+        nodes.write_local(i, &mut one[..s]);
+        for a in 0..s {
+            assert!((one[a] - local[i * s + a]).abs() < 1e-9, "local {i} {a}");
+        }
+    }
+    for e in 0..edges.len() {
+        nodes.write_pair(e, &mut one);
+        for a in 0..s * s {
+            assert!((one[a] - pair[e * s * s + a]).abs() < 1e-9, "pair {e} {a}");
+        }
+    }
+}
+
+#[test]
+fn acceptance_thresholds_reject_objects_and_are_checked() {
+    let ego = Pose2::new(0.6, 0.05, 0.02);
+    let object = Pose2::new(-0.4, 0.9, 0.0);
+    let (input, _) = scene(ego, object);
+    let with = |chi2: f64| {
+        ClusteringParams {
+            min_object_chi2: chi2,
+            ..ClusteringParams::default()
+        }
+        .check()
+        .expect("valid")
+        .cluster(&input)
+        .expect("clusters")
+    };
+    // The object's 13 points move ~1 m: a likelihood ratio of thousands.
+    assert_eq!(with(16.0).clusters.len(), 2);
+    assert_eq!(with(1e9).clusters.len(), 1);
+    for bad in [
+        ClusteringParams {
+            min_free_fraction: 1.5,
+            ..ClusteringParams::default()
+        },
+        ClusteringParams {
+            min_object_chi2: f64::NAN,
+            ..ClusteringParams::default()
+        },
+        ClusteringParams {
+            free_space_margin: -1.0,
+            ..ClusteringParams::default()
+        },
+    ] {
+        assert!(bad.check().is_err());
     }
 }

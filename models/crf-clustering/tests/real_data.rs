@@ -3,10 +3,10 @@
 //! only). Skipped without the shared data folder, a failure under CI.
 //!
 //! The issue's target is a mean V-measure of at least 0.6, above both baselines and
-//! above the one-cluster labelling. The current model reaches about 0.50 (CBD 0.54,
-//! K-Means 0.05, one cluster 0.75 on these labels; notes/issue7.md), so this test
-//! pins the level it reaches and that it beats motion K-Means; it does not (yet) meet
-//! the target.
+//! above the one-cluster labelling. The current model reaches about 0.54 with the
+//! free-space acceptance test (0.50 without; CBD 0.53, K-Means 0.05, one cluster 0.75
+//! on these labels; notes/issue7.md), so this test pins the level it reaches and
+//! that it beats motion K-Means; it does not (yet) meet the target.
 
 use pgm_crf_clustering::evaluation::{evaluate_pair, summarize, EvaluationConfig, Method, Summary};
 use pgm_crf_clustering::{AssociationSource, Clusterer, NearestParams};
@@ -50,7 +50,7 @@ fn leigh_gtm1_k5() {
         crf.v_measure_mean, cbd.v_measure_mean, kmeans.v_measure_mean
     );
     assert!(
-        crf.v_measure_mean >= 0.48,
+        crf.v_measure_mean >= 0.52,
         "CRF V-measure {:.3}",
         crf.v_measure_mean
     );

@@ -105,3 +105,42 @@ fn training_recovers_weights_that_penalise_distance() {
     .check()
     .is_ok());
 }
+
+#[test]
+fn chain_solver_agrees_with_the_generic_hybrid_inference() {
+    // The dedicated chain solver runs the same algorithm as pgm-core's
+    // HybridInference on the chain graph: same labels on (nearly) every point.
+    let pairs = simulate_pairs(&SimConfig::default().check().unwrap(), 1, 8);
+    let fast = Clusterer::default();
+    let generic = ClusteringParams {
+        chain_solver: false,
+        ..ClusteringParams::default()
+    }
+    .check()
+    .unwrap();
+    let (mut same, mut total) = (0usize, 0usize);
+    for pair in &pairs {
+        let a = AssociationSource::GroundTruth.associate(pair).unwrap();
+        let x = fast.cluster_pair(pair, &a).unwrap();
+        let y = generic.cluster_pair(pair, &a).unwrap();
+        assert_eq!(x.labels.len(), y.labels.len());
+        total += x.labels.iter().filter(|l| l.is_some()).count();
+        same += x
+            .labels
+            .iter()
+            .zip(&y.labels)
+            .filter(|(p, q)| p.is_some() && p == q)
+            .count();
+        assert!(x.background_motion.translation_error(&y.background_motion) < 1e-3);
+        assert!(
+            x.iterations <= y.iterations,
+            "{} > {}",
+            x.iterations,
+            y.iterations
+        );
+    }
+    assert!(
+        same as f64 >= 0.99 * total as f64,
+        "{same} of {total} labels agree"
+    );
+}
