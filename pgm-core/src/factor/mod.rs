@@ -229,6 +229,32 @@ fn joint_value<F: Factor + ?Sized>(
     v
 }
 
+/// Checks that a scope and a shape describe the same variables with at least one state
+/// each; returns the number of joint states. `what` names the caller in errors.
+pub(crate) fn check_scope_shape(
+    scope: &[VariableId],
+    shape: &[usize],
+    what: &'static str,
+) -> crate::Result<usize> {
+    if scope.len() != shape.len() {
+        return Err(crate::Error::InvalidParameter {
+            name: what,
+            value: format!(
+                "{} scope entries, {} shape entries",
+                scope.len(),
+                shape.len()
+            ),
+            expected: "one shape entry per scope variable",
+        });
+    }
+    if let Some(p) = shape.iter().position(|&k| k == 0) {
+        return Err(crate::Error::ZeroCardinality {
+            variable: scope[p].0,
+        });
+    }
+    Ok(shape.iter().product())
+}
+
 /// Checks that every log-potential is finite or −∞.
 pub(crate) fn check_log_values(values: &[f64]) -> crate::Result<()> {
     for (index, &value) in values.iter().enumerate() {

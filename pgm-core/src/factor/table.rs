@@ -18,23 +18,7 @@ pub struct TableFactor {
 impl TableFactor {
     /// A table factor; checks the table size and that entries are finite or −∞.
     pub fn new(scope: Vec<VariableId>, shape: Vec<usize>, log_table: Vec<f64>) -> Result<Self> {
-        if scope.len() != shape.len() {
-            return Err(Error::InvalidParameter {
-                name: "table factor shape",
-                value: format!(
-                    "{} scope entries, {} shape entries",
-                    scope.len(),
-                    shape.len()
-                ),
-                expected: "one shape entry per scope variable",
-            });
-        }
-        if let Some(p) = shape.iter().position(|&k| k == 0) {
-            return Err(Error::ZeroCardinality {
-                variable: scope[p].0,
-            });
-        }
-        let expected: usize = shape.iter().product();
+        let expected = super::check_scope_shape(&scope, &shape, "table factor shape")?;
         if expected != log_table.len() {
             return Err(Error::TableSize {
                 expected,

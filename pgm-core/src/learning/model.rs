@@ -270,23 +270,7 @@ impl DenseFeatures {
         width: usize,
         table: Vec<f64>,
     ) -> Result<Self> {
-        if scope.len() != shape.len() {
-            return Err(Error::InvalidParameter {
-                name: "dense features shape",
-                value: format!(
-                    "{} scope entries, {} shape entries",
-                    scope.len(),
-                    shape.len()
-                ),
-                expected: "one shape entry per scope variable",
-            });
-        }
-        if let Some(p) = shape.iter().position(|&k| k == 0) {
-            return Err(Error::ZeroCardinality {
-                variable: scope[p].0,
-            });
-        }
-        let states: usize = shape.iter().product();
+        let states = crate::factor::check_scope_shape(&scope, &shape, "dense features shape")?;
         let expected = states * width;
         if table.len() != expected {
             return Err(Error::TableSize {
