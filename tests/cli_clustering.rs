@@ -1,0 +1,121 @@
+//! The simulator, `pgm eval clustering` and `pgm cluster` from the command line: the
+//! JSON contracts of the issue and errors on bad input.
+
+use std::path::PathBuf;
+use std::process::Command;
+
+fn pgm(args: &[&str]) -> (String, String, bool) {
+    let out = Command::new(env!("CARGO_BIN_EXE_pgm"))
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        String::from_utf8(out.stdout).unwrap(),
+        String::from_utf8(out.stderr).unwrap(),
+        out.status.success(),
+    )
+}
+
+fn simulated(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("pgm-cli-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let (_, err, ok) = pgm(&[
+        "sim",
+        "--pairs",
+        "3",
+        "--seed",
+        "5",
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+    dir
+}
+
+#[test]
+fn eval_clustering_prints_the_specified_json_object() {
+    let dir = simulated("eval");
+    for method in ["crf", "cbd", "kmeans", "one-cluster"] {
+        let (out, err, ok) = pgm(&[
+            "eval",
+            "clustering",
+            "--method",
+            method,
+            "--pairs",
+            dir.to_str().unwrap(),
+            "--associations",
+            "true",
+            "--json",
+        ]);
+        assert!(ok, "{method}: {err}");
+        let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
+        assert_eq!(v["pairs"], 3, "{method}");
+        for key in [
+            "homogeneity_mean",
+            "homogeneity_std",
+            "completeness_mean",
+            "completeness_std",
+            "v_measure_mean",
+            "v_measure_std",
+            "iterations_mean",
+        ] {
+            let x = v[key].as_f64().unwrap_or(f64::NAN);
+            assert!(x.is_finite() && x >= 0.0, "{method}: {key} = {}", v[key]);
+        }
+        if method == "crf" {
+            assert!(v["v_measure_mean"].as_f64().unwrap() > 0.5, "{out}");
+        }
+        if method == "one-cluster" {
+            assert_eq!(v["completeness_mean"].as_f64().unwrap(), 1.0);
+        }
+    }
+}
+
+#[test]
+fn cluster_prints_clusters_motions_and_convergence() {
+    let dir = simulated("cluster");
+    let svg = dir.join("pair.svg");
+    let (out, err, ok) = pgm(&[
+        "cluster",
+        "--pairs",
+        dir.to_str().unwrap(),
+        "--pair",
+        "0",
+        "--associations",
+        "true",
+        "--svg",
+        svg.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let clusters = v["clusters"].as_array().unwrap();
+    assert!(!clusters.is_empty());
+    assert_eq!(
+        clusters.iter().filter(|c| c["background"] == true).count(),
+        1
+    );
+    for c in clusters {
+        assert!(
+            c["points"].as_u64().is_some() && c["motion"]["theta"].as_f64().is_some(),
+            "{c}"
+        );
+    }
+    assert!(v["converged"].is_boolean() && v["labels"].is_array());
+    let picture = std::fs::read_to_string(&svg).unwrap();
+    assert!(picture.starts_with("<svg") || picture.contains("<svg"));
+}
+
+#[test]
+fn bad_input_is_a_clear_error() {
+    let (_, err, ok) = pgm(&[
+        "eval",
+        "clustering",
+        "--method",
+        "crf",
+        "--pairs",
+        "/nonexistent/pairs",
+    ]);
+    assert!(!ok && err.contains("/nonexistent/pairs"), "{err}");
+    let (_, err, ok) = pgm(&["sim", "--pairs", "1", "--preset", "motorway"]);
+    assert!(!ok && err.contains("motorway"), "{err}");
+}
