@@ -14,6 +14,13 @@ pub fn log_add_exp(a: f64, b: f64) -> f64 {
 /// Maximum entry (−∞ for an empty or all −∞ slice; NaN entries are skipped).
 #[inline]
 pub fn max(v: &[f64]) -> f64 {
+    if v.len() < 16 {
+        let mut m = f64::NEG_INFINITY;
+        for &x in v {
+            m = if x > m { x } else { m };
+        }
+        return m;
+    }
     // Four independent lanes let the compiler use packed max instructions.
     let mut lanes = [f64::NEG_INFINITY; 4];
     let chunks = v.chunks_exact(4);

@@ -193,6 +193,16 @@ pub(crate) fn diagonal_message(
                 }
             }
             let all = off + best;
+            if offset == 0 && out.len() == q.len() {
+                // Potts: every target pairs with the same state.
+                let rest_second = off + second;
+                for (y, (o, &qy)) in out.iter_mut().zip(q).enumerate() {
+                    let rest = if y == best_at { rest_second } else { all };
+                    let d = qy + on;
+                    *o = if d > rest { d } else { rest };
+                }
+                return;
+            }
             for (y, o) in out.iter_mut().enumerate() {
                 let p = y as isize + offset;
                 *o = if p >= 0 && p < n {
