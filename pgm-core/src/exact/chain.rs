@@ -63,14 +63,15 @@ pub fn chain_order(graph: &FactorGraph) -> Result<Vec<VariableId>> {
 
 /// Unary log-potentials per chain position and pairwise tables between consecutive
 /// positions (`pair[i][x * k_{i+1} + y]`), plus the constant of scope-less factors.
-struct ChainTables {
-    cards: Vec<usize>,
-    unary: Vec<Vec<f64>>,
-    pair: Vec<Vec<f64>>,
-    constant: f64,
+pub(crate) struct ChainTables {
+    pub(crate) cards: Vec<usize>,
+    pub(crate) unary: Vec<Vec<f64>>,
+    pub(crate) pair: Vec<Vec<f64>>,
+    pub(crate) constant: f64,
 }
 
-fn tables(graph: &FactorGraph, order: &[VariableId]) -> ChainTables {
+/// The chain's tables in the order `order` (which must come from [`chain_order`]).
+pub(crate) fn tables(graph: &FactorGraph, order: &[VariableId]) -> ChainTables {
     let n = order.len();
     let mut position = vec![0usize; graph.num_variables()];
     for (i, v) in order.iter().enumerate() {
@@ -111,6 +112,30 @@ fn tables(graph: &FactorGraph, order: &[VariableId]) -> ChainTables {
         pair,
         constant,
     }
+}
+
+/// Forward log-messages `alpha[i][x] = log Σ_{x_<i} exp(score of positions ≤ i)`,
+/// unary terms included.
+pub(crate) fn forward(t: &ChainTables) -> Vec<Vec<f64>> {
+    let n = t.cards.len();
+    let mut alpha: Vec<Vec<f64>> = Vec::with_capacity(n);
+    if n == 0 {
+        return alpha;
+    }
+    alpha.push(t.unary[0].clone());
+    for i in 1..n {
+        let (k0, k1) = (t.cards[i - 1], t.cards[i]);
+        let mut next = vec![0.0; k1];
+        let mut terms = vec![0.0; k0];
+        for (y, value) in next.iter_mut().enumerate() {
+            for (x, term) in terms.iter_mut().enumerate() {
+                *term = alpha[i - 1][x] + t.pair[i - 1][x * k1 + y];
+            }
+            *value = log_sum_exp(&terms) + t.unary[i][y];
+        }
+        alpha.push(next);
+    }
+    alpha
 }
 
 fn first_argmax(v: &[f64]) -> usize {
@@ -179,20 +204,7 @@ pub fn forward_backward(graph: &FactorGraph) -> Result<ExactSolution> {
             marginals: Vec::new(),
         });
     }
-    let mut alpha: Vec<Vec<f64>> = Vec::with_capacity(n);
-    alpha.push(t.unary[0].clone());
-    for i in 1..n {
-        let (k0, k1) = (t.cards[i - 1], t.cards[i]);
-        let mut next = vec![0.0; k1];
-        let mut terms = vec![0.0; k0];
-        for (y, value) in next.iter_mut().enumerate() {
-            for (x, term) in terms.iter_mut().enumerate() {
-                *term = alpha[i - 1][x] + t.pair[i - 1][x * k1 + y];
-            }
-            *value = log_sum_exp(&terms) + t.unary[i][y];
-        }
-        alpha.push(next);
-    }
+    let alpha = forward(&t);
     let mut beta: Vec<Vec<f64>> = t.cards.iter().map(|&k| vec![0.0; k]).collect();
     for i in (0..n.saturating_sub(1)).rev() {
         let (k0, k1) = (t.cards[i], t.cards[i + 1]);

@@ -4,7 +4,7 @@
 //! `p(x_i | x_{i+1}) ∝ exp(α_i(x_i) + log φ(x_i, x_{i+1}))`. Used to make labelled
 //! data with known weights for learning tests.
 
-use super::chain::chain_order;
+use super::chain::{chain_order, forward, tables};
 use crate::error::{Error, Result};
 use crate::graph::{FactorGraph, VariableId};
 use crate::logspace::log_sum_exp;
@@ -42,58 +42,8 @@ impl ChainSampler {
     /// assignment has probability zero.
     pub fn new(graph: &FactorGraph) -> Result<Self> {
         let order = chain_order(graph)?;
-        let n = order.len();
-        let mut position = vec![0usize; graph.num_variables()];
-        for (i, v) in order.iter().enumerate() {
-            position[v.0] = i;
-        }
-        let cards: Vec<usize> = order.iter().map(|&v| graph.cardinality(v)).collect();
-        let mut unary: Vec<Vec<f64>> = cards.iter().map(|&k| vec![0.0; k]).collect();
-        let mut pair: Vec<Vec<f64>> = (0..n.saturating_sub(1))
-            .map(|i| vec![0.0; cards[i] * cards[i + 1]])
-            .collect();
-        for f in graph.factors() {
-            match f.scope() {
-                [] => {}
-                [v] => {
-                    for (x, u) in unary[position[v.0]].iter_mut().enumerate() {
-                        *u += f.log_potential(&[x]);
-                    }
-                }
-                [u, v] => {
-                    let (pu, pv) = (position[u.0], position[v.0]);
-                    let (i, forward) = if pu < pv { (pu, true) } else { (pv, false) };
-                    let k1 = cards[i + 1];
-                    for x in 0..cards[i] {
-                        for y in 0..k1 {
-                            let s = if forward { [x, y] } else { [y, x] };
-                            pair[i][x * k1 + y] += f.log_potential(&s);
-                        }
-                    }
-                }
-                s => {
-                    return Err(Error::NotApplicable {
-                        method: "chain sampler",
-                        reason: format!("factor of arity {}", s.len()),
-                    })
-                }
-            }
-        }
-        let mut alpha: Vec<Vec<f64>> = Vec::with_capacity(n);
-        if n > 0 {
-            alpha.push(unary[0].clone());
-        }
-        let mut terms = Vec::new();
-        for i in 1..n {
-            let (k0, k1) = (cards[i - 1], cards[i]);
-            let mut next = vec![0.0; k1];
-            for (y, value) in next.iter_mut().enumerate() {
-                terms.clear();
-                terms.extend((0..k0).map(|x| alpha[i - 1][x] + pair[i - 1][x * k1 + y]));
-                *value = log_sum_exp(&terms) + unary[i][y];
-            }
-            alpha.push(next);
-        }
+        let t = tables(graph, &order);
+        let alpha = forward(&t);
         if let Some(last) = alpha.last() {
             let z = log_sum_exp(last);
             if !z.is_finite() {
@@ -105,8 +55,8 @@ impl ChainSampler {
         }
         Ok(Self {
             order,
-            cards,
-            pair,
+            cards: t.cards,
+            pair: t.pair,
             alpha,
             num_variables: graph.num_variables(),
         })
