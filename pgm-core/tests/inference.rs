@@ -225,12 +225,17 @@ proptest! {
             let b = bp.run(&shifted, &mut schedule).unwrap();
             prop_assert_eq!(&a.assignment, &b.assignment, "{}", name);
             prop_assert_eq!(a.messages.as_slice(), b.messages.as_slice());
+            // log-sum-exp rounds differently after a shift, so sum-product agrees to
+            // rounding only; residual BP orders its updates by those rounded residuals,
+            // so on a loopy graph that has not converged it may take another path, and
+            // only the fixed-order schedules are compared for sum-product.
+            if name == "residual" {
+                continue;
+            }
             let sp = BeliefPropagation::new(Mode::SumProduct).max_iterations(20);
             let a = sp.run(&base, &mut schedule).unwrap();
             let b = sp.run(&shifted, &mut schedule).unwrap();
             for (x, y) in a.beliefs.iter().flatten().zip(b.beliefs.iter().flatten()) {
-                // log-sum-exp rounds differently after a shift, and residual BP's order
-                // follows the rounded residuals, so sum-product agrees to rounding only.
                 prop_assert!((x - y).abs() < 1e-9, "{name}: {x} vs {y}");
             }
         }
