@@ -16,6 +16,21 @@ use nalgebra::Point2;
 use pgm_core::hybrid::{ContinuousModel, DiscreteSummary, VariableState};
 use pgm_core::{Error, FactorId, Potentials, Result, TableFactor, VariableId};
 
+/// Solves every cluster's motion from its statistics (eq. 3); an empty cluster keeps
+/// its motion. Returns the largest change of a motion (metres or radians).
+pub fn solve_motions(stats: &[RigidAlignment], motions: &mut [Pose2]) -> f64 {
+    let mut change = 0.0f64;
+    for (m, stats) in motions.iter_mut().zip(stats) {
+        if let Some(a) = stats.solve() {
+            change = change
+                .max(a.motion.translation_error(m))
+                .max(a.motion.rotation_error(m));
+            *m = a.motion;
+        }
+    }
+    change
+}
+
 /// Rigid motions of `k` clusters over labelled point pairs.
 #[derive(Clone, Debug)]
 pub struct RigidMotionNodes {
@@ -147,17 +162,7 @@ impl ContinuousModel for RigidMotionNodes {
     }
 
     fn solve(&mut self) -> f64 {
-        let mut change = 0.0f64;
-        for (m, stats) in self.motions.iter_mut().zip(&self.stats) {
-            // An empty cluster keeps its motion.
-            if let Some(a) = stats.solve() {
-                change = change
-                    .max(a.motion.translation_error(m))
-                    .max(a.motion.rotation_error(m));
-                *m = a.motion;
-            }
-        }
-        change
+        solve_motions(&self.stats, &mut self.motions)
     }
 
     fn dependent_factors(&self, v: VariableId) -> &[FactorId] {

@@ -391,17 +391,7 @@ impl ContinuousModel for ClusterMotionNodes {
     }
 
     fn solve(&mut self) -> f64 {
-        let mut change = 0.0f64;
-        for (m, stats) in self.motions.iter_mut().zip(&self.stats) {
-            // An empty cluster keeps its motion.
-            if let Some(a) = stats.solve() {
-                change = change
-                    .max(a.motion.translation_error(m))
-                    .max(a.motion.rotation_error(m));
-                *m = a.motion;
-            }
-        }
-        change
+        pgm_features::motion_nodes::solve_motions(&self.stats, &mut self.motions)
     }
 
     fn dependent_factors(&self, v: VariableId) -> &[FactorId] {
