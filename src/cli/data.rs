@@ -18,7 +18,7 @@ use super::{CliError, CliResult};
 use clap::{Args, Subcommand};
 use pgm_datasets::builders::{
     consecutive_pairs, leigh_pairs, relation_pairs, summarize_leigh_pairs, LeighPairOptions,
-    RelationPairOptions,
+    RelationPairOptions, Unannotated,
 };
 use pgm_datasets::{carmen, leigh, relations, ScanPair};
 use std::path::{Path, PathBuf};
@@ -75,6 +75,10 @@ pub struct LeighArgs {
     /// Returns within this distance (m) of an annotated centre belong to the person.
     #[arg(long, default_value_t = 0.35)]
     pub person_radius: f64,
+    /// A person annotated in the current scan but not in the reference scan (unknown
+    /// displacement) is `moving` (its own cluster) or `static` (background).
+    #[arg(long, default_value_t = Unannotated::Moving)]
+    pub unannotated: Unannotated,
 }
 
 /// `pgm data pairs`.
@@ -225,6 +229,7 @@ pub fn load_pairs(
         k,
         moving_threshold: leigh_args.moving_threshold,
         person_radius: leigh_args.person_radius,
+        unannotated: leigh_args.unannotated,
         name: "leigh-gtm1".into(),
     };
     let pairs = leigh_pairs(&log, &annotations, &options).map_err(CliError::from_display)?;
@@ -259,6 +264,7 @@ fn run_summary(args: SummaryArgs) -> CliResult {
             k,
             moving_threshold: args.leigh.moving_threshold,
             person_radius: args.leigh.person_radius,
+            unannotated: args.leigh.unannotated,
             name: "leigh-gtm1".into(),
         };
         let pairs = leigh_pairs(&log, &annotations, &options).map_err(CliError::from_display)?;

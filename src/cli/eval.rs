@@ -136,6 +136,7 @@ fn run_matching(args: MatchingArgs) -> CliResult {
             let leigh = LeighArgs {
                 moving_threshold: 0.0,
                 person_radius: 0.35,
+                unannotated: Default::default(),
             };
             load_pairs(&args.source, &leigh, 1)?
         }

@@ -54,6 +54,11 @@ pub struct SimArgs {
     /// Odometry noise: standard deviation of the heading error (rad) per metre travelled.
     #[arg(long, default_value_t = 0.003)]
     pub odometry_rotation_noise: f64,
+    /// Pair selection: every moving object in the current scan must have at least this
+    /// many returns seen in the reference scan (true associations), else the scene is
+    /// drawn again; 0 keeps every pair.
+    #[arg(long, default_value_t = 3)]
+    pub min_object_returns: usize,
 }
 
 /// Runs `pgm sim`.
@@ -67,6 +72,7 @@ pub fn run(args: SimArgs) -> CliResult {
         pair_distance: [args.min_distance, args.max_distance],
         odometry_translation_noise: args.odometry_translation_noise,
         odometry_rotation_noise: args.odometry_rotation_noise,
+        min_object_returns: args.min_object_returns,
         ..SimConfig::default()
     }
     .check()

@@ -120,6 +120,18 @@ pub struct SimConfig {
     /// Standard deviation of the odometry's heading error in radians per metre travelled
     /// (default 0.003).
     pub odometry_rotation_noise: f64,
+    /// Pair selection: a pair is kept only when every moving object that shows in the
+    /// current scan has at least this many current returns with a true association
+    /// (the same surface point seen in the reference scan); otherwise the scene is
+    /// drawn again ([`simulate_pair`]). Default 3, like the papers' hand-selected
+    /// pairs, where every labelled object's motion can be seen: an object hit by one
+    /// or two beams, or one that just came into view, has no motion to cluster by.
+    /// 0 keeps every pair.
+    pub min_object_returns: usize,
+}
+
+fn default_min_object_returns() -> usize {
+    3
 }
 
 impl Default for SimConfig {
@@ -135,6 +147,7 @@ impl Default for SimConfig {
             ego_speed: [6.0, 12.0],
             odometry_translation_noise: 0.02,
             odometry_rotation_noise: 0.003,
+            min_object_returns: default_min_object_returns(),
         }
     }
 }
@@ -245,17 +258,38 @@ pub fn simulate_pairs(config: &ValidSimConfig, seed: u64, n: usize) -> Vec<ScanP
         .collect()
 }
 
-/// How many scenes a situation preset draws at most to get one whose current scan
-/// shows a moving object.
-pub const SCENE_ATTEMPTS: usize = 10;
+/// How many scenes [`simulate_pair`] draws at most to get one it keeps.
+pub const SCENE_ATTEMPTS: usize = 40;
+
+/// Whether every moving object that shows in the current scan of `pair` has at least
+/// `min_returns` current returns with a true association into the reference scan
+/// ([`SimConfig::min_object_returns`]).
+pub fn objects_observable(pair: &ScanPair, min_returns: usize) -> bool {
+    let Some(truth) = pair.truth.as_ref() else {
+        return true;
+    };
+    let (Some(labels), Some(associations)) = (&truth.labels, &truth.associations) else {
+        return true;
+    };
+    let mut counts: std::collections::BTreeMap<u32, usize> = Default::default();
+    for (label, association) in labels.iter().zip(associations) {
+        if let Some(l) = label.filter(|&l| l != 0) {
+            let seen = matches!(association, Some(crate::pair::Association::Point(_)));
+            *counts.entry(l).or_default() += usize::from(seen);
+        }
+    }
+    counts.values().all(|&n| n >= min_returns)
+}
 
 /// Simulates pair number `index` of the configured preset for `seed`; its name is
 /// `sim:<preset>:<seed>:<index>`.
 ///
 /// Every preset but [`Preset::Random`] depicts a situation with moving objects, so
 /// when all of them happen to be hidden (behind parked cars, say) in the current
-/// scan, the scene is drawn again from the same stream, up to [`SCENE_ATTEMPTS`]
-/// times. `Random` keeps whatever it draws, empty streets included.
+/// scan, the scene is drawn again from the same stream. So is a scene that fails the
+/// pair selection of [`SimConfig::min_object_returns`] ([`objects_observable`]),
+/// `Random` included (which otherwise keeps whatever it draws, empty streets
+/// included). After [`SCENE_ATTEMPTS`] draws the last one is kept.
 pub fn simulate_pair(config: &ValidSimConfig, seed: u64, index: u64) -> ScanPair {
     let mut rng = pair_rng(seed, index);
     let preset = config.params().preset;
@@ -269,7 +303,8 @@ pub fn simulate_pair(config: &ValidSimConfig, seed: u64, index: u64) -> ScanPair
             .as_ref()
             .and_then(|t| t.labels.as_ref())
             .is_some_and(|labels| labels.iter().any(|l| l.is_some_and(|l| l != 0)));
-        if shows_motion || preset == Preset::Random || attempt >= SCENE_ATTEMPTS {
+        let selected = objects_observable(&pair, config.params().min_object_returns);
+        if (selected && (shows_motion || preset == Preset::Random)) || attempt >= SCENE_ATTEMPTS {
             return pair;
         }
         attempt += 1;

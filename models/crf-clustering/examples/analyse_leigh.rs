@@ -1,0 +1,202 @@
+//! Diagnostics of CRF-Clustering and CBD on leigh-gtm1 pairs (development aid): per
+//! pair the V-measure of each method, the true moving people (label, returns) and the
+//! predicted moving objects (returns, how many of them are true mover returns).
+//!
+//! Run: `cargo run --release -p pgm-crf-clustering --example analyse_leigh -- [DATA_DIR] [k] [icp|segment]`
+//! (`DATA_DIR` defaults to `../shared/data/leigh-gtm1`).
+
+use pgm_crf_clustering::evaluation::{evaluate_pair, EvaluationConfig, Method};
+use pgm_crf_clustering::{AssociationSource, NearestParams};
+use pgm_datasets::builders::{leigh_pairs, LeighPairOptions};
+use pgm_datasets::leigh;
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+
+fn describe(
+    pair: &pgm_datasets::ScanPair,
+    centres: &[nalgebra::Point2<f64>],
+    truth: &[Option<u32>],
+    labels: &[Option<u32>],
+) -> String {
+    let mut objects: BTreeMap<u32, (usize, usize, nalgebra::Vector2<f64>)> = BTreeMap::new();
+    for (k, (t, p)) in truth.iter().zip(labels).enumerate() {
+        if let (Some(t), Some(p)) = (t, p) {
+            if *p > 0 {
+                let e = objects
+                    .entry(*p)
+                    .or_insert((0, 0, nalgebra::Vector2::zeros()));
+                e.0 += 1;
+                e.1 += usize::from(*t > 0);
+                e.2 += pair.current.beam_point(k).coords;
+            }
+        }
+    }
+    objects
+        .iter()
+        .map(|(l, (n, hit, sum))| {
+            let c = nalgebra::Point2::from(sum / *n as f64);
+            let person = centres
+                .iter()
+                .map(|p| (p - c).norm())
+                .fold(f64::INFINITY, f64::min);
+            format!("{l}:{n}/{hit}@{:.1}m,p{:.1}", c.coords.norm(), person)
+        })
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+fn env<T: std::str::FromStr>(name: &str, default: T) -> T {
+    std::env::var(name)
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(default)
+}
+
+/// Default parameters with overrides from the environment (experiments only).
+fn params() -> pgm_crf_clustering::ClusteringParams {
+    let d = pgm_crf_clustering::ClusteringParams::default();
+    pgm_crf_clustering::ClusteringParams {
+        max_clusters: env("MAX_CLUSTERS", d.max_clusters),
+        segment_gap: env("SEGMENT_GAP", d.segment_gap),
+        min_object_points: env("MIN_POINTS", d.min_object_points),
+        min_object_displacement: env("MIN_DISP", d.min_object_displacement),
+        min_free_fraction: env("MIN_FREE", d.min_free_fraction),
+        free_space_margin: env("FREE_MARGIN", d.free_space_margin),
+        merge_threshold: env("MERGE", d.merge_threshold),
+        min_object_chi2: env("CHI2", d.min_object_chi2),
+        ..d
+    }
+}
+
+/// Per true mover: returns, associated returns, mean partner distance under the ICP
+/// ego-motion, fraction in the reference's free space; and the background's median.
+fn detail(pair: &pgm_datasets::ScanPair, truth: &[Option<u32>], source: &AssociationSource) {
+    use pgm_crf_clustering::AssociationProvider;
+    let a = source.associate(pair).expect("associations");
+    let ego = a.ego_motion.unwrap_or_default();
+    let dist = |k: usize| match a.associations[k] {
+        Some(pgm_datasets::Association::Point(r)) => Some(
+            (ego.transform_point(&pair.current.beam_point(k)) - pair.reference.beam_point(r))
+                .norm(),
+        ),
+        _ => None,
+    };
+    let mut bg: Vec<f64> = (0..truth.len())
+        .filter(|&k| truth[k] == Some(0))
+        .filter_map(dist)
+        .collect();
+    bg.sort_by(f64::total_cmp);
+    let labels: std::collections::BTreeSet<u32> =
+        truth.iter().flatten().copied().filter(|&l| l > 0).collect();
+    let mut out = vec![format!(
+        "bg median {:.3} p90 {:.3}",
+        bg.get(bg.len() / 2).copied().unwrap_or(f64::NAN),
+        bg.get(bg.len() * 9 / 10).copied().unwrap_or(f64::NAN)
+    )];
+    for l in labels {
+        let members: Vec<usize> = (0..truth.len()).filter(|&k| truth[k] == Some(l)).collect();
+        let d: Vec<f64> = members.iter().filter_map(|&k| dist(k)).collect();
+        let free = members
+            .iter()
+            .filter(|&&k| {
+                pgm_crf_clustering::associations::in_free_space(
+                    &pair.reference,
+                    &ego.transform_point(&pair.current.beam_point(k)),
+                    0.3,
+                )
+            })
+            .count();
+        let r = members.iter().map(|&k| pair.current.ranges[k]).sum::<f64>() / members.len() as f64;
+        out.push(format!(
+            "mover {l}: n {} assoc {} mean d {:.2} free {} range {:.1}",
+            members.len(),
+            d.len(),
+            d.iter().sum::<f64>() / d.len().max(1) as f64,
+            free,
+            r
+        ));
+    }
+    println!("  {}", out.join(" | "));
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let dir = PathBuf::from(
+        args.get(1)
+            .cloned()
+            .unwrap_or_else(|| "../shared/data/leigh-gtm1".into()),
+    );
+    let k: usize = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(5);
+    let associations = match args.get(3).map(String::as_str) {
+        Some("segment") => AssociationSource::automatic(),
+        _ => AssociationSource::NearestAfterIcp(NearestParams::default()),
+    };
+    let mut log = leigh::read_scans(dir.join("scans.txt")).expect("scans");
+    let odometry = dir.join("odom_at_scan.txt");
+    let odo = leigh::read_odometry(&odometry).expect("odometry");
+    leigh::attach_odometry(&mut log, &odo, &odometry).expect("attach");
+    let people = leigh::read_people(dir.join("people_gt.txt")).expect("people");
+    let pairs = leigh_pairs(
+        &log,
+        &people,
+        &LeighPairOptions {
+            k,
+            ..Default::default()
+        },
+    )
+    .expect("pairs");
+    let config = |method| EvaluationConfig {
+        method,
+        associations: associations.clone(),
+        clusterer: params().check().unwrap(),
+        kmeans: Default::default(),
+        cbd: Default::default(),
+    };
+    let (crf, cbd) = (config(Method::Crf), config(Method::Cbd));
+    let (mut s_crf, mut s_cbd) = (0.0, 0.0);
+    for pair in &pairs {
+        let truth = pair.truth.as_ref().unwrap().labels.as_ref().unwrap();
+        let mut movers: BTreeMap<u32, usize> = BTreeMap::new();
+        for l in truth.iter().flatten().filter(|&&l| l > 0) {
+            *movers.entry(*l).or_default() += 1;
+        }
+        if std::env::var("DETAIL").is_ok() {
+            detail(pair, truth, &associations);
+        }
+        let j: usize = pair
+            .name
+            .rsplit('-')
+            .next()
+            .and_then(|s| s.parse().ok())
+            .unwrap();
+        let centres: Vec<nalgebra::Point2<f64>> = people
+            .iter()
+            .filter(|p| p.scan == j)
+            .map(|p| p.centre)
+            .collect();
+        let a = evaluate_pair(pair, &crf).expect("crf");
+        let b = evaluate_pair(pair, &cbd).expect("cbd");
+        s_crf += a.score.v_measure;
+        s_cbd += b.score.v_measure;
+        println!(
+            "{:<22} truth [{}] | CRF V {:.2} [{}] | CBD V {:.2} [{}]",
+            pair.name,
+            movers
+                .iter()
+                .map(|(l, n)| format!("{l}:{n}"))
+                .collect::<Vec<_>>()
+                .join(" "),
+            a.score.v_measure,
+            describe(pair, &centres, truth, &a.labels),
+            b.score.v_measure,
+            describe(pair, &centres, truth, &b.labels),
+        );
+    }
+    let n = pairs.len() as f64;
+    println!(
+        "mean V: CRF {:.3}, CBD {:.3} ({} pairs)",
+        s_crf / n,
+        s_cbd / n,
+        pairs.len()
+    );
+}
