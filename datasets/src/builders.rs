@@ -235,6 +235,10 @@ pub struct LeighPairOptions {
     pub person_radius: f64,
     /// What a person annotated in the current scan but not in the reference scan is.
     pub unannotated: Unannotated,
+    /// Score only the annotated sector: returns whose bearing lies outside the
+    /// bearings of all annotated centres (over the whole log, each widened by the
+    /// person radius) get no label (`None`) instead of background (module docs).
+    pub annotated_sector: bool,
     /// Prefix of the pair names (`<prefix>:<i>-<j>`).
     pub name: String,
 }
@@ -246,6 +250,7 @@ impl Default for LeighPairOptions {
             moving_threshold: 0.2,
             person_radius: 0.35,
             unannotated: Unannotated::Moving,
+            annotated_sector: false,
             name: "leigh-gtm1".into(),
         }
     }
@@ -285,12 +290,38 @@ impl std::str::FromStr for Unannotated {
     }
 }
 
-fn label_returns(scan: &Scan, centres: &[(u32, Point2<f64>)], radius: f64) -> Vec<Option<u32>> {
+/// The bearings `[min, max]` (rad, laser frame) covered by the annotated centres,
+/// each widened by the angle `person_radius` subtends at its range.
+pub fn annotated_sector(people: &[PersonAnnotation], person_radius: f64) -> Option<[f64; 2]> {
+    people
+        .iter()
+        .filter(|a| a.centre.coords.norm() > 0.0)
+        .map(|a| {
+            let r = a.centre.coords.norm();
+            let b = a.centre.y.atan2(a.centre.x);
+            let w = (person_radius / r).min(1.0).asin();
+            [b - w, b + w]
+        })
+        .reduce(|a, b| [a[0].min(b[0]), a[1].max(b[1])])
+}
+
+fn label_returns(
+    scan: &Scan,
+    centres: &[(u32, Point2<f64>)],
+    radius: f64,
+    sector: Option<[f64; 2]>,
+) -> Vec<Option<u32>> {
     let r2 = radius * radius;
     (0..scan.len())
         .map(|k| {
             if !scan.valid[k] {
                 return None;
+            }
+            if let Some([lo, hi]) = sector {
+                let a = scan.angles[k];
+                if a < lo || a > hi {
+                    return None;
+                }
             }
             let p = scan.beam_point(k);
             let nearest = centres
@@ -336,6 +367,11 @@ pub fn leigh_pairs(
             .or_default()
             .insert(a.person, a.centre);
     }
+    let sector = if options.annotated_sector {
+        annotated_sector(people, options.person_radius)
+    } else {
+        None
+    };
     let mut pairs = Vec::new();
     for (&i, people_i) in &by_scan {
         let j = i + options.k;
@@ -345,7 +381,9 @@ pub fn leigh_pairs(
         let (Some(ref_scan), Some(cur_scan)) = (scans.get(i), scans.get(j)) else {
             continue;
         };
-        pairs.push(leigh_pair(ref_scan, cur_scan, people_i, people_j, options)?);
+        pairs.push(leigh_pair(
+            ref_scan, cur_scan, people_i, people_j, options, sector,
+        )?);
     }
     Ok(pairs)
 }
@@ -356,6 +394,7 @@ fn leigh_pair(
     people_i: &BTreeMap<u32, Point2<f64>>,
     people_j: &BTreeMap<u32, Point2<f64>>,
     options: &LeighPairOptions,
+    sector: Option<[f64; 2]>,
 ) -> Result<ScanPair> {
     let prior = odometry_prior(&reference.scan, &current.scan);
     if prior.is_none() && options.moving_threshold > 0.0 {
@@ -412,11 +451,13 @@ fn leigh_pair(
             &current.scan,
             &centres_j,
             options.person_radius,
+            sector,
         )),
         reference_labels: Some(label_returns(
             &reference.scan,
             &centres_i,
             options.person_radius,
+            sector,
         )),
         associations: None,
         motions,

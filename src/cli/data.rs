@@ -79,6 +79,10 @@ pub struct LeighArgs {
     /// displacement) is `moving` (its own cluster) or `static` (background).
     #[arg(long, default_value_t = Unannotated::Moving)]
     pub unannotated: Unannotated,
+    /// Score only the sector of bearings where people were annotated (returns outside
+    /// it get no label): the annotators marked people in front of the wheelchair only.
+    #[arg(long)]
+    pub annotated_sector: bool,
 }
 
 /// `pgm data pairs`.
@@ -230,6 +234,7 @@ pub fn load_pairs(
         moving_threshold: leigh_args.moving_threshold,
         person_radius: leigh_args.person_radius,
         unannotated: leigh_args.unannotated,
+        annotated_sector: leigh_args.annotated_sector,
         name: "leigh-gtm1".into(),
     };
     let pairs = leigh_pairs(&log, &annotations, &options).map_err(CliError::from_display)?;
@@ -265,6 +270,7 @@ fn run_summary(args: SummaryArgs) -> CliResult {
             moving_threshold: args.leigh.moving_threshold,
             person_radius: args.leigh.person_radius,
             unannotated: args.leigh.unannotated,
+            annotated_sector: args.leigh.annotated_sector,
             name: "leigh-gtm1".into(),
         };
         let pairs = leigh_pairs(&log, &annotations, &options).map_err(CliError::from_display)?;

@@ -137,6 +137,7 @@ fn run_matching(args: MatchingArgs) -> CliResult {
                 moving_threshold: 0.0,
                 person_radius: 0.35,
                 unannotated: Default::default(),
+                annotated_sector: false,
             };
             load_pairs(&args.source, &leigh, 1)?
         }

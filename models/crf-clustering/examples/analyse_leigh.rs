@@ -129,7 +129,11 @@ fn main() {
     let k: usize = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(5);
     let associations = match args.get(3).map(String::as_str) {
         Some("segment") => AssociationSource::automatic(),
-        _ => AssociationSource::NearestAfterIcp(NearestParams::default()),
+        _ => AssociationSource::NearestAfterIcp(NearestParams {
+            static_tolerance: Some(env("STATIC_TOL", -1.0)).filter(|&t| t >= 0.0),
+            gate: env("GATE", 1.0),
+            ..NearestParams::default()
+        }),
     };
     let mut log = leigh::read_scans(dir.join("scans.txt")).expect("scans");
     let odometry = dir.join("odom_at_scan.txt");
@@ -141,6 +145,7 @@ fn main() {
         &people,
         &LeighPairOptions {
             k,
+            annotated_sector: env("SECTOR", 0) == 1,
             ..Default::default()
         },
     )

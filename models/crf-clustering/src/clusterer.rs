@@ -37,7 +37,8 @@
 //!    points lie on average at least that much farther from their partners than under
 //!    their own motion. (b) rejects clusters whose own motion merely overfits the
 //!    association noise of a static segment (any cluster's own fit is at least as good
-//!    as the background's on its points), and (c) free space shows it moved: at least
+//!    as the background's on its points), and (c) free space shows it moved (tested per
+//!    object after the split of step 6): at least
 //!    [`ClusteringParams::min_free_fraction`] of its points lie, under the background
 //!    motion, where the reference scan saw through, or their partners lie where the
 //!    current scan sees through (needs [`ClusteringInput::scans`]). An optional
@@ -759,9 +760,11 @@ impl Clusterer {
                 && evidence[l] >= p.min_object_displacement
                 && chi2[l] >= p.min_object_chi2 * noise_scale;
         }
-        if let (true, Some((reference, current))) = (p.min_free_fraction > 0.0, &input.scans) {
+        // Free-space evidence per point of a moving cluster; tested per object below.
+        let mut free_point = vec![true; inferred.labels.len()];
+        let free_test = p.min_free_fraction > 0.0 && input.scans.is_some();
+        if let (true, Some((reference, current))) = (free_test, &input.scans) {
             let back = bg_motion.inverse();
-            let mut free = vec![0usize; k];
             for (i, &l) in inferred.labels.iter().enumerate() {
                 if l >= k || !moving[l] {
                     continue;
@@ -778,12 +781,7 @@ impl Clusterer {
                         p.free_space_margin,
                     )
                 });
-                free[l] += usize::from(forward || left);
-            }
-            for l in 0..k {
-                if moving[l] && (free[l] as f64) < p.min_free_fraction * count[l] as f64 {
-                    moving[l] = false;
-                }
+                free_point[i] = forward || left;
             }
         }
         // Number moving objects by first appearance; a moving cluster whose points
@@ -794,6 +792,7 @@ impl Clusterer {
         let mut next = 1u32;
         let mut point_labels = vec![0u32; inferred.labels.len()];
         let mut objects: Vec<Cluster> = Vec::new();
+        let mut object_free: Vec<usize> = Vec::new();
         for (i, &l) in inferred.labels.iter().enumerate() {
             if l >= k || !moving[l] {
                 continue;
@@ -810,22 +809,36 @@ impl Clusterer {
                     displacement: displacement[l],
                     background: false,
                 });
+                object_free.push(0);
             }
             last[l] = Some(i);
             point_labels[i] = current[l];
             objects[current[l] as usize - 1].points += 1;
+            object_free[current[l] as usize - 1] += usize::from(free_point[i]);
         }
-        // Pieces too small to be objects on their own join the background; the rest
-        // are renumbered.
+        // Pieces too small to be objects on their own, or without free-space evidence
+        // of motion, join the background; the rest are renumbered.
+        let keep: Vec<bool> = objects
+            .iter()
+            .zip(&object_free)
+            .map(|(o, &free)| {
+                o.points >= p.min_object_points
+                    && (free as f64) >= p.min_free_fraction * o.points as f64
+            })
+            .collect();
         let mut renumber = vec![0u32; objects.len() + 1];
         let mut kept = 0u32;
-        for o in &objects {
-            if o.points >= p.min_object_points {
+        for (o, &keep) in objects.iter().zip(&keep) {
+            if keep {
                 kept += 1;
                 renumber[o.label as usize] = kept;
             }
         }
-        objects.retain(|o| o.points >= p.min_object_points);
+        let mut index = 0;
+        objects.retain(|_| {
+            index += 1;
+            keep[index - 1]
+        });
         for o in &mut objects {
             o.label = renumber[o.label as usize];
         }
