@@ -152,7 +152,7 @@ fn main() {
     .expect("pairs");
     let config = |method| EvaluationConfig {
         method,
-        associations: associations.clone(),
+        associations,
         clusterer: params().check().unwrap(),
         kmeans: Default::default(),
         cbd: Default::default(),
