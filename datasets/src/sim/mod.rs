@@ -130,10 +130,6 @@ pub struct SimConfig {
     pub min_object_returns: usize,
 }
 
-fn default_min_object_returns() -> usize {
-    3
-}
-
 impl Default for SimConfig {
     fn default() -> Self {
         SimConfig {
@@ -147,7 +143,7 @@ impl Default for SimConfig {
             ego_speed: [6.0, 12.0],
             odometry_translation_noise: 0.02,
             odometry_rotation_noise: 0.003,
-            min_object_returns: default_min_object_returns(),
+            min_object_returns: 3,
         }
     }
 }

@@ -276,50 +276,35 @@ pub fn nearest_after_icp(pair: &ScanPair, params: &NearestParams) -> Result<Poin
         .align(&pair.current, pair.odometry.unwrap_or_default())?
         .motion;
     let n = pair.current.len();
-    let mut moved = vec![None; n];
     let mut seen = vec![false; n];
     let mut nearest = vec![None; n];
-    for k in 0..n {
-        if !pair.current.valid[k] {
-            continue;
-        }
+    for k in (0..n).filter(|&k| pair.current.valid[k]) {
         let q = ego.transform_point(&pair.current.beam_point(k));
         seen[k] = seen_by(&pair.reference, &q, params.occlusion_margin);
         nearest[k] = icp.nearest_reference(&q, params.gate);
-        moved[k] = Some(q);
     }
-    // Segments (runs of valid beams with gaps below segment_gap) that do not follow
-    // the ego-motion.
+    // Gap segments of the current scan that do not follow the ego-motion.
     let mut free_segment = vec![false; n];
     if let Some(tolerance) = params.static_tolerance {
         let t2 = tolerance * tolerance;
-        let g2 = params.segment_gap * params.segment_gap;
-        let valid: Vec<usize> = (0..n).filter(|&k| pair.current.valid[k]).collect();
-        let mut start = 0;
-        for i in 1..=valid.len() {
-            let split = i == valid.len() || {
-                let (a, b) = (valid[i - 1], valid[i]);
-                (pair.current.beam_point(a) - pair.current.beam_point(b)).norm_squared() > g2
-            };
-            if split {
-                let members = &valid[start..i];
-                let fitting = members
-                    .iter()
-                    .filter(|&&k| nearest[k].is_some_and(|(_, d2)| d2 <= t2))
-                    .count();
-                if 2 * fitting < members.len() {
-                    for &k in members {
-                        free_segment[k] = true;
-                    }
-                }
-                start = i;
-            }
+        let (points, beams) = pair.current.points();
+        let segments = crate::segmentation::segment_by_gap(&points, params.segment_gap);
+        let count = segments.last().map_or(0, |&s| s + 1);
+        let (mut size, mut fitting) = (vec![0usize; count], vec![0usize; count]);
+        for (&segment, &k) in segments.iter().zip(&beams) {
+            size[segment] += 1;
+            fitting[segment] += usize::from(nearest[k].is_some_and(|(_, d2)| d2 <= t2));
+        }
+        for (&segment, &k) in segments.iter().zip(&beams) {
+            free_segment[k] = 2 * fitting[segment] < size[segment];
         }
     }
     let back = ego.inverse();
     let associations = (0..n)
         .map(|k| {
-            moved[k]?;
+            if !pair.current.valid[k] {
+                return None;
+            }
             Some(match nearest[k] {
                 Some((beam, _))
                     if seen[k]

@@ -762,8 +762,7 @@ impl Clusterer {
         }
         // Free-space evidence per point of a moving cluster; tested per object below.
         let mut free_point = vec![true; inferred.labels.len()];
-        let free_test = p.min_free_fraction > 0.0 && input.scans.is_some();
-        if let (true, Some((reference, current))) = (free_test, &input.scans) {
+        if let (true, Some((reference, current))) = (p.min_free_fraction > 0.0, &input.scans) {
             let back = bg_motion.inverse();
             for (i, &l) in inferred.labels.iter().enumerate() {
                 if l >= k || !moving[l] {
@@ -834,11 +833,7 @@ impl Clusterer {
                 renumber[o.label as usize] = kept;
             }
         }
-        let mut index = 0;
-        objects.retain(|_| {
-            index += 1;
-            keep[index - 1]
-        });
+        objects.retain(|o| renumber[o.label as usize] != 0);
         for o in &mut objects {
             o.label = renumber[o.label as usize];
         }
