@@ -39,9 +39,10 @@
 //!    association noise of a static segment (any cluster's own fit is at least as good
 //!    as the background's on its points), and (c) free space shows it moved (tested per
 //!    object after the split of step 6): at least
-//!    [`ClusteringParams::min_free_fraction`] of its points lie, under the background
-//!    motion, where the reference scan saw through, or their partners lie where the
-//!    current scan sees through (needs [`ClusteringInput::scans`]). An optional
+//!    [`ClusteringParams::min_free_fraction`] of its points lie, under the ego-motion
+//!    (the association source's ICP estimate [`ClusteringInput::ego_motion`], else the
+//!    background motion), where the reference scan saw through, or their partners lie
+//!    where the current scan sees through (needs [`ClusteringInput::scans`]). An optional
 //!    likelihood-ratio test ([`ClusteringParams::min_object_chi2`], off by default)
 //!    is also available. The rest join the background.
 //! 6. **Clean-up**: points without a partner keep their label only when an
@@ -138,8 +139,8 @@ pub struct ClusteringParams {
     /// `σ_i`). 0 keeps only the displacement tests.
     pub min_object_chi2: f64,
     /// Smallest fraction of a moving cluster's points that show it moved by free
-    /// space (0.2; 0: no test): moved by the background motion into the reference frame
-    /// they lie more than [`ClusteringParams::free_space_margin`] in front of the
+    /// space (0.2; 0: no test): moved by the ego-motion ([`ClusteringInput::ego_motion`],
+    /// else the background motion) into the reference frame they lie more than [`ClusteringParams::free_space_margin`] in front of the
     /// reference returns at their bearing (the reference saw through where they are
     /// now), or their partners, moved back into the current frame, lie that far in
     /// front of the current returns (the object left). A static surface merely seen
@@ -318,6 +319,11 @@ pub struct ClusteringInput {
     /// The reference and current scans, for the free-space test of moving clusters
     /// ([`ClusteringParams::min_free_fraction`]); `None` skips the test.
     pub scans: Option<(pgm_features::Scan, pgm_features::Scan)>,
+    /// The ego-motion the association source estimated from the whole scans (ICP), if
+    /// any. The free-space test runs under it: fitted to every return, it is a steadier
+    /// reference than the background cluster's motion, which rests on that cluster's
+    /// nearest-neighbour partners only. `None`: the background cluster's motion.
+    pub ego_motion: Option<Pose2>,
 }
 
 impl ClusteringInput {
@@ -360,6 +366,7 @@ impl ClusteringInput {
             variances,
             odometry: pair.odometry,
             scans: Some((pair.reference.clone(), pair.current.clone())),
+            ego_motion: associations.ego_motion,
         })
     }
 }
@@ -763,14 +770,15 @@ impl Clusterer {
         // Free-space evidence per point of a moving cluster; tested per object below.
         let mut free_point = vec![true; inferred.labels.len()];
         if let (true, Some((reference, current))) = (p.min_free_fraction > 0.0, &input.scans) {
-            let back = bg_motion.inverse();
+            let ego = input.ego_motion.unwrap_or(bg_motion);
+            let back = ego.inverse();
             for (i, &l) in inferred.labels.iter().enumerate() {
                 if l >= k || !moving[l] {
                     continue;
                 }
                 let forward = crate::associations::in_free_space(
                     reference,
-                    &bg_motion.transform_point(&input.points[i]),
+                    &ego.transform_point(&input.points[i]),
                     p.free_space_margin,
                 );
                 let left = input.partners[i].as_ref().is_some_and(|g| {

@@ -48,6 +48,7 @@ fn scene(ego: Pose2, object: Pose2) -> (ClusteringInput, Vec<bool>) {
             variances,
             odometry: None,
             scans: None,
+            ego_motion: None,
         },
         is_object,
     )
@@ -183,6 +184,7 @@ fn no_points_is_not_an_error() {
         variances: vec![],
         odometry: None,
         scans: None,
+        ego_motion: None,
     };
     let result = Clusterer::default()
         .cluster(&input)
@@ -196,6 +198,7 @@ fn no_points_is_not_an_error() {
         variances: vec![1.0],
         odometry: None,
         scans: None,
+        ego_motion: None,
     };
     assert!(Clusterer::default().cluster(&bad).is_err());
 }
