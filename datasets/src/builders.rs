@@ -471,6 +471,63 @@ fn leigh_pair(
     })
 }
 
+/// One annotated person's whole track in the odometry frame
+/// ([`leigh_track_displacements`]).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct TrackDisplacement {
+    /// Number of scans the person is annotated in.
+    pub annotations: usize,
+    /// First and last scan index of the track.
+    pub scans: [usize; 2],
+    /// Straight-line distance (m) from the first to the last annotated position, per
+    /// `k` scans: about the walking speed for someone who walks, a few centimetres for
+    /// someone who stands whatever their annotated centre does from scan to scan.
+    pub per_k_scans: f64,
+}
+
+/// Each annotated person's net displacement per `k` scans over their whole track,
+/// with every annotation carried into the odometry frame (odometry ∘ laser offset);
+/// needs the scans' odometry ([`crate::leigh::attach_odometry`]). Tells people who
+/// walk from people who stand although an annotation is missing in one scan or its
+/// centre jitters by more than the moving threshold.
+pub fn leigh_track_displacements(
+    scans: &LeighScans,
+    people: &[PersonAnnotation],
+    k: usize,
+) -> Result<BTreeMap<u32, TrackDisplacement>> {
+    let mut tracks: BTreeMap<u32, Vec<(usize, Point2<f64>)>> = BTreeMap::new();
+    for a in people {
+        let pose = scans
+            .get(a.scan)
+            .and_then(|s| s.scan.laser_odometry())
+            .ok_or_else(|| Error::Mismatch {
+                what: format!(
+                    "person {} annotated in scan {} (people file line {}): that scan has no \
+                     odometry, needed to carry the annotation into the odometry frame",
+                    a.person, a.scan, a.line
+                ),
+            })?;
+        tracks
+            .entry(a.person)
+            .or_default()
+            .push((a.scan, pose.transform_point(&a.centre)));
+    }
+    Ok(tracks
+        .into_iter()
+        .map(|(person, mut track)| {
+            track.sort_by_key(|(scan, _)| *scan);
+            let (first, last) = (track[0], track[track.len() - 1]);
+            let span = (last.0 - first.0).max(1) as f64;
+            let summary = TrackDisplacement {
+                annotations: track.len(),
+                scans: [first.0, last.0],
+                per_k_scans: (last.1 - first.1).norm() / span * k as f64,
+            };
+            (person, summary)
+        })
+        .collect())
+}
+
 /// Figures of a set of leigh-gtm1 pairs (the `pgm data summary` table).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct LeighSummary {

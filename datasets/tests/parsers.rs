@@ -277,3 +277,67 @@ fn missing_file_names_the_path() {
     assert!(matches!(err, Error::Io { .. }));
     assert!(err.to_string().contains("/nonexistent/dir/log.clf"));
 }
+
+#[test]
+fn leigh_tracks_tell_standing_from_walking_people() {
+    use pgm_datasets::builders::leigh_track_displacements;
+    use pgm_datasets::leigh::attach_odometry;
+    let text = (0..=10)
+        .map(|i| scan_line(i, 2, &["1.0", "2.0"]))
+        .collect::<Vec<_>>()
+        .join("\n");
+    let mut scans = parse_scans(Path::new("scans.txt"), &text).unwrap();
+    // The robot drives 0.1 m per scan along x and turns 0.02 rad per scan.
+    let odometry = (0..=10)
+        .map(|i| {
+            (
+                i,
+                pgm_features::Pose2::new(0.1 * i as f64, 0.0, 0.02 * i as f64),
+            )
+        })
+        .collect();
+    // Person 1 stands at (3, 1) in the odometry frame; person 2 walks 0.08 m per scan
+    // along y from (2, -1). Annotations in each scan's laser frame.
+    let annotations = |scans: &pgm_datasets::leigh::LeighScans| {
+        let mut lines = String::new();
+        for i in [0usize, 4, 10] {
+            let laser = scans
+                .get(i)
+                .unwrap()
+                .scan
+                .laser_odometry()
+                .unwrap()
+                .inverse();
+            for (person, p) in [
+                (1, nalgebra::Point2::new(3.0, 1.0)),
+                (2, nalgebra::Point2::new(2.0, -1.0 + 0.08 * i as f64)),
+            ] {
+                let q = laser.transform_point(&p);
+                lines += &format!("PERSON {i} {person} {} {}\n", q.x, q.y);
+            }
+        }
+        parse_people(Path::new("people.txt"), &lines).unwrap()
+    };
+    // Without odometry: an error naming the person, the scan and the line.
+    let mut bare = scans.clone();
+    for s in &mut bare.scans {
+        s.scan.odometry = Some(pgm_features::Pose2::identity());
+    }
+    let people = annotations(&bare);
+    let err = leigh_track_displacements(&scans, &people, 5).unwrap_err();
+    assert!(
+        err.to_string().contains("scan 0") && err.to_string().contains("line 1"),
+        "{err}"
+    );
+    attach_odometry(&mut scans, &odometry, Path::new("odom.txt")).unwrap();
+    let people = annotations(&scans);
+    let tracks = leigh_track_displacements(&scans, &people, 5).unwrap();
+    assert_eq!(tracks[&1].annotations, 3);
+    assert_eq!(tracks[&1].scans, [0, 10]);
+    assert!(tracks[&1].per_k_scans < 1e-9, "{:?}", tracks[&1]);
+    assert!(
+        (tracks[&2].per_k_scans - 0.4).abs() < 1e-9,
+        "{:?}",
+        tracks[&2]
+    );
+}

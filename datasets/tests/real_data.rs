@@ -126,6 +126,17 @@ fn leigh_pairs_carry_moving_person_labels() {
         summarize_leigh_pairs(5, &strict).pairs_with_moving_person,
         23
     );
+    // Whole tracks in the odometry frame: people 1-6, 1003 and 1004 walk (0.26-1.34 m
+    // per 5 scans), 1000, 1001, 1005 and 1006 stand (at most 7 cm per 5 scans) although
+    // their annotated centres jump by up to 0.57 m between two scans.
+    let tracks = pgm_datasets::builders::leigh_track_displacements(&scans, &people, 5).unwrap();
+    assert_eq!(tracks.len(), 12);
+    for (person, t) in &tracks {
+        let standing = [1000, 1001, 1005, 1006].contains(person);
+        assert_eq!(t.per_k_scans < 0.1, standing, "person {person}: {t:?}");
+        assert!(standing || t.per_k_scans > 0.25, "person {person}: {t:?}");
+    }
+    assert_eq!(tracks[&1001].scans, [302, 328]);
     for p in &k5 {
         assert!(p.validate().is_ok());
         let truth = p.truth.as_ref().unwrap();

@@ -159,6 +159,12 @@ fn main() {
     };
     let (crf, cbd) = (config(Method::Crf), config(Method::Cbd));
     let (mut s_crf, mut s_cbd) = (0.0, 0.0);
+    // Pairs by what their labelled movers do over their whole tracks (see the
+    // `leigh_labels` example of pgm-datasets): kind -> (pairs, CRF sum, CBD sum).
+    let tracks =
+        pgm_datasets::builders::leigh_track_displacements(&log, &people, k).expect("tracks");
+    let defaults = LeighPairOptions::default();
+    let mut kinds: BTreeMap<&str, (usize, f64, f64)> = BTreeMap::new();
     for pair in &pairs {
         let truth = pair.truth.as_ref().unwrap().labels.as_ref().unwrap();
         let mut movers: BTreeMap<u32, usize> = BTreeMap::new();
@@ -183,6 +189,28 @@ fn main() {
         let b = evaluate_pair(pair, &cbd).expect("cbd");
         s_crf += a.score.v_measure;
         s_cbd += b.score.v_measure;
+        // Labelled movers: annotated people of scan j with a moving return near them.
+        let walker = people
+            .iter()
+            .filter(|p| p.scan == j)
+            .filter(|p| {
+                truth.iter().enumerate().any(|(b, l)| {
+                    l.is_some_and(|l| l > 0)
+                        && (pair.current.beam_point(b) - p.centre).norm() <= defaults.person_radius
+                })
+            })
+            .any(|p| tracks[&p.person].per_k_scans >= defaults.moving_threshold);
+        let kind = if movers.is_empty() {
+            "no labelled mover"
+        } else if walker {
+            "a walker"
+        } else {
+            "standing people only"
+        };
+        let e = kinds.entry(kind).or_default();
+        e.0 += 1;
+        e.1 += a.score.v_measure;
+        e.2 += b.score.v_measure;
         println!(
             "{:<22} truth [{}] | CRF V {:.2} [{}] | CBD V {:.2} [{}]",
             pair.name,
@@ -196,6 +224,9 @@ fn main() {
             b.score.v_measure,
             describe(pair, &centres, truth, &b.labels),
         );
+    }
+    for (kind, (count, crf, cbd)) in &kinds {
+        println!("pairs with {kind}: {count}, V summed: CRF {crf:.2}, CBD {cbd:.2}");
     }
     let n = pairs.len() as f64;
     println!(
