@@ -69,6 +69,26 @@ fn eval_clustering_prints_the_specified_json_object() {
             assert_eq!(v["completeness_mean"].as_f64().unwrap(), 1.0);
         }
     }
+    // As on a log without odometry: ICP from the identity, background by size.
+    for method in ["crf", "cbd", "kmeans"] {
+        let (out, err, ok) = pgm(&[
+            "eval",
+            "clustering",
+            "--method",
+            method,
+            "--pairs",
+            dir.to_str().unwrap(),
+            "--associations",
+            "icp",
+            "--no-prior",
+            "--json",
+        ]);
+        assert!(ok, "{method} --no-prior: {err}");
+        let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
+        assert_eq!(v["pairs"], 3, "{method}");
+        let x = v["v_measure_mean"].as_f64().unwrap_or(f64::NAN);
+        assert!((0.0..=1.0).contains(&x), "{method} --no-prior: {out}");
+    }
 }
 
 #[test]

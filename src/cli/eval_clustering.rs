@@ -8,7 +8,9 @@
 //! `{"pairs", "homogeneity_mean", "homogeneity_std", "completeness_mean",
 //! "completeness_std", "v_measure_mean", "v_measure_std", "iterations_mean"}`.
 //! Without odometry the ego-motion comes from the model itself (the largest cluster)
-//! or from ICP (CBD, associations).
+//! or from ICP (CBD, associations). `--no-prior` hides the pairs' odometry prior from
+//! the methods while the labels still use it (leigh-gtm1 needs odometry to decide who
+//! moved), to measure the methods as they run on a log without odometry.
 
 use super::cluster::{default_associations, AssociationArg, CrfArgs};
 use super::data::{load_pairs, LeighArgs, SourceArgs};
@@ -67,6 +69,10 @@ pub struct ClusteringEvalArgs {
     /// CBD: how much closer (m) than the reference return a dynamic point is.
     #[arg(long, default_value_t = ConsistencyParams::default().margin)]
     pub cbd_margin: f64,
+    /// Hide the pairs' odometry prior from the methods (the labels still use it): the
+    /// methods run as on a log without odometry.
+    #[arg(long)]
+    pub no_prior: bool,
     /// Print one JSON object.
     #[arg(long)]
     pub json: bool,
@@ -74,10 +80,15 @@ pub struct ClusteringEvalArgs {
 
 /// Runs `pgm eval clustering`.
 pub fn run(args: ClusteringEvalArgs) -> CliResult {
-    let pairs = match &args.pairs {
+    let mut pairs = match &args.pairs {
         Some(path) => pgm_datasets::read_pairs(path).map_err(CliError::from_display)?,
         None => load_pairs(&args.source, &args.leigh, args.k)?.1,
     };
+    if args.no_prior {
+        for p in &mut pairs {
+            p.odometry = None;
+        }
+    }
     let scored: Vec<_> = pairs
         .iter()
         .filter(|p| p.truth.as_ref().is_some_and(|t| t.labels.is_some()))

@@ -165,6 +165,12 @@ fn main() {
         pgm_datasets::builders::leigh_track_displacements(&log, &people, k).expect("tracks");
     let defaults = LeighPairOptions::default();
     let mut kinds: BTreeMap<&str, (usize, f64, f64)> = BTreeMap::new();
+    let mut pairs = pairs;
+    if env("NOPRIOR", 0) == 1 {
+        for p in &mut pairs {
+            p.odometry = None;
+        }
+    }
     for pair in &pairs {
         let truth = pair.truth.as_ref().unwrap().labels.as_ref().unwrap();
         let mut movers: BTreeMap<u32, usize> = BTreeMap::new();
