@@ -3,7 +3,15 @@
 //! predicted moving objects (returns, how many of them are true mover returns).
 //!
 //! Run: `cargo run --release -p pgm-crf-clustering --example analyse_leigh -- [DATA_DIR] [k] [icp|segment]`
-//! (`DATA_DIR` defaults to `../shared/data/leigh-gtm1`).
+//! (`DATA_DIR` defaults to `../shared/data/leigh-gtm1`). The last lines sum V per
+//! kind of pair: no labelled mover, a walker, standing people only (see the
+//! `leigh_labels` example of pgm-datasets).
+//!
+//! Environment overrides (experiments only): `MAX_CLUSTERS`, `SEGMENT_GAP`,
+//! `MIN_POINTS`, `MIN_DISP`, `MIN_FREE`, `FREE_MARGIN`, `MERGE`, `CHI2` (clusterer),
+//! `STATIC_TOL`, `GATE` (associations), `SECTOR=1` (score the annotated sector),
+//! `NOPRIOR=1` (hide the odometry prior from the methods), `DETAIL=1` (per true
+//! mover: associated returns, partner distance, free-space count).
 
 use pgm_crf_clustering::evaluation::{evaluate_pair, EvaluationConfig, Method};
 use pgm_crf_clustering::{AssociationSource, NearestParams};
