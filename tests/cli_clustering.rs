@@ -139,3 +139,73 @@ fn bad_input_is_a_clear_error() {
     let (_, err, ok) = pgm(&["sim", "--pairs", "1", "--preset", "motorway"]);
     assert!(!ok && err.contains("motorway"), "{err}");
 }
+
+#[test]
+fn cluster_reads_a_carmen_log() {
+    // Two FLASER scans of a square room (half side 4 m) 0.2 m apart, the robot pose
+    // on each line.
+    let scan = |x: f64| {
+        let n = 181;
+        let ranges: Vec<String> = (0..n)
+            .map(|k| {
+                let a = (-90.0 + k as f64).to_radians();
+                let (c, s) = (a.cos(), a.sin());
+                // Distance to the walls x = 4, y = ±4 from (x, 0).
+                let front = if c > 1e-9 {
+                    (4.0 - x) / c
+                } else {
+                    f64::INFINITY
+                };
+                let side = if s.abs() > 1e-9 {
+                    4.0 / s.abs()
+                } else {
+                    f64::INFINITY
+                };
+                format!("{:.3}", front.min(side))
+            })
+            .collect();
+        format!(
+            "FLASER {n} {} {x} 0 0 {x} 0 0 {} host 0\n",
+            ranges.join(" "),
+            100.0 + x
+        )
+    };
+    let dir = std::env::temp_dir().join(format!("pgm-cli-carmen-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let log = dir.join("room.clf");
+    std::fs::write(&log, format!("# a room\n{}{}", scan(0.0), scan(0.2))).unwrap();
+    let log = log.to_str().unwrap();
+    let (out, err, ok) = pgm(&[
+        "cluster",
+        "--carmen",
+        log,
+        "--reference",
+        "0",
+        "--current",
+        "1",
+    ]);
+    assert!(ok, "{err}");
+    let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
+    assert_eq!(v["pair"], "room:0-1");
+    assert_eq!(v["labels"].as_array().unwrap().len(), 181);
+    // Nothing moves: one background cluster whose motion is the 0.2 m step.
+    let clusters = v["clusters"].as_array().unwrap();
+    assert_eq!(clusters.len(), 1, "{out}");
+    assert!(
+        (v["background_motion"]["x"].as_f64().unwrap() - 0.2).abs() < 0.02,
+        "{out}"
+    );
+    let (_, err, ok) = pgm(&[
+        "cluster",
+        "--carmen",
+        log,
+        "--reference",
+        "0",
+        "--current",
+        "2",
+    ]);
+    assert!(
+        !ok && err.contains("no laser scan 2") && err.contains("2 FLASER"),
+        "{err}"
+    );
+}

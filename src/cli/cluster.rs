@@ -1,7 +1,10 @@
 //! `pgm cluster`: CRF-Clustering of one scan pair (see [`pgm_crf_clustering`]).
 //!
-//! The pair comes from a stored data set (`--pairs PATH --pair NAME|INDEX`) or from a
-//! leigh-gtm1 style log (`--scans FILE --reference I --current J [--odometry FILE]`).
+//! The pair comes from a stored data set (`--pairs PATH --pair NAME|INDEX`), from a
+//! leigh-gtm1 style log (`--scans FILE --reference I --current J [--odometry FILE]`;
+//! `I`, `J` are the log's scan indices) or from a CARMEN log (`--carmen FILE
+//! --reference I --current J`; `I`, `J` count the log's FLASER / ROBOTLASER1 lines
+//! from 0, and the odometry prior comes from the poses on those lines).
 //! Prints one JSON object: per-beam cluster labels (0 background, 1, 2, … moving
 //! objects, null without a return), the clusters with motion, point count and
 //! background flag, the number of sweeps and rounds and whether inference converged.
@@ -128,7 +131,7 @@ impl CrfArgs {
 #[derive(Args, Debug)]
 pub struct ClusterArgs {
     /// Stored data set (directory, index.json or pair file).
-    #[arg(long, conflicts_with = "scans")]
+    #[arg(long, conflicts_with_all = ["scans", "carmen"])]
     pub pairs: Option<PathBuf>,
     /// Which pair of the data set: its name or its index from 0.
     #[arg(long, default_value = "0")]
@@ -139,10 +142,15 @@ pub struct ClusterArgs {
     /// Odometry per scan of the log (optional).
     #[arg(long, requires = "scans")]
     pub odometry: Option<PathBuf>,
-    /// Index of the reference scan in the log.
+    /// CARMEN log (FLASER / ROBOTLASER1 lines); the odometry prior comes from the
+    /// poses on the laser lines.
+    #[arg(long, conflicts_with = "scans", requires_all = ["reference", "current"])]
+    pub carmen: Option<PathBuf>,
+    /// Index of the reference scan in the log (CARMEN: the laser line's position
+    /// among the log's laser lines, from 0).
     #[arg(long)]
     pub reference: Option<usize>,
-    /// Index of the current scan in the log.
+    /// Index of the current scan in the log (as `--reference`).
     #[arg(long)]
     pub current: Option<usize>,
     /// Point associations (default: true when the pair has them, else icp).
@@ -175,9 +183,35 @@ fn load_pair(args: &ClusterArgs) -> Result<ScanPair, CliError> {
             ))),
         };
     }
+    if let (Some(path), Some(i), Some(j)) = (&args.carmen, args.reference, args.current) {
+        let log = pgm_datasets::carmen::read_carmen(path).map_err(CliError::from_display)?;
+        let get = |k: usize| {
+            log.scans.get(k).ok_or_else(|| {
+                CliError(format!(
+                    "{}: no laser scan {k} (the log has {} FLASER / ROBOTLASER1 lines, \
+                     counted from 0)",
+                    path.display(),
+                    log.scans.len()
+                ))
+            })
+        };
+        let (a, b) = (get(i)?, get(j)?);
+        return Ok(ScanPair {
+            name: format!(
+                "{}:{i}-{j}",
+                path.file_stem()
+                    .map_or("log".into(), |s| s.to_string_lossy())
+            ),
+            odometry: builders::odometry_prior(&a.scan, &b.scan),
+            reference: a.scan.clone(),
+            current: b.scan.clone(),
+            truth: None,
+        });
+    }
     let (Some(scans), Some(i), Some(j)) = (&args.scans, args.reference, args.current) else {
         return Err(CliError(
-            "give --pairs PATH [--pair NAME|INDEX] or --scans FILE --reference I --current J"
+            "give --pairs PATH [--pair NAME|INDEX], --scans FILE --reference I --current J, \
+             or --carmen FILE --reference I --current J"
                 .into(),
         ));
     };
