@@ -32,24 +32,31 @@ fn simulated(name: &str) -> PathBuf {
     dir
 }
 
+/// `pgm eval clustering --method METHOD --pairs DIR EXTRA… --json` on the 3 simulated
+/// pairs of `dir`: the parsed object (checked to count 3 pairs) and the raw output.
+fn eval_json(dir: &std::path::Path, method: &str, extra: &[&str]) -> (serde_json::Value, String) {
+    let mut args = vec![
+        "eval",
+        "clustering",
+        "--method",
+        method,
+        "--pairs",
+        dir.to_str().unwrap(),
+        "--json",
+    ];
+    args.extend_from_slice(extra);
+    let (out, err, ok) = pgm(&args);
+    assert!(ok, "{method} {extra:?}: {err}");
+    let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
+    assert_eq!(v["pairs"], 3, "{method} {extra:?}");
+    (v, out)
+}
+
 #[test]
 fn eval_clustering_prints_the_specified_json_object() {
     let dir = simulated("eval");
     for method in ["crf", "cbd", "kmeans", "one-cluster"] {
-        let (out, err, ok) = pgm(&[
-            "eval",
-            "clustering",
-            "--method",
-            method,
-            "--pairs",
-            dir.to_str().unwrap(),
-            "--associations",
-            "true",
-            "--json",
-        ]);
-        assert!(ok, "{method}: {err}");
-        let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
-        assert_eq!(v["pairs"], 3, "{method}");
+        let (v, out) = eval_json(&dir, method, &["--associations", "true"]);
         for key in [
             "homogeneity_mean",
             "homogeneity_std",
@@ -71,21 +78,7 @@ fn eval_clustering_prints_the_specified_json_object() {
     }
     // As on a log without odometry: ICP from the identity, background by size.
     for method in ["crf", "cbd", "kmeans"] {
-        let (out, err, ok) = pgm(&[
-            "eval",
-            "clustering",
-            "--method",
-            method,
-            "--pairs",
-            dir.to_str().unwrap(),
-            "--associations",
-            "icp",
-            "--no-prior",
-            "--json",
-        ]);
-        assert!(ok, "{method} --no-prior: {err}");
-        let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
-        assert_eq!(v["pairs"], 3, "{method}");
+        let (v, out) = eval_json(&dir, method, &["--associations", "icp", "--no-prior"]);
         let x = v["v_measure_mean"].as_f64().unwrap_or(f64::NAN);
         assert!((0.0..=1.0).contains(&x), "{method} --no-prior: {out}");
     }

@@ -13,7 +13,6 @@
 //! Run: `cargo run --release -p pgm-datasets --example leigh_labels -- [DATA_DIR] [k] [threshold]`
 //! (defaults `../shared/data/leigh-gtm1`, 5, 0.2 m).
 
-use nalgebra::Point2;
 use pgm_datasets::leigh;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -51,15 +50,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let per_k: BTreeMap<u32, f64> = tracks.iter().map(|(p, t)| (*p, t.per_k_scans)).collect();
     // Annotated centres in the odometry frame: scan -> person -> position.
-    let mut world: BTreeMap<usize, BTreeMap<u32, Point2<f64>>> = BTreeMap::new();
-    for p in &people {
-        if let Some(pose) = log.get(p.scan).and_then(|s| s.scan.laser_odometry()) {
-            world
-                .entry(p.scan)
-                .or_default()
-                .insert(p.person, pose.transform_point(&p.centre));
-        }
-    }
+    let world = pgm_datasets::builders::leigh_annotations_in_odometry_frame(&log, &people)?;
 
     let (mut none, mut walking, mut standing) = (0, 0, 0);
     println!("\npair       labelled movers (person: displacement or 'unannotated in reference')");

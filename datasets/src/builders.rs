@@ -485,17 +485,15 @@ pub struct TrackDisplacement {
     pub per_k_scans: f64,
 }
 
-/// Each annotated person's net displacement per `k` scans over their whole track,
-/// with every annotation carried into the odometry frame (odometry ∘ laser offset);
-/// needs the scans' odometry ([`crate::leigh::attach_odometry`]). Tells people who
-/// walk from people who stand although an annotation is missing in one scan or its
-/// centre jitters by more than the moving threshold.
-pub fn leigh_track_displacements(
+/// Every annotated centre carried into the odometry frame (odometry ∘ laser offset):
+/// scan index → person → position. Needs the scans' odometry
+/// ([`crate::leigh::attach_odometry`]); an annotation on a scan without it is an error
+/// naming the person, the scan and the line.
+pub fn leigh_annotations_in_odometry_frame(
     scans: &LeighScans,
     people: &[PersonAnnotation],
-    k: usize,
-) -> Result<BTreeMap<u32, TrackDisplacement>> {
-    let mut tracks: BTreeMap<u32, Vec<(usize, Point2<f64>)>> = BTreeMap::new();
+) -> Result<BTreeMap<usize, BTreeMap<u32, Point2<f64>>>> {
+    let mut world: BTreeMap<usize, BTreeMap<u32, Point2<f64>>> = BTreeMap::new();
     for a in people {
         let pose = scans
             .get(a.scan)
@@ -507,15 +505,33 @@ pub fn leigh_track_displacements(
                     a.person, a.scan, a.line
                 ),
             })?;
-        tracks
-            .entry(a.person)
+        world
+            .entry(a.scan)
             .or_default()
-            .push((a.scan, pose.transform_point(&a.centre)));
+            .insert(a.person, pose.transform_point(&a.centre));
+    }
+    Ok(world)
+}
+
+/// Each annotated person's net displacement per `k` scans over their whole track in
+/// the odometry frame ([`leigh_annotations_in_odometry_frame`]). Tells people who
+/// walk from people who stand although an annotation is missing in one scan or its
+/// centre jitters by more than the moving threshold.
+pub fn leigh_track_displacements(
+    scans: &LeighScans,
+    people: &[PersonAnnotation],
+    k: usize,
+) -> Result<BTreeMap<u32, TrackDisplacement>> {
+    // Scans in increasing order, so each track comes out sorted.
+    let mut tracks: BTreeMap<u32, Vec<(usize, Point2<f64>)>> = BTreeMap::new();
+    for (scan, at) in leigh_annotations_in_odometry_frame(scans, people)? {
+        for (person, position) in at {
+            tracks.entry(person).or_default().push((scan, position));
+        }
     }
     Ok(tracks
         .into_iter()
-        .map(|(person, mut track)| {
-            track.sort_by_key(|(scan, _)| *scan);
+        .map(|(person, track)| {
             let (first, last) = (track[0], track[track.len() - 1]);
             let span = (last.0 - first.0).max(1) as f64;
             let summary = TrackDisplacement {

@@ -19,6 +19,7 @@ use pgm_crf_clustering::{
     ClusteringWeights, NearestParams, SegmentParams, UpdateSchedule,
 };
 use pgm_datasets::{builders, leigh, ClusterMotion, ScanPair};
+use pgm_features::Scan;
 use serde::Serialize;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -196,17 +197,7 @@ fn load_pair(args: &ClusterArgs) -> Result<ScanPair, CliError> {
             })
         };
         let (a, b) = (get(i)?, get(j)?);
-        return Ok(ScanPair {
-            name: format!(
-                "{}:{i}-{j}",
-                path.file_stem()
-                    .map_or("log".into(), |s| s.to_string_lossy())
-            ),
-            odometry: builders::odometry_prior(&a.scan, &b.scan),
-            reference: a.scan.clone(),
-            current: b.scan.clone(),
-            truth: None,
-        });
+        return Ok(log_pair(path, i, j, &a.scan, &b.scan));
     }
     let (Some(scans), Some(i), Some(j)) = (&args.scans, args.reference, args.current) else {
         return Err(CliError(
@@ -225,18 +216,23 @@ fn load_pair(args: &ClusterArgs) -> Result<ScanPair, CliError> {
             .ok_or_else(|| CliError(format!("{}: no scan with index {k}", scans.display())))
     };
     let (a, b) = (get(i)?, get(j)?);
-    Ok(ScanPair {
+    Ok(log_pair(scans, i, j, &a.scan, &b.scan))
+}
+
+/// The pair of scans `i` (reference) and `j` (current) of the log at `path`, named
+/// `<file stem>:<i>-<j>`, with the odometry prior of the two scans.
+fn log_pair(path: &std::path::Path, i: usize, j: usize, a: &Scan, b: &Scan) -> ScanPair {
+    ScanPair {
         name: format!(
             "{}:{i}-{j}",
-            scans
-                .file_stem()
+            path.file_stem()
                 .map_or("log".into(), |s| s.to_string_lossy())
         ),
-        odometry: builders::odometry_prior(&a.scan, &b.scan),
-        reference: a.scan.clone(),
-        current: b.scan.clone(),
+        odometry: builders::odometry_prior(a, b),
+        reference: a.clone(),
+        current: b.clone(),
         truth: None,
-    })
+    }
 }
 
 /// The default association source of a pair: true if it has them, else ICP (segment-icp

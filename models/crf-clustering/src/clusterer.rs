@@ -140,8 +140,9 @@ pub struct ClusteringParams {
     pub min_object_chi2: f64,
     /// Smallest fraction of a moving cluster's points that show it moved by free
     /// space (0.2; 0: no test): moved by the ego-motion ([`ClusteringInput::ego_motion`],
-    /// else the background motion) into the reference frame they lie more than [`ClusteringParams::free_space_margin`] in front of the
-    /// reference returns at their bearing (the reference saw through where they are
+    /// else the background motion) into the reference frame they lie more than
+    /// [`ClusteringParams::free_space_margin`] in front of the reference returns at
+    /// their bearing (the reference saw through where they are
     /// now), or their partners, moved back into the current frame, lie that far in
     /// front of the current returns (the object left). A static surface merely seen
     /// differently (new view, wrong associations) fails both. Needs
