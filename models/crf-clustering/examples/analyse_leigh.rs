@@ -11,7 +11,9 @@
 //! `MIN_POINTS`, `MIN_DISP`, `MIN_FREE`, `FREE_MARGIN`, `MERGE`, `CHI2` (clusterer),
 //! `STATIC_TOL`, `GATE` (associations), `SECTOR=1` (score the annotated sector),
 //! `NOPRIOR=1` (hide the odometry prior from the methods), `DETAIL=1` (per true
-//! mover: associated returns, partner distance, free-space count).
+//! mover: associated returns, partner distance, free-space count), `ORACLE=1` (the
+//! CRF gets oracle associations for every person annotated in both scans: an upper
+//! bound for any better association source, CRF-Matching included).
 
 use pgm_crf_clustering::evaluation::{evaluate_pair, EvaluationConfig, Method};
 use pgm_crf_clustering::{AssociationSource, NearestParams};
@@ -127,6 +129,50 @@ fn detail(pair: &pgm_datasets::ScanPair, truth: &[Option<u32>], source: &Associa
     println!("  {}", out.join(" | "));
 }
 
+/// Oracle person associations (upper bound for a better association source): the
+/// automatic associations, except that the returns of a person annotated in both
+/// scans take the reference return nearest to where the annotated displacement puts
+/// them (within 0.3 m; else outliers).
+fn oracle(
+    pair: &mut pgm_datasets::ScanPair,
+    people: &[leigh::PersonAnnotation],
+    source: &AssociationSource,
+) {
+    use pgm_crf_clustering::AssociationProvider;
+    let a = source.associate(pair).expect("associations");
+    let ego = a.ego_motion.unwrap_or_default();
+    let mut out = a.associations;
+    let mut ij = pair.name.rsplit(':').next().unwrap().split('-');
+    let i: usize = ij.next().unwrap().parse().unwrap();
+    let j: usize = ij.next().unwrap().parse().unwrap();
+    let (refs, beams) = pair.reference.points();
+    for cur in people.iter().filter(|p| p.scan == j) {
+        let Some(old) = people
+            .iter()
+            .find(|p| p.scan == i && p.person == cur.person)
+        else {
+            continue;
+        };
+        for k in (0..pair.current.len()).filter(|&k| pair.current.valid[k]) {
+            let p = pair.current.beam_point(k);
+            if (p - cur.centre).norm() > 0.35 {
+                continue;
+            }
+            let q = old.centre + ego.isometry().rotation * (p - cur.centre);
+            let best = refs
+                .iter()
+                .zip(&beams)
+                .map(|(r, &b)| ((r - q).norm(), b))
+                .min_by(|x, y| x.0.total_cmp(&y.0));
+            out[k] = Some(match best {
+                Some((d, b)) if d <= 0.3 => pgm_datasets::Association::Point(b),
+                _ => pgm_datasets::Association::Outlier,
+            });
+        }
+    }
+    pair.truth.as_mut().unwrap().associations = Some(out);
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let dir = PathBuf::from(
@@ -179,6 +225,20 @@ fn main() {
             p.odometry = None;
         }
     }
+    if env("ORACLE", 0) == 1 {
+        for pair in &mut pairs {
+            oracle(pair, &people, &associations);
+        }
+    }
+    let associations = if env("ORACLE", 0) == 1 {
+        AssociationSource::GroundTruth
+    } else {
+        associations
+    };
+    let crf = EvaluationConfig {
+        associations,
+        ..crf
+    };
     for pair in &pairs {
         let truth = pair.truth.as_ref().unwrap().labels.as_ref().unwrap();
         let mut movers: BTreeMap<u32, usize> = BTreeMap::new();
