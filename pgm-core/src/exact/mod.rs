@@ -1,14 +1,17 @@
 //! Exact references: brute-force enumeration for small graphs, Viterbi and
-//! forward-backward on chains, and two-pass elimination on trees. They share no code
+//! forward-backward on chains, and two-pass elimination on trees; [`FlatChain`], the
+//! chain MAP on flat tables with reusable buffers, for models that rerun it many times. They share no code
 //! with the loopy engine, so tests can hold the engine to them.
 
 mod brute_force;
 mod chain;
+mod flat_chain;
 mod sample;
 mod tree;
 
 pub use brute_force::{brute_force, BruteForceLimit};
 pub use chain::{chain_order, forward_backward, viterbi};
+pub use flat_chain::FlatChain;
 pub use sample::{sample_chain, ChainSampler};
 pub use tree::{tree_map, tree_marginals};
 
