@@ -4,9 +4,9 @@
 //! the generic factor-graph machinery.
 //!
 //! On a chain one forward-backward max-product sweep is exact for fixed motions, so
-//! each sweep is a Viterbi pass (`pgm_core::exact::FlatChain`): forward and backward max-messages, max-marginals
-//! `local + forward + backward`, and the MAP labels by back-tracking (ties to the
-//! lowest state). After each sweep the motion statistics follow the changed labels
+//! each sweep is a Viterbi pass (`pgm_core::exact::FlatChain`): forward and backward
+//! max-messages, max-marginals `local + forward + backward`, and the MAP labels by
+//! back-tracking (ties to the lowest state). After each sweep the motion statistics follow the changed labels
 //! and the motions are re-solved (eq. 3); the run stops when no motion parameter
 //! changes by more than the tolerance (then the messages, which depend only on the
 //! motions, are stable too) or after `max_sweeps` sweeps.
