@@ -8,7 +8,7 @@ use pgm_core::exact::ChainSampler;
 use pgm_core::learning::{
     CliqueFeatures, FeatureSet, LabelledInstance, LearnerParams, LogLinearModel, TemplateId,
 };
-use pgm_core::VariableId;
+use pgm_core::{ParamGuard, VariableId};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::hint::black_box;

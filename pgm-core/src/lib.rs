@@ -42,6 +42,7 @@ pub mod hook;
 pub mod hybrid;
 pub mod learning;
 pub mod logspace;
+pub mod param;
 pub mod schedule;
 #[cfg(feature = "proptest-strategies")]
 pub mod strategies;
@@ -53,6 +54,7 @@ pub use factor::{Factor, Incoming, Mode, PottsFactor, ShiftedIdentityFactor, Tab
 pub use graph::{EdgeId, FactorGraph, FactorId, VariableId};
 pub use hook::{Potentials, UpdateHook};
 pub use learning::{FeatureSet, Learner, LearnerParams, LogLinearModel, PseudoLikelihood, Weights};
+pub use param::{InvalidParameter, ParamGuard};
 pub use schedule::{
     Flooding, MessagePasser, Residual, Schedule, ScheduleKind, Sequential, SequentialUnit, Visit,
 };

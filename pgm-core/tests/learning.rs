@@ -7,7 +7,7 @@ use pgm_core::learning::{
     CliqueFeatures, DenseFeatures, FeatureSet, LabelledInstance, LearnerParams, LogLinearModel,
     Progress, PseudoLikelihood, TemplateId, Weights, DEFAULT_FEATURE_CACHE_BYTES,
 };
-use pgm_core::{BeliefPropagation, Error, Mode, Sequential, VariableId};
+use pgm_core::{BeliefPropagation, Error, Mode, ParamGuard, Sequential, VariableId};
 use proptest::prelude::*;
 use proptest::test_runner::FileFailurePersistence;
 use rand::{Rng, SeedableRng};

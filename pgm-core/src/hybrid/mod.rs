@@ -23,6 +23,7 @@
 //! [`ClusterMeans`] is a small reference model (1-D cluster means) used in the docs and
 //! tests; `examples/hybrid_motions.rs` couples a chain CRF to several rigid motions.
 
+pub mod chain;
 mod means;
 
 pub use means::ClusterMeans;

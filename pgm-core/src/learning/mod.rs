@@ -28,7 +28,7 @@
 //! use std::ops::ControlFlow;
 //! use std::sync::Arc;
 //! use pgm_core::learning::{DenseFeatures, FeatureSet, LabelledInstance, LearnerParams, LogLinearModel, Progress};
-//! use pgm_core::VariableId;
+//! use pgm_core::{ParamGuard, VariableId};
 //!
 //! // A two-state chain: a unary feature pulls towards the observation, a pairwise one
 //! // rewards agreeing neighbours.

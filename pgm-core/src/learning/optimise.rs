@@ -13,6 +13,7 @@ use super::model::{FeatureSet, LabelledInstance};
 use super::pseudo_likelihood::{PseudoLikelihood, DEFAULT_FEATURE_CACHE_BYTES};
 use super::weights::Weights;
 use crate::error::{Error, Result};
+use crate::param::ParamGuard;
 use argmin::core::{
     CostFunction, Executor, Gradient, IterState, Problem, Solver, State, TerminationReason,
     TerminationStatus, KV,
@@ -127,9 +128,18 @@ impl LearnerParams {
         self.feature_cache_bytes = bytes;
         self
     }
+}
 
-    /// Checks the parameters.
-    pub fn check(self) -> Result<Learner> {
+impl ParamGuard for LearnerParams {
+    type Checked = Learner;
+    type Error = Error;
+
+    fn check(self) -> Result<Learner> {
+        self.check_ref()?;
+        Ok(Learner { params: self })
+    }
+
+    fn check_ref(&self) -> Result<()> {
         let invalid = |name, value: f64, expected| Error::InvalidParameter {
             name,
             value: value.to_string(),
@@ -164,7 +174,7 @@ impl LearnerParams {
                 return Err(invalid("initial weight", bad, "finite initial weights"));
             }
         }
-        Ok(Learner { params: self })
+        Ok(())
     }
 }
 
@@ -174,7 +184,7 @@ impl LearnerParams {
 /// use std::sync::Arc;
 /// use std::ops::ControlFlow;
 /// use pgm_core::learning::{DenseFeatures, FeatureSet, LabelledInstance, LearnerParams, LogLinearModel};
-/// use pgm_core::VariableId;
+/// use pgm_core::{ParamGuard, VariableId};
 ///
 /// // A biased coin seen 3 times heads, once tails: the MLE of the log-odds is ln 3.
 /// let mut features = FeatureSet::new("coin", 1);

@@ -1,0 +1,141 @@
+//! Checked parameters: one pattern for every algorithm of the workspace.
+//!
+//! As in linfa (`linfa::ParamGuard`), an algorithm's hyper-parameters come in two
+//! types: a plain, unchecked parameter struct that users fill in (public fields or
+//! builder methods, with `Default`), and a checked type that only
+//! [`ParamGuard::check`] can make. Algorithms take the checked type, so an invalid
+//! value is reported once, where the parameters are set, naming the parameter and the
+//! offending value, and never reaches the algorithm.
+//!
+//! One difference from linfa: our parameter structs have public fields (they are
+//! read by command-line tools and serialised into reports), so the checked type is a
+//! separate struct (often the algorithm itself, e.g. `LearnerParams` → `Learner`),
+//! and [`ParamGuard::check_ref`] validates without building it.
+//!
+//! Every crate reports a bad value with the same shape, an [`InvalidParameter`]
+//! (parameter name, offending value as written, what would have been accepted), and
+//! every crate's error type has an `InvalidParameter { name, value, expected }`
+//! variant with exactly these fields and the same message, converted with `From`.
+//!
+//! ```
+//! use pgm_core::param::{InvalidParameter, ParamGuard};
+//!
+//! /// Unchecked parameters of a toy algorithm.
+//! #[derive(Clone, Debug, Default)]
+//! struct SmoothingParams { window: usize }
+//! /// The checked algorithm.
+//! struct Smoothing { window: usize }
+//!
+//! impl ParamGuard for SmoothingParams {
+//!     type Checked = Smoothing;
+//!     type Error = InvalidParameter;
+//!     fn check_ref(&self) -> Result<(), InvalidParameter> {
+//!         if self.window == 0 {
+//!             return Err(InvalidParameter::new("window", self.window, "at least 1"));
+//!         }
+//!         Ok(())
+//!     }
+//!     fn check(self) -> Result<Smoothing, InvalidParameter> {
+//!         self.check_ref()?;
+//!         Ok(Smoothing { window: self.window })
+//!     }
+//! }
+//!
+//! let err = SmoothingParams::default().check().err().unwrap();
+//! assert_eq!(err.to_string(), "parameter `window` = 0: expected at least 1");
+//! assert_eq!(SmoothingParams { window: 3 }.check().unwrap().window, 3);
+//! ```
+
+use std::fmt;
+
+/// A parameter outside its allowed range: the one shape every crate reports.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("parameter `{name}` = {value}: expected {expected}")]
+pub struct InvalidParameter {
+    /// Parameter name, as the user sets it (a field or option name).
+    pub name: &'static str,
+    /// The offending value, as written (`Debug` of the value).
+    pub value: String,
+    /// What would have been accepted.
+    pub expected: &'static str,
+}
+
+impl InvalidParameter {
+    /// The parameter `name` has the offending `value`; `expected` says what is allowed.
+    pub fn new(name: &'static str, value: impl fmt::Debug, expected: &'static str) -> Self {
+        Self {
+            name,
+            value: format!("{value:?}"),
+            expected,
+        }
+    }
+
+    /// `Ok(())` when `value` is finite and positive, else the error.
+    pub fn positive(name: &'static str, value: f64, expected: &'static str) -> Result<(), Self> {
+        if value.is_finite() && value > 0.0 {
+            Ok(())
+        } else {
+            Err(Self::new(name, value, expected))
+        }
+    }
+
+    /// `Ok(())` when `value` is finite and at least 0, else the error.
+    pub fn non_negative(
+        name: &'static str,
+        value: f64,
+        expected: &'static str,
+    ) -> Result<(), Self> {
+        if value.is_finite() && value >= 0.0 {
+            Ok(())
+        } else {
+            Err(Self::new(name, value, expected))
+        }
+    }
+
+    /// `Ok(())` when `value` lies in `[0, 1]`, else the error.
+    pub fn fraction(name: &'static str, value: f64) -> Result<(), Self> {
+        if (0.0..=1.0).contains(&value) {
+            Ok(())
+        } else {
+            Err(Self::new(name, value, "a fraction in [0, 1]"))
+        }
+    }
+}
+
+impl From<InvalidParameter> for crate::Error {
+    fn from(e: InvalidParameter) -> Self {
+        crate::Error::InvalidParameter {
+            name: e.name,
+            value: e.value,
+            expected: e.expected,
+        }
+    }
+}
+
+/// Unchecked parameters that turn into a checked type (see the module docs).
+pub trait ParamGuard {
+    /// The checked parameters, or the algorithm built from them.
+    type Checked;
+    /// The error of a failed check (the crate's error type).
+    type Error: std::error::Error;
+
+    /// Checks every value; the error names the first invalid one and its value.
+    fn check_ref(&self) -> Result<(), Self::Error>;
+
+    /// Checks every value and builds the checked type.
+    fn check(self) -> Result<Self::Checked, Self::Error>;
+
+    /// [`ParamGuard::check`] for parameters known to be valid (defaults, constants).
+    ///
+    /// # Panics
+    /// If the parameters are invalid; use [`ParamGuard::check`] for user input.
+    fn check_unwrap(self) -> Self::Checked
+    where
+        Self: Sized,
+    {
+        match self.check() {
+            Ok(checked) => checked,
+            Err(e) => panic!("invalid parameters: {e}"),
+        }
+    }
+}

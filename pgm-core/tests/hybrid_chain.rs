@@ -1,0 +1,347 @@
+//! The hybrid chain solver (`pgm_core::hybrid::chain`) against brute force, against
+//! the generic `HybridInference`, and its coordinate-ascent and fixed-point
+//! properties on one and two chains with positions of varying state counts.
+
+use pgm_core::exact::{brute_force, BruteForceLimit};
+use pgm_core::hybrid::chain::{
+    chain_instance, ChainUpdate, FeatureSink, HybridChainModel, HybridChainParams, WeightedTable,
+};
+use pgm_core::hybrid::{ClusterMeans, HybridInference, UpdatePolicy};
+use pgm_core::learning::FeatureSet;
+use pgm_core::{BeliefPropagation, FactorGraph, Mode, ParamGuard, Sequential, TableFactor};
+use proptest::prelude::*;
+use proptest::test_runner::FileFailurePersistence;
+use std::sync::Arc;
+
+/// Cluster means over one or two chains of observations. Position `i` of chain `c`
+/// has observation `y[c][i]` and `states[c][i]` states (cluster `0..states`); local
+/// feature 0 is `−(y − μ_l)²`, feature 2 is 1 when the other chain's label at `i` is
+/// the same cluster; pairwise feature 1 is 1 for equal neighbours. The means are the
+/// continuous nodes, shared by both chains (empty clusters keep their mean).
+#[derive(Clone, Debug)]
+struct Means {
+    y: Vec<Vec<f64>>,
+    states: Vec<Vec<usize>>,
+    weights: Vec<f64>,
+    means: Vec<f64>,
+    sum: Vec<f64>,
+    count: Vec<usize>,
+    labels: Vec<Vec<Option<usize>>>,
+    frozen: bool,
+    /// The joint log-score after every solve.
+    scores: Vec<f64>,
+}
+
+impl Means {
+    fn new(y: Vec<Vec<f64>>, states: Vec<Vec<usize>>, means: Vec<f64>, weights: Vec<f64>) -> Self {
+        let k = means.len();
+        let labels = y.iter().map(|c| vec![None; c.len()]).collect();
+        Self {
+            y,
+            states,
+            weights,
+            means,
+            sum: vec![0.0; k],
+            count: vec![0; k],
+            labels,
+            frozen: false,
+            scores: Vec::new(),
+        }
+    }
+
+    fn other(&self, chain: usize, i: usize) -> Option<usize> {
+        if self.y.len() < 2 {
+            return None;
+        }
+        self.labels[1 - chain].get(i).copied().flatten()
+    }
+
+    /// The joint log-score of the current labels and means (coupling counted once).
+    fn joint_score(&self) -> f64 {
+        let w = &self.weights;
+        let mut score = 0.0;
+        for (c, ys) in self.y.iter().enumerate() {
+            for (i, y) in ys.iter().enumerate() {
+                let l = self.labels[c][i].unwrap();
+                score -= w[0] * (y - self.means[l]).powi(2);
+                if i + 1 < ys.len() && self.labels[c][i + 1] == Some(l) {
+                    score += w[1];
+                }
+            }
+        }
+        if self.y.len() == 2 {
+            for i in 0..self.y[0].len() {
+                if self.labels[0][i] == self.labels[1][i] {
+                    score += w[2];
+                }
+            }
+        }
+        score
+    }
+
+    /// Chain `c`'s tables for the current means and the other chain's labels, as a
+    /// factor graph (for brute force).
+    fn chain_graph(&self, c: usize) -> FactorGraph {
+        let n = self.y[c].len();
+        let s = &self.states[c];
+        let mut g = FactorGraph::with_variables(s).unwrap();
+        for i in 0..n {
+            let mut t = vec![0.0; s[i]];
+            self.write_local(c, i, &mut WeightedTable::new(&self.weights, &mut t));
+            g.add_factor(TableFactor::new(vec![pgm_core::VariableId(i)], vec![s[i]], t).unwrap())
+                .unwrap();
+            if i + 1 < n {
+                let mut t = vec![0.0; s[i] * s[i + 1]];
+                self.write_pair(c, i, &mut WeightedTable::new(&self.weights, &mut t));
+                g.add_factor(
+                    TableFactor::new(
+                        vec![pgm_core::VariableId(i), pgm_core::VariableId(i + 1)],
+                        vec![s[i], s[i + 1]],
+                        t,
+                    )
+                    .unwrap(),
+                )
+                .unwrap();
+            }
+        }
+        g
+    }
+}
+
+impl HybridChainModel for Means {
+    fn weights(&self) -> &[f64] {
+        &self.weights
+    }
+    fn num_chains(&self) -> usize {
+        self.y.len()
+    }
+    fn chain_len(&self, chain: usize) -> usize {
+        self.y[chain].len()
+    }
+    fn num_states(&self, chain: usize, i: usize) -> usize {
+        self.states[chain][i]
+    }
+    fn write_local<S: FeatureSink>(&self, chain: usize, i: usize, sink: &mut S) {
+        let other = self.other(chain, i);
+        for l in 0..self.states[chain][i] {
+            sink.add(l, 0, -(self.y[chain][i] - self.means[l]).powi(2));
+            if other == Some(l) {
+                sink.add(l, 2, 1.0);
+            }
+        }
+    }
+    fn write_pair<S: FeatureSink>(&self, chain: usize, i: usize, sink: &mut S) {
+        let (s, t) = (self.states[chain][i], self.states[chain][i + 1]);
+        for a in 0..s.min(t) {
+            sink.add(a * t + a, 1, 1.0);
+        }
+    }
+    fn set_label(&mut self, chain: usize, i: usize, old: Option<usize>, new: usize) {
+        assert_eq!(
+            self.labels[chain][i], old,
+            "the solver reports the old label"
+        );
+        let y = self.y[chain][i];
+        if let Some(o) = old {
+            self.sum[o] -= y;
+            self.count[o] -= 1;
+        }
+        self.sum[new] += y;
+        self.count[new] += 1;
+        self.labels[chain][i] = Some(new);
+    }
+    fn solve(&mut self) -> f64 {
+        let mut change = 0.0f64;
+        if !self.frozen {
+            for l in 0..self.means.len() {
+                if self.count[l] > 0 {
+                    let m = self.sum[l] / self.count[l] as f64;
+                    change = change.max((m - self.means[l]).abs());
+                    self.means[l] = m;
+                } else {
+                    self.sum[l] = 0.0;
+                }
+            }
+        }
+        if self.labels.iter().flatten().all(Option::is_some) {
+            self.scores.push(self.joint_score());
+        }
+        change
+    }
+}
+
+/// One or two chains of 1-8 observations, 1-3 clusters, varying state counts.
+fn problem(max_chains: usize) -> impl Strategy<Value = (Means, Vec<Vec<usize>>)> {
+    (1usize..=max_chains, 1usize..9, 1usize..4).prop_flat_map(|(chains, n, k)| {
+        (
+            proptest::collection::vec(proptest::collection::vec(-5.0..5.0f64, n), chains),
+            proptest::collection::vec(proptest::collection::vec(1usize..=k, n), chains),
+            proptest::collection::vec(-5.0..5.0f64, k),
+            (0.1..2.0f64, -1.0..2.0f64, -1.0..2.0f64),
+            proptest::collection::vec(proptest::collection::vec(0usize..3, n), chains),
+        )
+            .prop_map(|(y, states, means, (w0, w1, w2), start)| {
+                let initial: Vec<Vec<usize>> = start
+                    .iter()
+                    .zip(&states)
+                    .map(|(s, st)| s.iter().zip(st).map(|(a, b)| a % b).collect())
+                    .collect();
+                (Means::new(y, states, means, vec![w0, w1, w2]), initial)
+            })
+    })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig {
+        cases: 256,
+        failure_persistence: Some(Box::new(FileFailurePersistence::Direct("proptest-regressions/hybrid_chain.txt"))),
+        ..ProptestConfig::default()
+    })]
+
+    /// With the continuous values frozen, one sweep is the exact MAP of each chain
+    /// (brute force), for positions with any number of states.
+    #[test]
+    fn frozen_sweep_is_exact((mut model, initial) in problem(1)) {
+        model.frozen = true;
+        let solver = HybridChainParams::default().check().unwrap();
+        let r = solver.run(&mut model, &initial).unwrap();
+        let exact = brute_force(&model.chain_graph(0), BruteForceLimit::default()).unwrap();
+        let g = model.chain_graph(0);
+        prop_assert!((g.log_score(&r.labels[0]).unwrap() - exact.map_log_score).abs() < 1e-9);
+        prop_assert!(r.converged);
+        prop_assert_eq!(r.sweeps, 1);
+        for i in 0..model.y[0].len() {
+            let mm = r.max_marginal(0, i);
+            prop_assert_eq!(mm.len(), model.states[0][i]);
+            prop_assert!((mm.iter().sum::<f64>() - 1.0).abs() < 1e-9);
+        }
+    }
+
+    /// Every sweep is an exact maximisation of one block (a chain, then the means),
+    /// so the joint log-score never decreases, on one or two coupled chains.
+    #[test]
+    fn coordinate_ascent_never_decreases((mut model, initial) in problem(2)) {
+        let solver = HybridChainParams::default().max_sweeps(50).check().unwrap();
+        solver.run(&mut model, &initial).unwrap();
+        let s = &model.scores;
+        prop_assert!(!s.is_empty());
+        for w in s.windows(2) {
+            prop_assert!(w[1] >= w[0] - 1e-9 * (1.0 + w[0].abs()), "score decreased: {s:?}");
+        }
+    }
+
+    /// At convergence, under both update policies, every chain's labels are an exact
+    /// MAP of its tables given the final means and the other chain's labels.
+    #[test]
+    fn converged_labels_are_a_fixed_point(
+        (mut model, initial) in problem(2),
+        every_visit in any::<bool>(),
+    ) {
+        let update = if every_visit { ChainUpdate::EveryVisit } else { ChainUpdate::EverySweep };
+        let solver = HybridChainParams::default().max_sweeps(100).tolerance(0.0).update(update).check().unwrap();
+        let r = solver.run(&mut model, &initial).unwrap();
+        prop_assume!(r.converged);
+        for c in 0..model.y.len() {
+            let g = model.chain_graph(c);
+            let exact = brute_force(&g, BruteForceLimit::default()).unwrap();
+            prop_assert!((g.log_score(&r.labels[c]).unwrap() - exact.map_log_score).abs() < 1e-9,
+                "chain {c}: {:?} scores {} < {}", r.labels[c], g.log_score(&r.labels[c]).unwrap(), exact.map_log_score);
+            let told: Vec<usize> = model.labels[c].iter().map(|l| l.unwrap()).collect();
+            prop_assert_eq!(&told, &r.labels[c]);
+        }
+    }
+
+    /// On one chain with every-sweep updates the solver runs the same algorithm as
+    /// `HybridInference` with `UpdatePolicy::EverySweep` and the two-pass sequential
+    /// schedule (exact per sweep on a chain): the same labels and means.
+    #[test]
+    fn agrees_with_hybrid_inference(
+        y in proptest::collection::vec(-5.0..5.0f64, 6..30),
+        start_means in proptest::collection::vec(-5.0..5.0f64, 2..4),
+        weight in 0.2..2.0f64,
+        coupling in 0.0..2.0f64,
+    ) {
+        let k = start_means.len();
+        let n = y.len();
+        let mut sorted = start_means.clone();
+        sorted.sort_by(f64::total_cmp);
+        prop_assume!(sorted.windows(2).all(|w| w[1] - w[0] > 1e-3));
+        // Start from the nearest starting mean (as CRF-Clustering starts from a
+        // segmentation), which keeps the exact ties of one-point clusters away.
+        let initial: Vec<usize> = y
+            .iter()
+            .map(|v| (0..k).min_by(|&a, &b| (v - start_means[a]).abs().total_cmp(&(v - start_means[b]).abs())).unwrap())
+            .collect();
+        // A one-point cluster has its mean on its point: two such clusters side by side
+        // tie exactly (up to rounding) when the coupling merges them, and the two
+        // decoders may break the tie differently.
+        prop_assume!((0..k).all(|l| initial.iter().filter(|&&x| x == l).count() != 1));
+        let (mut graph, mut reference) = ClusterMeans::chain(&y, &start_means, weight, coupling).unwrap();
+        let generic = HybridInference::new(BeliefPropagation::new(Mode::MaxProduct).max_iterations(200), UpdatePolicy::EverySweep)
+            .continuous_tolerance(1e-12)
+            .run(&mut graph, &mut reference, &mut Sequential::default(), Some(&initial))
+            .unwrap();
+        let mut model = Means::new(vec![y.clone()], vec![vec![k; n]], start_means.clone(), vec![weight, coupling, 0.0]);
+        let solver = HybridChainParams::default().max_sweeps(200).tolerance(1e-12).check().unwrap();
+        let ours = solver.run(&mut model, &[initial]).unwrap();
+        prop_assume!(generic.continuous_converged && ours.converged);
+        // Exact ties (e.g. two equal starting means) may be broken differently by the
+        // two decoders; compare where every position has a unique best state.
+        let tied = (0..n).any(|i| {
+            let mm = ours.max_marginal(0, i);
+            let best = mm.iter().cloned().fold(0.0, f64::max);
+            mm.iter().filter(|&&p| p > best * (1.0 - 1e-9)).count() > 1
+        });
+        prop_assume!(!tied);
+        prop_assert_eq!(&ours.labels[0], &generic.discrete.assignment);
+        for (a, b) in model.means.iter().zip(reference.means()) {
+            prop_assert!((a - b).abs() < 1e-9, "means {:?} vs {:?}", model.means, reference.means());
+        }
+    }
+
+    /// The learning instance holds exactly the features the solver weighs: for any
+    /// weights, `w · f(x)` of the instance equals the sum of the weighted tables at `x`.
+    #[test]
+    fn learning_features_match_the_tables(
+        (mut model, labels) in problem(2),
+        weights in proptest::collection::vec(-3.0..3.0f64, 3),
+    ) {
+        for (c, l) in labels.iter().enumerate() {
+            for (i, &x) in l.iter().enumerate() {
+                model.set_label(c, i, None, x);
+            }
+        }
+        model.solve();
+        model.weights = weights.clone();
+        let mut features = FeatureSet::new("means", 1);
+        features.add_template("distance", &["squared"]).unwrap();
+        features.add_template("neighbour", &["same"]).unwrap();
+        features.add_template("other_chain", &["same"]).unwrap();
+        let instance = chain_instance(&model, &Arc::new(features), &labels).unwrap();
+        let totals = instance.model.feature_totals(&instance.labels).unwrap();
+        let dot: f64 = totals.iter().zip(&weights).map(|(f, w)| f * w).sum();
+        let tables: f64 = (0..model.y.len())
+            .map(|c| model.chain_graph(c).log_score(&labels[c]).unwrap())
+            .sum();
+        prop_assert!((dot - tables).abs() < 1e-9 * (1.0 + tables.abs()), "{dot} vs {tables}");
+    }
+}
+
+#[test]
+fn bad_initial_labels_are_refused() {
+    let mut model = Means::new(
+        vec![vec![0.0, 1.0]],
+        vec![vec![2, 1]],
+        vec![0.0, 1.0],
+        vec![1.0, 1.0, 0.0],
+    );
+    let solver = HybridChainParams::default().check().unwrap();
+    assert!(solver.run(&mut model, &[vec![0]]).is_err());
+    assert!(solver.run(&mut model, &[vec![0, 1]]).is_err());
+    assert!(solver.run(&mut model, &[]).is_err());
+    assert!(HybridChainParams::default().max_sweeps(0).check().is_err());
+    assert!(HybridChainParams::default()
+        .tolerance(f64::NAN)
+        .check()
+        .is_err());
+}
