@@ -6,9 +6,9 @@
 //! second, and time per pair = reported time / batch size.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use pgm_baselines::icp::{Icp, IcpParams};
 use pgm_datasets::builders::{relation_pairs, RelationPairOptions};
 use pgm_datasets::{carmen, relations, testdata, ScanPair};
+use pgm_features::registration::{Icp, IcpParams};
 use std::hint::black_box;
 
 const BATCH: usize = 100;

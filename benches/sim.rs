@@ -3,6 +3,7 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use pgm_datasets::sim::{simulate_pairs, Preset, SimConfig};
+use pgm_datasets::ParamGuard;
 use std::hint::black_box;
 
 fn bench_simulate(c: &mut Criterion) {

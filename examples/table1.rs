@@ -19,14 +19,11 @@
 //!
 //! Run: `cargo run --release --example table1 [-- --quick] [-- --sim-pairs N]`.
 
-use pgm_crf_clustering::evaluation::{
-    evaluate_pair, motion_error_summary, summarize, EvaluationConfig, Method, PairOutcome, Summary,
-};
-use pgm_crf_clustering::{AssociationSource, Clusterer, NearestParams};
+use pgm::methods::{association_source, clusterer, MethodOptions};
 use pgm_datasets::builders::{leigh_pairs, LeighPairOptions};
+use pgm_datasets::evaluation::{evaluate_clustering, ClusteringReport, ClusteringSummary};
 use pgm_datasets::sim::{simulate_pairs, SimConfig};
-use pgm_datasets::{leigh, ScanPair};
-use rayon::prelude::*;
+use pgm_datasets::{leigh, ParamGuard, ScanPair};
 use std::process::ExitCode;
 
 const PAPER: [(&str, [f64; 6]); 4] = [
@@ -36,27 +33,16 @@ const PAPER: [(&str, [f64; 6]); 4] = [
     ("CRF-M", [0.862, 0.052, 0.903, 0.031, 0.886, 0.041]),
 ];
 
-fn run(
-    pairs: &[ScanPair],
-    method: Method,
-    associations: AssociationSource,
-) -> Result<(Summary, Vec<PairOutcome>), String> {
-    let config = EvaluationConfig {
-        method,
-        associations,
-        clusterer: Clusterer::default(),
-        kmeans: Default::default(),
-        cbd: Default::default(),
-    };
-    let outcomes: Vec<PairOutcome> = pairs
-        .par_iter()
-        .map(|p| evaluate_pair(p, &config))
-        .collect::<Result<_, _>>()
-        .map_err(|e| e.to_string())?;
-    Ok((summarize(&outcomes), outcomes))
+/// `method` (a name of `pgm::methods`) with associations from `associations` on
+/// `pairs`, through the common evaluation.
+fn run(pairs: &[ScanPair], method: &str, associations: &str) -> Result<ClusteringReport, String> {
+    let options = MethodOptions::default();
+    let source = association_source(associations, &options).map_err(|e| e.to_string())?;
+    let method = clusterer(method, source, &options).map_err(|e| e.to_string())?;
+    evaluate_clustering(pairs, method.as_ref()).map_err(|e| e.to_string())
 }
 
-fn row(name: &str, s: &Summary, paper: Option<&[f64; 6]>) {
+fn row(name: &str, s: &ClusteringSummary, paper: Option<&[f64; 6]>) {
     let ours = format!(
         "{:.3}±{:.3}  {:.3}±{:.3}  {:.3}±{:.3}",
         s.homogeneity_mean,
@@ -75,13 +61,17 @@ fn row(name: &str, s: &Summary, paper: Option<&[f64; 6]>) {
     println!("{name:<22} {ours}   {:>5.1}   {theirs}", s.iterations_mean);
 }
 
-fn motion(outcomes: &[PairOutcome]) {
-    let (found, total, centroid, rotation) = motion_error_summary(outcomes);
+fn motion(report: &ClusteringReport) {
+    let f = report.found_objects;
     println!(
-        "{:<22} moving objects found {found} of {total}; median motion error {} m at the object centroid, {} rad",
+        "{:<22} moving objects found {} of {}; median motion error {} m at the object centroid, {} rad",
         "",
-        centroid.map_or("-".into(), |x| format!("{x:.3}")),
-        rotation.map_or("-".into(), |x| format!("{x:.4}"))
+        f.found,
+        f.total,
+        f.centroid_error_median
+            .map_or("-".into(), |x| format!("{x:.3}")),
+        f.rotation_error_median
+            .map_or("-".into(), |x| format!("{x:.4}"))
     );
 }
 
@@ -102,8 +92,7 @@ fn main() -> ExitCode {
         .and_then(|i| args.get(i + 1))
         .and_then(|v| v.parse().ok())
         .unwrap_or(if quick { 10 } else { 50 });
-    let icp = AssociationSource::NearestAfterIcp(NearestParams::default());
-    let segment = AssociationSource::automatic();
+    let (icp, segment, truth) = ("icp", "segment-icp", "true");
     let config = match SimConfig::default().check() {
         Ok(c) => c,
         Err(e) => {
@@ -116,36 +105,21 @@ fn main() -> ExitCode {
         "(a) simulated pairs: preset mixed, seed 1, {sim_pairs} pairs, default selection (training used seed 1000)"
     ));
     let rows = [
-        ("CBD", Method::Cbd, icp, Some(&PAPER[0].1)),
-        (
-            "K-Means (true assoc.)",
-            Method::KMeans,
-            AssociationSource::GroundTruth,
-            Some(&PAPER[1].1),
-        ),
-        ("K-Means (ICP assoc.)", Method::KMeans, icp, None),
-        (
-            "CRF-T",
-            Method::Crf,
-            AssociationSource::GroundTruth,
-            Some(&PAPER[2].1),
-        ),
-        ("K-Means (seg.-ICP assoc.)", Method::KMeans, segment, None),
-        ("CRF, ICP assoc.", Method::Crf, icp, None),
-        (
-            "CRF, seg.-ICP assoc.",
-            Method::Crf,
-            segment,
-            Some(&PAPER[3].1),
-        ),
-        ("one cluster", Method::OneCluster, icp, None),
+        ("CBD", "cbd", icp, Some(&PAPER[0].1)),
+        ("K-Means (true assoc.)", "kmeans", truth, Some(&PAPER[1].1)),
+        ("K-Means (ICP assoc.)", "kmeans", icp, None),
+        ("CRF-T", "crf", truth, Some(&PAPER[2].1)),
+        ("K-Means (seg.-ICP assoc.)", "kmeans", segment, None),
+        ("CRF, ICP assoc.", "crf", icp, None),
+        ("CRF, seg.-ICP assoc.", "crf", segment, Some(&PAPER[3].1)),
+        ("one cluster", "one-cluster", icp, None),
     ];
     for (name, method, associations, paper) in rows {
         match run(&sim, method, associations) {
-            Ok((s, outcomes)) => {
-                row(name, &s, paper);
-                if method == Method::Crf {
-                    motion(&outcomes);
+            Ok(report) => {
+                row(name, &report.summary, paper);
+                if method == "crf" {
+                    motion(&report);
                 }
             }
             Err(e) => {
@@ -169,12 +143,9 @@ fn main() -> ExitCode {
     header(&format!(
         "(a') simulated pairs: preset mixed, seed 1, {sim_pairs} pairs, no selection (objects with 1-2 returns or just come into view included)"
     ));
-    for (name, associations) in [
-        ("CRF-T", AssociationSource::GroundTruth),
-        ("CRF, seg.-ICP assoc.", segment),
-    ] {
-        match run(&unselected, Method::Crf, associations) {
-            Ok((s, _)) => row(name, &s, None),
+    for (name, associations) in [("CRF-T", truth), ("CRF, seg.-ICP assoc.", segment)] {
+        match run(&unselected, "crf", associations) {
+            Ok(report) => row(name, &report.summary, None),
             Err(e) => {
                 eprintln!("table1: {name}: {e}");
                 return ExitCode::from(2);
@@ -257,19 +228,19 @@ fn main() -> ExitCode {
                 } else {
                     "CBD (ICP ego-motion)"
                 },
-                Method::Cbd,
+                "cbd",
                 icp,
             ),
-            ("K-Means (ICP assoc.)", Method::KMeans, icp),
-            ("CRF, ICP assoc.", Method::Crf, icp),
-            ("CRF, seg.-ICP assoc.", Method::Crf, segment),
-            ("one cluster", Method::OneCluster, icp),
+            ("K-Means (ICP assoc.)", "kmeans", icp),
+            ("CRF, ICP assoc.", "crf", icp),
+            ("CRF, seg.-ICP assoc.", "crf", segment),
+            ("one cluster", "one-cluster", icp),
         ] {
             match run(&pairs, method, associations) {
-                Ok((s, outcomes)) => {
-                    row(name, &s, None);
-                    if method == Method::Crf {
-                        motion(&outcomes);
+                Ok(report) => {
+                    row(name, &report.summary, None);
+                    if method == "crf" {
+                        motion(&report);
                     }
                 }
                 Err(e) => {

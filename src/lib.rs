@@ -5,30 +5,33 @@
 //!
 //! - [`core`] (`pgm-core`): factor graphs, loopy max-product / sum-product belief
 //!   propagation with pluggable schedules, exact references, hybrid
-//!   observed-continuous nodes, pseudo-likelihood learning, UAI I/O;
-//! - [`features`] (`pgm-features`): poses, scans, rigid alignment, feature functions;
-//! - [`datasets`] (`pgm-datasets`): log readers, scan pairs, the urban simulator,
-//!   metrics;
-//! - [`baselines`] (`pgm-baselines`): ICP, motion K-Means, consistency-based detection;
+//!   observed-continuous nodes and the hybrid chain solver, pseudo-likelihood
+//!   learning, checked parameters, UAI I/O;
+//! - [`features`] (`pgm-features`): poses, scans and their geometry, scan pairs,
+//!   rigid alignment, registration (ICP), association sources, feature functions, and
+//!   the interfaces methods are evaluated through;
+//! - [`datasets`] (`pgm-datasets`): log readers, pair sources, the on-disk format,
+//!   the urban simulator, metrics and the generic evaluation;
+//! - [`baselines`] (`pgm-baselines`): motion K-Means, consistency-based detection;
 //! - [`crf_clustering`] (`pgm-crf-clustering`): the CRF-Clustering model;
+//! - [`methods`]: every method by the name the command line uses;
 //! - [`plot`]: SVG pictures of scan pairs and clusterings.
 //!
-//! The whole pipeline on one simulated pair: simulate, cluster the current scan's
-//! points by motion with the ground-truth associations, and score the result.
+//! The whole pipeline on simulated pairs: simulate, cluster the current scans' points
+//! by motion with the ground-truth associations, and score the result.
 //!
 //! ```
-//! use pgm::crf_clustering::{AssociationProvider, AssociationSource, Clusterer};
-//! use pgm::datasets::metrics::clustering_v_measure;
+//! use pgm::datasets::evaluation::evaluate_clustering;
 //! use pgm::datasets::sim::{simulate_pairs, SimConfig};
+//! use pgm::features::ParamGuard;
+//! use pgm::methods::{association_source, clusterer, MethodOptions};
 //!
-//! let config = SimConfig::default().check().unwrap();
-//! let pair = &simulate_pairs(&config, 1, 1)[0];
-//! let associations = AssociationSource::GroundTruth.associate(pair).unwrap();
-//! let clustering = Clusterer::default().cluster_pair(pair, &associations).unwrap();
-//! let truth = pair.truth.as_ref().and_then(|t| t.labels.as_ref()).unwrap();
-//! let score = clustering_v_measure(truth, &clustering.labels, 1.0).unwrap();
-//! assert!(score.v_measure > 0.5, "{score:?}");
-//! println!("{} clusters, V-measure {:.3}", clustering.clusters.len(), score.v_measure);
+//! let pairs = simulate_pairs(&SimConfig::default().check().unwrap(), 1, 2);
+//! let options = MethodOptions::default();
+//! let crf = clusterer("crf", association_source("true", &options).unwrap(), &options).unwrap();
+//! let report = evaluate_clustering(&pairs, crf.as_ref()).unwrap();
+//! assert!(report.summary.v_measure_mean > 0.5, "{:?}", report.summary);
+//! println!("{}: V-measure {:.3}", report.method, report.summary.v_measure_mean);
 //! ```
 
 pub use pgm_baselines as baselines;
@@ -37,4 +40,5 @@ pub use pgm_crf_clustering as crf_clustering;
 pub use pgm_datasets as datasets;
 pub use pgm_features as features;
 
+pub mod methods;
 pub mod plot;

@@ -11,6 +11,7 @@
 //!
 //! ```no_run
 //! use pgm::datasets::sim::{simulate_pair, SimConfig};
+//! use pgm::datasets::ParamGuard;
 //! use pgm::plot::PairPicture;
 //!
 //! let config = SimConfig::default().check().unwrap();
@@ -356,6 +357,7 @@ fn draw_arrow(
 mod tests {
     use super::*;
     use pgm_datasets::sim::{simulate_pair, SimConfig};
+    use pgm_datasets::ParamGuard;
 
     #[test]
     fn draws_every_point_and_box() {

@@ -9,30 +9,19 @@
 //! 0.032) and translation median ≤ 0.025 m; intel-lab consecutive pairs, ICP from the
 //! identity (the log has no independent odometry): ≤ 0.025 m and ≤ 0.006 rad.
 
-use pgm_baselines::icp::{Icp, IcpParams};
 use pgm_datasets::builders::{consecutive_pairs, relation_pairs, RelationPairOptions};
+use pgm_datasets::evaluation::evaluate_matching;
 use pgm_datasets::metrics::{motion_error, summarize_errors, ErrorSummary, MotionError};
 use pgm_datasets::{carmen, relations, testdata, ScanPair};
-use rayon::prelude::*;
+use pgm_features::registration::IcpMatcher;
 
 fn icp_errors(pairs: &[ScanPair]) -> ErrorSummary {
-    let params = IcpParams::default();
-    let errors: Vec<MotionError> = pairs
-        .par_iter()
-        .map(|p| {
-            let truth = p
-                .truth
-                .as_ref()
-                .and_then(|t| t.ego_motion)
-                .expect("ground truth");
-            let icp = Icp::new(&p.reference, params).expect("reference has returns");
-            let r = icp
-                .align(&p.current, p.odometry.unwrap_or_default())
-                .expect("current has returns");
-            motion_error(&r.motion, &truth)
-        })
-        .collect();
-    summarize_errors(&errors).expect("pairs")
+    let report = evaluate_matching(pairs, &IcpMatcher::default(), None).expect("pairs");
+    assert_eq!(
+        report.not_converged,
+        report.outcomes.iter().filter(|o| !o.converged).count()
+    );
+    report.all
 }
 
 fn odometry_errors(pairs: &[ScanPair]) -> ErrorSummary {

@@ -81,6 +81,24 @@ pub enum Error {
         /// Description naming both inputs and the disagreeing values.
         what: String,
     },
+    /// A pair (or a set of pairs) that an evaluation cannot score.
+    #[error("pair `{pair}`: cannot be scored: {what}")]
+    Unscorable {
+        /// The pair's name.
+        pair: String,
+        /// Why.
+        what: String,
+    },
+    /// A method failed on a pair during an evaluation.
+    #[error("{method} on pair `{pair}`: {source}")]
+    Method {
+        /// The pair's name.
+        pair: String,
+        /// The method's name.
+        method: String,
+        /// The method's error.
+        source: Box<pgm_features::Error>,
+    },
 }
 
 /// Result type of `pgm-datasets`.

@@ -26,15 +26,18 @@
 pub mod builders;
 pub mod carmen;
 pub mod error;
+pub mod evaluation;
 pub mod format;
 pub mod leigh;
 pub mod metrics;
 pub mod pair;
 pub mod relations;
 pub mod sim;
+pub mod source;
 pub mod testdata;
 mod text;
 
 pub use error::{Error, Result};
 pub use format::{read_pairs, write_pairs};
 pub use pair::{Association, ClusterMotion, GroundTruth, PairViolation, ScanPair};
+pub use pgm_features::ParamGuard;

@@ -2,6 +2,7 @@
 //! segments and L-shapes, several moving objects in the mixed preset, plausible speeds.
 
 use pgm_datasets::sim::{pair_rng, simulate_pairs, DatasetStats, ObjectKind, Preset, SimConfig};
+use pgm_datasets::ParamGuard;
 
 #[test]
 fn mixed_pairs_have_several_moving_objects() {

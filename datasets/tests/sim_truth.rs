@@ -7,6 +7,7 @@ use pgm_datasets::sim::{
     association_tolerance, pair_rng, simulate_pair, simulate_pairs, simulate_scene, MovingObject,
     Preset, Primitive, Scene, SimConfig, SimError, Trajectory, ValidSimConfig,
 };
+use pgm_datasets::ParamGuard;
 use pgm_datasets::{Association, ScanPair};
 use pgm_features::Pose2;
 use std::collections::BTreeSet;

@@ -1,21 +1,58 @@
 //! # pgm-features
 //!
-//! 2D laser-scan geometry and the feature functions of the papers this project
-//! implements: SE(2) poses ([`pose`]), scans and their points ([`scan`]), and the
-//! closed-form weighted rigid alignment of eq. (3) of the CRF-Clustering paper with
-//! O(1) updates ([`alignment`]), and per-cluster rigid motions as hybrid continuous
-//! nodes of the inference core ([`motion_nodes`]).
+//! Everything the scan models share below the models themselves, the way `linfa-nn`
+//! sits under linfa's algorithm crates: a model crate depends on `pgm-core` and on
+//! this crate, never on the data readers or on another model.
 //!
-//! Clustering features and matching features are added
-//! by the issues that need them; see the workspace README for the current state.
+//! **Big picture.**
+//! - Geometry: SE(2) poses ([`pose`]), laser scans and their geometry as methods of
+//!   [`Scan`] (bearing lookup in any monotone angle order, visibility, free space,
+//!   gap segmentation; [`scan`]).
+//! - Scan pairs and their ground truth ([`pair`]): the unit every model, metric and
+//!   reader works on (readers and writers live in `pgm-datasets`).
+//! - Rigid motions: the closed-form weighted alignment of eq. (3) of the
+//!   CRF-Clustering paper with O(1) updates ([`alignment`]), per-cluster motions as
+//!   observed-continuous nodes ([`motion_nodes`]), and registration by ICP
+//!   ([`registration`]).
+//! - Correspondences: the [`association`] sources (ground truth, nearest neighbour
+//!   after ICP, segment-wise ICP) behind one trait that CRF-Matching also implements.
+//! - The papers' feature functions ([`clustering`]).
+//! - The interfaces evaluation runs methods through ([`methods`]: [`ScanMatcher`],
+//!   [`MotionClusterer`]).
+//!
+//! ```
+//! use nalgebra::Point2;
+//! use pgm_features::{Pose2, RigidAlignment};
+//!
+//! // The motion that maps three current points onto their partners (eq. 3).
+//! let truth = Pose2::new(0.5, -0.2, 0.1);
+//! let mut stats = RigidAlignment::new();
+//! for s in [Point2::new(1.0, 0.0), Point2::new(0.0, 2.0), Point2::new(-1.0, 1.0)] {
+//!     stats.add(&s, &truth.transform_point(&s), 1.0);
+//! }
+//! assert!(stats.solve().unwrap().motion.translation_error(&truth) < 1e-12);
+//! ```
+//!
+//! **Current state.** Geometry, pairs, registration, association sources and the
+//! CRF-Clustering features are complete; CRF-Matching's features come with that model.
 
 pub mod alignment;
+pub mod association;
 pub mod clustering;
+mod error;
+pub mod methods;
 pub mod motion_nodes;
+pub mod pair;
 pub mod pose;
+pub mod registration;
 pub mod scan;
 
 pub use alignment::{Alignment, RigidAlignment};
-pub use motion_nodes::RigidMotionNodes;
+pub use association::{AssociationSource, PointAssociations};
+pub use error::{Error, Result};
+pub use methods::{MotionClusterer, ScanMatcher};
+pub use motion_nodes::{ClusterMotions, RigidMotionNodes};
+pub use pair::{Association, ClusterMotion, GroundTruth, ScanPair};
+pub use pgm_core::param::{InvalidParameter, ParamGuard};
 pub use pose::{wrap_angle, Pose2};
 pub use scan::Scan;

@@ -1,12 +1,17 @@
-//! Per-cluster rigid motions as observed-continuous nodes (a
-//! [`ContinuousModel`] of the inference core).
+//! Per-cluster rigid motions solved in closed form from labelled point pairs (eq. 3
+//! of the CRF-Clustering paper), the continuous nodes `x^RT` of every model here.
 //!
-//! Variable `i` labels a point pair `(s_i, g_i)` (current point, its partner in the
-//! reference) with a cluster `l`. Each cluster has a rigid motion `m_l = (R_l, T_l)`,
-//! solved in closed form from the pairs currently labelled `l` (eq. 3 of the
-//! CRF-Clustering paper) through [`RigidAlignment`]'s O(1) sufficient statistics, so a
-//! label change costs O(1) however many points there are. The local factor of variable
-//! `i` is refreshed to `−weight · ‖R_l s_i + T_l − g_i‖²` for every cluster state `l`
+//! [`ClusterMotions`] keeps one [`RigidAlignment`] (O(1) sufficient statistics) per
+//! cluster, so moving a point pair from one cluster to another costs O(1) however
+//! many points there are, and re-solving every motion costs O(clusters). Models keep
+//! it up to date from label changes: CRF-Clustering from its chain solver
+//! (`pgm_core::hybrid::chain`), [`RigidMotionNodes`] from the generic
+//! [`HybridInference`](pgm_core::hybrid::HybridInference) engine as a
+//! [`ContinuousModel`].
+//!
+//! [`RigidMotionNodes`]: variable `i` labels a point pair `(s_i, g_i)` (current point,
+//! its partner in the reference) with a cluster `l`; the local factor of variable `i`
+//! is refreshed to `−weight · ‖R_l s_i + T_l − g_i‖²` for every cluster state `l`
 //! (eq. 2, the distance feature); extra states beyond the clusters (for example an
 //! outlier state) get a fixed log-potential.
 
@@ -31,6 +36,75 @@ pub fn solve_motions(stats: &[RigidAlignment], motions: &mut [Pose2]) -> f64 {
     change
 }
 
+/// The rigid motions of `k` clusters and the statistics they are solved from.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ClusterMotions {
+    stats: Vec<RigidAlignment>,
+    motions: Vec<Pose2>,
+}
+
+impl ClusterMotions {
+    /// `motions.len()` clusters starting at `motions`, with no pair assigned.
+    pub fn new(motions: Vec<Pose2>) -> Self {
+        Self {
+            stats: vec![RigidAlignment::new(); motions.len()],
+            motions,
+        }
+    }
+
+    /// Number of clusters.
+    pub fn len(&self) -> usize {
+        self.motions.len()
+    }
+
+    /// True without clusters.
+    pub fn is_empty(&self) -> bool {
+        self.motions.is_empty()
+    }
+
+    /// Moves the pair `(s, g)` of weight `weight` from cluster `old` to cluster `new`
+    /// (`None`, or an index of no cluster such as an outlier state: not counted).
+    pub fn relabel(
+        &mut self,
+        s: &Point2<f64>,
+        g: &Point2<f64>,
+        weight: f64,
+        old: Option<usize>,
+        new: Option<usize>,
+    ) {
+        if old == new {
+            return;
+        }
+        if let Some(stats) = old.and_then(|l| self.stats.get_mut(l)) {
+            stats.remove(s, g, weight);
+        }
+        if let Some(stats) = new.and_then(|l| self.stats.get_mut(l)) {
+            stats.add(s, g, weight);
+        }
+    }
+
+    /// Re-solves every motion (eq. 3); empty clusters keep theirs. Returns the largest
+    /// change (m or rad).
+    pub fn solve(&mut self) -> f64 {
+        solve_motions(&self.stats, &mut self.motions)
+    }
+
+    /// The current motions.
+    pub fn motions(&self) -> &[Pose2] {
+        &self.motions
+    }
+
+    /// The statistics of each cluster.
+    pub fn statistics(&self) -> &[RigidAlignment] {
+        &self.stats
+    }
+
+    /// Number of pairs currently assigned to each cluster.
+    pub fn counts(&self) -> Vec<usize> {
+        self.stats.iter().map(|s| s.len()).collect()
+    }
+}
+
 /// Rigid motions of `k` clusters over labelled point pairs.
 #[derive(Clone, Debug)]
 pub struct RigidMotionNodes {
@@ -38,8 +112,7 @@ pub struct RigidMotionNodes {
     local_factor: Vec<FactorId>,
     factor_variable: Vec<Option<usize>>,
     dependent: Vec<[FactorId; 1]>,
-    stats: Vec<RigidAlignment>,
-    motions: Vec<Pose2>,
+    motions: ClusterMotions,
     weight: f64,
     extra_states: Vec<f64>,
 }
@@ -96,11 +169,10 @@ impl RigidMotionNodes {
         }
         Ok(Self {
             dependent: local_factor.iter().map(|&a| [a]).collect(),
-            stats: vec![RigidAlignment::new(); motions.len()],
             pairs,
             local_factor,
             factor_variable,
-            motions,
+            motions: ClusterMotions::new(motions),
             weight,
             extra_states,
         })
@@ -108,12 +180,12 @@ impl RigidMotionNodes {
 
     /// The current motions.
     pub fn motions(&self) -> &[Pose2] {
-        &self.motions
+        self.motions.motions()
     }
 
     /// Number of pairs currently labelled with each cluster.
     pub fn counts(&self) -> Vec<usize> {
-        self.stats.iter().map(|s| s.len()).collect()
+        self.motions.counts()
     }
 
     /// The local factor of each variable.
@@ -125,7 +197,7 @@ impl RigidMotionNodes {
     pub fn local_log_potentials(&self, i: usize) -> Vec<f64> {
         let (s, g) = &self.pairs[i];
         let mut t: Vec<f64> = self
-            .motions
+            .motions()
             .iter()
             .map(|m| -self.weight * (m.transform_point(s) - g).norm_squared())
             .collect();
@@ -148,21 +220,16 @@ impl ContinuousModel for RigidMotionNodes {
         let Some((s, g)) = self.pairs.get(v.0).copied() else {
             return;
         };
-        let k = self.motions.len();
-        if let Some(VariableState::Label(l)) = old {
-            if l < k {
-                self.stats[l].remove(&s, &g, 1.0);
-            }
-        }
-        if let VariableState::Label(l) = new {
-            if l < k {
-                self.stats[l].add(&s, &g, 1.0);
-            }
-        }
+        let label = |state: Option<VariableState<'_>>| match state {
+            Some(VariableState::Label(l)) => Some(l),
+            _ => None,
+        };
+        self.motions
+            .relabel(&s, &g, 1.0, label(old), label(Some(new)));
     }
 
     fn solve(&mut self) -> f64 {
-        solve_motions(&self.stats, &mut self.motions)
+        self.motions.solve()
     }
 
     fn dependent_factors(&self, v: VariableId) -> &[FactorId] {
@@ -182,7 +249,7 @@ impl ContinuousModel for RigidMotionNodes {
             Some(t) if t.table().len() == self.motions.len() + self.extra_states.len() => {
                 // Written in place: motions give finite values, extra states were checked.
                 let table = t.table_mut();
-                for (x, m) in table.iter_mut().zip(&self.motions) {
+                for (x, m) in table.iter_mut().zip(self.motions.motions()) {
                     *x = -self.weight * (m.transform_point(s) - g).norm_squared();
                 }
                 table[self.motions.len()..].copy_from_slice(&self.extra_states);

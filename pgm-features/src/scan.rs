@@ -1,12 +1,24 @@
-//! One 2D laser scan, whatever log it came from, and its conversion to points.
+//! One 2D laser scan, whatever log it came from, its conversion to points, and the
+//! scan geometry every model and baseline shares.
 //!
 //! Beams are kept in beam order (the chain order of both papers' CRFs); beams without a
 //! return stay in the scan, marked invalid, so beam indices are stable identifiers of
 //! points across readers, ground truth and models.
+//!
+//! **Geometry.** A scanner may store its beams in increasing or decreasing angle
+//! order (a scanner mounted upside down reverses them) and over any range of angles,
+//! up to a full turn and beyond `±π` (for example `0 … 2π`). Every lookup by bearing
+//! ([`Scan::beam_near_bearing`], [`Scan::nearest_return`], [`Scan::sees`],
+//! [`Scan::in_free_space`]) compares angles modulo `2π` and works for any monotone
+//! order, so a scan and its mirror image in beam order give the same answers.
+//! [`segment_by_gap`] and [`Scan::gap_segments`] split points in beam order where
+//! consecutive points are far apart (the initial segmentation of both papers).
 
 use crate::pose::Pose2;
 use nalgebra::Point2;
 use serde::{Deserialize, Serialize};
+use std::f64::consts::TAU;
+use std::ops::Range;
 
 /// A 2D laser scan in its own sensor frame (x forward, y left).
 ///
@@ -69,6 +81,101 @@ impl Scan {
         (pts, idx)
     }
 
+    /// The typical angle between neighbouring beams (rad, non-negative): the median of
+    /// `|θ_{k+1} − θ_k|` over consecutive beams, 0 for fewer than two beams.
+    pub fn angle_increment(&self) -> f64 {
+        angle_increment(&self.angles)
+    }
+
+    /// The beam whose angle is nearest to `bearing` (rad, any real number, compared
+    /// modulo `2π`), provided `bearing` lies within half a beam step of it, that is,
+    /// inside the scan's field of view; `None` outside it. Beams may be stored in
+    /// increasing or decreasing order, over any range (see the module docs). The step
+    /// is the mean spacing `|θ_last − θ_0| / (n − 1)`.
+    pub fn beam_near_bearing(&self, bearing: f64) -> Option<usize> {
+        let m = self.angles.len();
+        if m == 0 || !bearing.is_finite() {
+            return None;
+        }
+        let (first, last) = (self.angles[0], self.angles[m - 1]);
+        let half_step = if m > 1 {
+            (last - first).abs() / (m - 1) as f64 / 2.0
+        } else {
+            0.0
+        };
+        let increasing = last >= first;
+        // Position of an angle in increasing order.
+        let at = |j: usize| {
+            if increasing {
+                self.angles[j]
+            } else {
+                self.angles[m - 1 - j]
+            }
+        };
+        let low = at(0);
+        // `bearing` moved by whole turns to lie at or above the lowest beam angle.
+        let base = bearing - ((bearing - low) / TAU).floor() * TAU;
+        let mut best: Option<(f64, usize)> = None;
+        for candidate in [base - TAU, base, base + TAU] {
+            // First position whose angle is at least `candidate` (binary search).
+            let (mut lo, mut hi) = (0, m);
+            while lo < hi {
+                let mid = (lo + hi) / 2;
+                if at(mid) < candidate {
+                    lo = mid + 1;
+                } else {
+                    hi = mid;
+                }
+            }
+            let p = lo;
+            for j in [p.saturating_sub(1), p.min(m - 1)] {
+                let d = (at(j) - candidate).abs();
+                if best.is_none_or(|(b, _)| d < b) {
+                    best = Some((d, j));
+                }
+            }
+        }
+        let (d, j) = best?;
+        // Rounding of the wrap may leave a few ulps above an exact half step.
+        (d <= half_step * (1.0 + 1e-9) + 1e-12).then(|| if increasing { j } else { m - 1 - j })
+    }
+
+    /// The smallest valid range (m) among the beam nearest to the bearing of `q`
+    /// (a point in this scan's frame) and its two neighbours in beam order; `None`
+    /// outside the field of view or without a return there.
+    pub fn nearest_return(&self, q: &Point2<f64>) -> Option<f64> {
+        let k = self.beam_near_bearing(q.y.atan2(q.x))?;
+        let m = self.len();
+        let closest = (k.saturating_sub(1)..=(k + 1).min(m - 1))
+            .filter(|&b| self.valid[b])
+            .map(|b| self.ranges[b])
+            .fold(f64::INFINITY, f64::min);
+        closest.is_finite().then_some(closest)
+    }
+
+    /// Whether this scan can have seen the point `q` (its frame): inside the field of
+    /// view, some return among the beams next to its bearing ([`Scan::nearest_return`]),
+    /// and not more than `margin` (m) behind the nearest of them (an occluded surface
+    /// lies farther behind).
+    pub fn sees(&self, q: &Point2<f64>, margin: f64) -> bool {
+        self.nearest_return(q)
+            .is_some_and(|closest| q.coords.norm() <= closest + margin)
+    }
+
+    /// Whether this scan saw the space at `q` (its frame) free: `q` lies more than
+    /// `margin` (m) in front of the nearest return among the beams next to its bearing.
+    pub fn in_free_space(&self, q: &Point2<f64>, margin: f64) -> bool {
+        self.nearest_return(q)
+            .is_some_and(|closest| q.coords.norm() < closest - margin)
+    }
+
+    /// The valid points of the scan in beam order ([`Scan::points`]) split where two
+    /// consecutive points lie more than `gap` (m) apart: ranges of indices into
+    /// [`Scan::points`].
+    pub fn gap_segments(&self, gap: f64) -> Vec<Range<usize>> {
+        segment_ranges(&segment_by_gap(&self.points().0, gap))
+    }
+
     /// Pose of the laser in the odometry frame (`odometry ∘ laser_offset`), if odometry exists.
     pub fn laser_odometry(&self) -> Option<Pose2> {
         self.odometry.map(|o| o.compose(&self.laser_offset))
@@ -114,5 +221,137 @@ impl Scan {
             }
         }
         Ok(())
+    }
+}
+
+/// The median of `|θ_{k+1} − θ_k|` over consecutive `angles` (rad), 0 for fewer than
+/// two finite differences.
+pub fn angle_increment(angles: &[f64]) -> f64 {
+    let mut d: Vec<f64> = angles
+        .windows(2)
+        .map(|w| (w[1] - w[0]).abs())
+        .filter(|x| x.is_finite())
+        .collect();
+    if d.is_empty() {
+        return 0.0;
+    }
+    let mid = d.len() / 2;
+    *d.select_nth_unstable_by(mid, f64::total_cmp).1
+}
+
+/// Segment index of every point (points in beam order): consecutive points farther
+/// apart than `gap` (m) start a new segment. Indices start at 0 and grow by one.
+pub fn segment_by_gap(points: &[Point2<f64>], gap: f64) -> Vec<usize> {
+    let mut out = Vec::with_capacity(points.len());
+    let mut segment = 0;
+    for (i, p) in points.iter().enumerate() {
+        if i > 0 && (p - points[i - 1]).norm() > gap {
+            segment += 1;
+        }
+        out.push(segment);
+    }
+    out
+}
+
+/// The runs of equal consecutive values of `segments` (as [`segment_by_gap`] returns)
+/// as index ranges.
+pub fn segment_ranges(segments: &[usize]) -> Vec<Range<usize>> {
+    let mut ranges = Vec::new();
+    let mut start = 0;
+    while start < segments.len() {
+        let mut end = start + 1;
+        while end < segments.len() && segments[end] == segments[start] {
+            end += 1;
+        }
+        ranges.push(start..end);
+        start = end;
+    }
+    ranges
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scan(angles: Vec<f64>, ranges: Vec<f64>) -> Scan {
+        Scan {
+            timestamp: 0.0,
+            valid: ranges.iter().map(|r| *r > 0.0).collect(),
+            angles,
+            ranges,
+            max_range: 30.0,
+            odometry: None,
+            laser_offset: Pose2::identity(),
+        }
+    }
+
+    #[test]
+    fn bearing_lookup_in_any_order_and_range() {
+        let n = 181;
+        let inc: Vec<f64> = (0..n)
+            .map(|k| -1.5 + 3.0 * k as f64 / (n - 1) as f64)
+            .collect();
+        let dec: Vec<f64> = inc.iter().rev().copied().collect();
+        let a = scan(inc.clone(), vec![5.0; n]);
+        let b = scan(dec, vec![5.0; n]);
+        for (k, &angle) in inc.iter().enumerate() {
+            assert_eq!(a.beam_near_bearing(angle), Some(k));
+            assert_eq!(b.beam_near_bearing(angle), Some(n - 1 - k));
+            // A bearing given in another turn.
+            assert_eq!(a.beam_near_bearing(angle + TAU), Some(k));
+        }
+        assert_eq!(a.beam_near_bearing(2.0), None);
+        assert_eq!(b.beam_near_bearing(-2.0), None);
+        // A full turn from 0 to 2π (exclusive): every bearing is covered, and bearings
+        // near 2π wrap to the first beam.
+        let m = 360;
+        let full: Vec<f64> = (0..m).map(|k| k as f64 * TAU / m as f64).collect();
+        let c = scan(full.clone(), vec![5.0; m]);
+        assert_eq!(c.beam_near_bearing(-0.001), Some(0));
+        assert_eq!(c.beam_near_bearing(std::f64::consts::PI), Some(180));
+        assert_eq!(c.beam_near_bearing(-std::f64::consts::FRAC_PI_2), Some(270));
+        let reversed = scan(full.iter().rev().copied().collect(), vec![5.0; m]);
+        assert_eq!(
+            reversed.beam_near_bearing(-std::f64::consts::FRAC_PI_2),
+            Some(m - 1 - 270)
+        );
+    }
+
+    #[test]
+    fn free_space_and_visibility_agree_across_orders() {
+        let n = 91;
+        let inc: Vec<f64> = (0..n)
+            .map(|k| -0.9 + 1.8 * k as f64 / (n - 1) as f64)
+            .collect();
+        let ranges: Vec<f64> = (0..n).map(|k| 4.0 + (k % 7) as f64 * 0.1).collect();
+        let a = scan(inc.clone(), ranges.clone());
+        let b = scan(
+            inc.iter().rev().copied().collect(),
+            ranges.iter().rev().copied().collect(),
+        );
+        for (x, y) in [(1.0, 0.2), (3.9, -0.5), (6.0, 0.1), (-1.0, 0.0), (2.0, 3.0)] {
+            let q = Point2::new(x, y);
+            assert_eq!(a.nearest_return(&q), b.nearest_return(&q), "{q}");
+            assert_eq!(a.sees(&q, 0.3), b.sees(&q, 0.3));
+            assert_eq!(a.in_free_space(&q, 0.3), b.in_free_space(&q, 0.3));
+        }
+        assert!(a.in_free_space(&Point2::new(1.0, 0.0), 0.3));
+        assert!(!a.sees(&Point2::new(8.0, 0.0), 0.3));
+        assert!(a.sees(&Point2::new(4.2, 0.0), 0.3));
+        assert_eq!(a.nearest_return(&Point2::new(-1.0, 0.0)), None);
+        assert!((a.angle_increment() - 0.02).abs() < 1e-12);
+        assert!((b.angle_increment() - 0.02).abs() < 1e-12);
+    }
+
+    #[test]
+    fn gap_segments() {
+        let points: Vec<Point2<f64>> = [0.0, 0.1, 0.2, 1.0, 1.1, 5.0]
+            .iter()
+            .map(|&x| Point2::new(x, 0.0))
+            .collect();
+        let s = segment_by_gap(&points, 0.5);
+        assert_eq!(s, vec![0, 0, 0, 1, 1, 2]);
+        assert_eq!(segment_ranges(&s), vec![0..3, 3..5, 5..6]);
+        assert!(segment_ranges(&[]).is_empty());
     }
 }

@@ -12,28 +12,24 @@
 //! cluster, motion arrows and boxes around moving objects.
 
 use super::{CliError, CliResult};
+use clap::builder::{PossibleValue, PossibleValuesParser};
 use clap::{Args, ValueEnum};
+use pgm::methods::{association_source, default_association, MethodOptions, ASSOCIATION_SOURCES};
 use pgm::plot::PairPicture;
-use pgm_crf_clustering::{
-    AssociationProvider, AssociationSource, Clusterer, Clustering, ClusteringParams,
-    ClusteringWeights, NearestParams, SegmentParams, UpdateSchedule,
-};
+use pgm_crf_clustering::{Clustering, UpdateSchedule};
 use pgm_datasets::{builders, leigh, ClusterMotion, ScanPair};
-use pgm_features::Scan;
+use pgm_features::{ParamGuard, Scan};
 use serde::Serialize;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-/// Where point associations come from.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum AssociationArg {
-    /// The pair's ground-truth associations (simulated data).
-    True,
-    /// Nearest neighbour after ICP (ego-motion only).
-    Icp,
-    /// Segment-wise ICP: each segment that does not fit the ego-motion is aligned on
-    /// its own, then nearest neighbours under each segment's motion.
-    SegmentIcp,
+/// The names of the association sources, for clap.
+pub fn association_names() -> PossibleValuesParser {
+    PossibleValuesParser::new(
+        ASSOCIATION_SOURCES
+            .iter()
+            .map(|(name, help)| PossibleValue::new(*name).help(*help)),
+    )
 }
 
 /// When motions are re-solved.
@@ -45,14 +41,15 @@ pub enum UpdateArg {
     EveryVisit,
 }
 
-/// CRF-Clustering options shared by `pgm cluster` and `pgm eval clustering`.
+/// CRF-Clustering and association options shared by `pgm cluster`, `pgm eval
+/// clustering` and `pgm train clustering`.
 #[derive(Args, Debug, Clone)]
 pub struct CrfArgs {
     /// Weight file written by `pgm train clustering` (default: the shipped weights).
     #[arg(long)]
     pub weights: Option<PathBuf>,
     /// Largest number of clusters.
-    #[arg(long, default_value_t = ClusteringParams::default().max_clusters)]
+    #[arg(long, default_value_t = MethodOptions::default().crf.max_clusters)]
     pub max_clusters: usize,
     /// Extra edges to each point's K nearest neighbours (0: chain only).
     #[arg(long, default_value_t = 0)]
@@ -61,70 +58,48 @@ pub struct CrfArgs {
     #[arg(long)]
     pub outlier_distance: Option<f64>,
     /// Gap (m) that starts a new initial segment.
-    #[arg(long, default_value_t = ClusteringParams::default().segment_gap)]
+    #[arg(long, default_value_t = MethodOptions::default().crf.segment_gap)]
     pub segment_gap: f64,
     /// Mean effective number of clusters above which a cluster is merged (eq. 8).
-    #[arg(long, default_value_t = ClusteringParams::default().merge_threshold)]
+    #[arg(long, default_value_t = MethodOptions::default().crf.merge_threshold)]
     pub merge_threshold: f64,
     /// Smallest displacement (m) of a moving object relative to the background.
-    #[arg(long, default_value_t = ClusteringParams::default().min_object_displacement)]
+    #[arg(long, default_value_t = MethodOptions::default().crf.detection.min_object_displacement)]
     pub min_displacement: f64,
     /// Smallest fraction of a moving object's points that free space shows moved
     /// (0: no free-space test).
-    #[arg(long, default_value_t = ClusteringParams::default().min_free_fraction)]
+    #[arg(long, default_value_t = MethodOptions::default().crf.detection.min_free_fraction)]
     pub min_free_fraction: f64,
     /// When motions are re-solved during message passing.
     #[arg(long, value_enum, default_value = "every-sweep")]
     pub update: UpdateArg,
     /// ICP associations: gate (m) of the nearest-neighbour search (segment-icp: upper
     /// bound of its range-dependent gate).
-    #[arg(long, default_value_t = NearestParams::default().gate)]
+    #[arg(long, default_value_t = MethodOptions::default().nearest.gate)]
     pub gate: f64,
 }
 
 impl CrfArgs {
-    /// The checked clusterer.
-    pub fn clusterer(&self) -> Result<Clusterer, CliError> {
-        let weights = match &self.weights {
-            Some(path) => ClusteringWeights::load(path)
-                .map_err(|e| CliError(format!("{}: {e}", path.display())))?,
-            None => ClusteringWeights::default(),
+    /// The method options these arguments set (everything else at its default).
+    pub fn options(&self) -> Result<MethodOptions, CliError> {
+        let mut o = MethodOptions::default();
+        if let Some(path) = &self.weights {
+            o = o.with_crf_weights(path).map_err(CliError::from_display)?;
+        }
+        o.crf.max_clusters = self.max_clusters;
+        o.crf.knn = self.knn;
+        o.crf.outlier_distance = self.outlier_distance;
+        o.crf.segment_gap = self.segment_gap;
+        o.crf.merge_threshold = self.merge_threshold;
+        o.crf.detection.min_object_displacement = self.min_displacement;
+        o.crf.detection.min_free_fraction = self.min_free_fraction;
+        o.crf.update = match self.update {
+            UpdateArg::EverySweep => UpdateSchedule::EverySweep,
+            UpdateArg::EveryVisit => UpdateSchedule::EveryVisit,
         };
-        ClusteringParams {
-            weights,
-            max_clusters: self.max_clusters,
-            knn: self.knn,
-            outlier_distance: self.outlier_distance,
-            segment_gap: self.segment_gap,
-            merge_threshold: self.merge_threshold,
-            min_object_displacement: self.min_displacement,
-            min_free_fraction: self.min_free_fraction,
-            update: match self.update {
-                UpdateArg::EverySweep => UpdateSchedule::EverySweep,
-                UpdateArg::EveryVisit => UpdateSchedule::EveryVisit,
-            },
-            ..ClusteringParams::default()
-        }
-        .check()
-        .map_err(CliError::from_display)
-    }
-
-    /// The association source.
-    pub fn associations(&self, which: AssociationArg) -> AssociationSource {
-        match which {
-            AssociationArg::True => AssociationSource::GroundTruth,
-            AssociationArg::Icp => AssociationSource::NearestAfterIcp(NearestParams {
-                gate: self.gate,
-                ..NearestParams::default()
-            }),
-            AssociationArg::SegmentIcp => AssociationSource::SegmentIcp(SegmentParams {
-                nearest: NearestParams {
-                    gate: self.gate,
-                    ..NearestParams::default()
-                },
-                ..SegmentParams::default()
-            }),
-        }
+        o.nearest.gate = self.gate;
+        o.segment.nearest.gate = self.gate;
+        Ok(o)
     }
 }
 
@@ -155,8 +130,8 @@ pub struct ClusterArgs {
     #[arg(long)]
     pub current: Option<usize>,
     /// Point associations (default: true when the pair has them, else icp).
-    #[arg(long, value_enum)]
-    pub associations: Option<AssociationArg>,
+    #[arg(long, value_parser = association_names())]
+    pub associations: Option<String>,
     /// CRF-Clustering options.
     #[command(flatten)]
     pub crf: CrfArgs,
@@ -235,20 +210,6 @@ fn log_pair(path: &std::path::Path, i: usize, j: usize, a: &Scan, b: &Scan) -> S
     }
 }
 
-/// The default association source of a pair: true if it has them, else ICP (segment-icp
-/// is better on simulated street scenes but worse on leigh-gtm1; notes/issue7.md).
-pub fn default_associations(pair: &ScanPair) -> AssociationArg {
-    if pair
-        .truth
-        .as_ref()
-        .is_some_and(|t| t.associations.is_some())
-    {
-        AssociationArg::True
-    } else {
-        AssociationArg::Icp
-    }
-}
-
 #[derive(Serialize)]
 struct Output<'a> {
     pair: &'a str,
@@ -285,11 +246,17 @@ pub fn draw(
 /// Runs `pgm cluster`.
 pub fn run(args: ClusterArgs) -> CliResult {
     let pair = load_pair(&args)?;
-    let clusterer = args.crf.clusterer()?;
+    let options = args.crf.options()?;
+    let clusterer = options
+        .crf
+        .clone()
+        .check()
+        .map_err(CliError::from_display)?;
     let which = args
         .associations
-        .unwrap_or_else(|| default_associations(&pair));
-    let source = args.crf.associations(which);
+        .as_deref()
+        .unwrap_or_else(|| default_association(std::slice::from_ref(&pair)));
+    let source = association_source(which, &options).map_err(CliError::from_display)?;
     let associations = source.associate(&pair).map_err(CliError::from_display)?;
     let clustering = clusterer
         .cluster_pair(&pair, &associations)

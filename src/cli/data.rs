@@ -16,11 +16,8 @@
 
 use super::{CliError, CliResult};
 use clap::{Args, Subcommand};
-use pgm_datasets::builders::{
-    consecutive_pairs, leigh_pairs, relation_pairs, summarize_leigh_pairs, LeighPairOptions,
-    RelationPairOptions, Unannotated,
-};
-use pgm_datasets::{carmen, leigh, relations, ScanPair};
+use pgm_datasets::builders::{leigh_pairs, summarize_leigh_pairs, LeighPairOptions, Unannotated};
+use pgm_datasets::source::{read_leigh, LoadedPairs, PairSource};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -125,57 +122,30 @@ pub struct SummaryArgs {
     pub json: bool,
 }
 
-/// Which kind of source the arguments name.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum SourceKind {
-    /// CARMEN log + relations.
-    Relations,
-    /// CARMEN log with VERTEX2 poses.
-    ConsecutiveLog,
-    /// leigh-gtm1 text logs.
-    Leigh,
-}
-
-fn stem(path: &Path) -> String {
-    path.file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "log".into())
-}
-
-fn note_skipped(path: &Path, skipped: &std::collections::BTreeMap<String, usize>) {
-    if !skipped.is_empty() {
-        let list: Vec<String> = skipped.iter().map(|(k, v)| format!("{k} ×{v}")).collect();
-        eprintln!(
-            "note: {}: skipped lines: {}",
-            path.display(),
-            list.join(", ")
-        );
+impl LeighArgs {
+    /// The pair builder's options for pairs `k` scans apart.
+    pub fn options(&self, k: usize) -> LeighPairOptions {
+        LeighPairOptions {
+            k,
+            moving_threshold: self.moving_threshold,
+            person_radius: self.person_radius,
+            unannotated: self.unannotated,
+            annotated_sector: self.annotated_sector,
+            name: "leigh-gtm1".into(),
+        }
     }
 }
 
-/// Reads leigh-gtm1 scans (with odometry when given) and annotations.
-pub fn read_leigh(
-    scans: &Path,
-    people: &Path,
-    odometry: Option<&Path>,
-) -> Result<(leigh::LeighScans, Vec<leigh::PersonAnnotation>), CliError> {
-    let mut log = leigh::read_scans(scans).map_err(CliError::from_display)?;
-    note_skipped(scans, &log.skipped);
-    if let Some(path) = odometry {
-        let odo = leigh::read_odometry(path).map_err(CliError::from_display)?;
-        leigh::attach_odometry(&mut log, &odo, path).map_err(CliError::from_display)?;
-    }
-    let annotations = leigh::read_people(people).map_err(CliError::from_display)?;
-    Ok((log, annotations))
-}
-
-/// Builds pairs from whichever source the arguments name (see [`SourceArgs`]).
-pub fn load_pairs(
+/// The pair source the arguments name: `stored` (`--pairs`) or exactly one of the log
+/// sources of [`SourceArgs`].
+pub fn pair_source(
+    stored: Option<&Path>,
     source: &SourceArgs,
     leigh_args: &LeighArgs,
     k: usize,
-) -> Result<(SourceKind, Vec<ScanPair>), CliError> {
+) -> Result<PairSource, CliError> {
     let given = [
+        stored.is_some(),
         source.carmen.is_some(),
         source.log.is_some(),
         source.scans.is_some(),
@@ -185,60 +155,41 @@ pub fn load_pairs(
     .count();
     if given != 1 {
         return Err(CliError(
-            "give exactly one source: --carmen FILE --relations FILE, --log FILE, or \
-             --scans FILE --people FILE [--odometry FILE]"
+            "give exactly one source: --pairs DIR, --carmen FILE --relations FILE, --log FILE, \
+             or --scans FILE --people FILE [--odometry FILE]"
                 .into(),
         ));
     }
-    if let (Some(log_path), Some(rel_path)) = (&source.carmen, &source.relations) {
-        let log = carmen::read_carmen(log_path).map_err(CliError::from_display)?;
-        note_skipped(log_path, &log.skipped);
-        let rels = relations::read_relations(rel_path).map_err(CliError::from_display)?;
-        let options = RelationPairOptions {
-            name: stem(log_path),
-            ..Default::default()
-        };
-        let built = relation_pairs(&log, &rels, &options);
-        if !built.unmatched.is_empty() {
-            eprintln!(
-                "note: {}: {} of {} relations name a time stamp with no scan within {} s \
-                 (first on line {})",
-                rel_path.display(),
-                built.unmatched.len(),
-                rels.len(),
-                options.tolerance,
-                built.unmatched[0].line
-            );
-        }
-        return Ok((SourceKind::Relations, built.pairs));
+    if let Some(path) = stored {
+        return Ok(PairSource::Stored(path.to_path_buf()));
     }
-    if let Some(log_path) = &source.log {
-        let log = carmen::read_carmen(log_path).map_err(CliError::from_display)?;
-        note_skipped(log_path, &log.skipped);
-        let built = consecutive_pairs(&log, &stem(log_path));
-        if built.odometry_was_ground_truth {
-            eprintln!(
-                "note: {}: the robot poses of the laser lines equal the VERTEX2 poses; \
-                 they are ground truth, not odometry, and were removed (no odometry prior)",
-                log_path.display()
-            );
-        }
-        return Ok((SourceKind::ConsecutiveLog, built.pairs));
+    if let (Some(log), Some(relations)) = (&source.carmen, &source.relations) {
+        return Ok(PairSource::CarmenRelations {
+            log: log.clone(),
+            relations: relations.clone(),
+        });
+    }
+    if let Some(log) = &source.log {
+        return Ok(PairSource::ConsecutiveLog(log.clone()));
     }
     let (Some(scans), Some(people)) = (&source.scans, &source.people) else {
         return Err(CliError("--scans needs --people".into()));
     };
-    let (log, annotations) = read_leigh(scans, people, source.odometry.as_deref())?;
-    let options = LeighPairOptions {
-        k,
-        moving_threshold: leigh_args.moving_threshold,
-        person_radius: leigh_args.person_radius,
-        unannotated: leigh_args.unannotated,
-        annotated_sector: leigh_args.annotated_sector,
-        name: "leigh-gtm1".into(),
-    };
-    let pairs = leigh_pairs(&log, &annotations, &options).map_err(CliError::from_display)?;
-    Ok((SourceKind::Leigh, pairs))
+    Ok(PairSource::Leigh {
+        scans: scans.clone(),
+        people: people.clone(),
+        odometry: source.odometry.clone(),
+        options: leigh_args.options(k),
+    })
+}
+
+/// Loads the pairs of `source`, printing the readers' notes on stderr.
+pub fn load_pairs(source: &PairSource) -> Result<LoadedPairs, CliError> {
+    let loaded = source.load().map_err(CliError::from_display)?;
+    for note in &loaded.notes {
+        eprintln!("note: {note}");
+    }
+    Ok(loaded)
 }
 
 /// Runs `pgm data …`.
@@ -250,7 +201,7 @@ pub fn run(args: DataArgs) -> CliResult {
 }
 
 fn run_pairs(args: PairsArgs) -> CliResult {
-    let (_, pairs) = load_pairs(&args.source, &args.leigh, args.k)?;
+    let pairs = load_pairs(&pair_source(None, &args.source, &args.leigh, args.k)?)?.pairs;
     if pairs.is_empty() {
         return Err(CliError(
             "no pair could be built from the given logs".into(),
@@ -262,18 +213,21 @@ fn run_pairs(args: PairsArgs) -> CliResult {
 }
 
 fn run_summary(args: SummaryArgs) -> CliResult {
-    let (log, annotations) = read_leigh(&args.scans, &args.people, args.odometry.as_deref())?;
+    let mut notes = Vec::new();
+    let (log, annotations) = read_leigh(
+        &args.scans,
+        &args.people,
+        args.odometry.as_deref(),
+        &mut notes,
+    )
+    .map_err(CliError::from_display)?;
+    for note in &notes {
+        eprintln!("note: {note}");
+    }
     let mut rows = Vec::new();
     for &k in &args.k {
-        let options = LeighPairOptions {
-            k,
-            moving_threshold: args.leigh.moving_threshold,
-            person_radius: args.leigh.person_radius,
-            unannotated: args.leigh.unannotated,
-            annotated_sector: args.leigh.annotated_sector,
-            name: "leigh-gtm1".into(),
-        };
-        let pairs = leigh_pairs(&log, &annotations, &options).map_err(CliError::from_display)?;
+        let pairs = leigh_pairs(&log, &annotations, &args.leigh.options(k))
+            .map_err(CliError::from_display)?;
         rows.push(summarize_leigh_pairs(k, &pairs));
     }
     if args.json {

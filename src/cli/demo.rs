@@ -2,18 +2,17 @@
 //!
 //! Simulates `--pairs` urban pairs (preset `mixed`, seed `--seed`, disjoint from the
 //! training seed 1000 of the shipped weights), runs CRF-Clustering with true and with
-//! ICP associations and the two baselines, prints mean V-measures and the number of
-//! sweeps, and draws pair `--svg-pair` clustered by CRF-Clustering into `--svg`.
+//! automatic associations and the two baselines through the common evaluation
+//! ([`pgm_datasets::evaluation`]), prints mean V-measures and the number of sweeps,
+//! and draws pair `--svg-pair` clustered by CRF-Clustering into `--svg`.
 
 use super::cluster::draw;
 use super::{CliError, CliResult};
 use clap::Args;
-use pgm_crf_clustering::evaluation::{
-    evaluate_pair, motion_error_summary, summarize, EvaluationConfig, Method, PairOutcome,
-};
-use pgm_crf_clustering::{AssociationProvider, AssociationSource, Clusterer, NearestParams};
+use pgm::methods::{association_source, clusterer, MethodOptions};
+use pgm_datasets::evaluation::evaluate_clustering;
 use pgm_datasets::sim::{simulate_pairs, SimConfig};
-use rayon::prelude::*;
+use pgm_features::ParamGuard;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -34,6 +33,15 @@ pub struct DemoArgs {
     pub svg_pair: usize,
 }
 
+/// The rows of the demo: label, method, association source.
+const ROWS: [(&str, &str, &str); 5] = [
+    ("CRF, true associations", "crf", "true"),
+    ("CRF, segment-ICP assoc.", "crf", "segment-icp"),
+    ("CRF, ICP associations", "crf", "icp"),
+    ("CBD", "cbd", "icp"),
+    ("motion K-Means, ICP", "kmeans", "icp"),
+];
+
 /// Runs `pgm demo`.
 pub fn run(args: DemoArgs) -> CliResult {
     if args.pairs == 0 || args.svg_pair >= args.pairs {
@@ -46,9 +54,7 @@ pub fn run(args: DemoArgs) -> CliResult {
         .check()
         .map_err(CliError::from_display)?;
     let pairs = simulate_pairs(&config, args.seed, args.pairs);
-    let clusterer = Clusterer::default();
-    let icp = AssociationSource::NearestAfterIcp(NearestParams::default());
-    let segment = AssociationSource::automatic();
+    let options = MethodOptions::default();
     println!(
         "CRF-Clustering on {} simulated pairs (preset mixed, seed {})",
         pairs.len(),
@@ -58,50 +64,40 @@ pub fn run(args: DemoArgs) -> CliResult {
         "{:<28} {:>8} {:>8} {:>8} {:>8}",
         "method", "H", "C", "V", "sweeps"
     );
-    for (name, method, associations) in [
-        (
-            "CRF, true associations",
-            Method::Crf,
-            AssociationSource::GroundTruth,
-        ),
-        ("CRF, segment-ICP assoc.", Method::Crf, segment),
-        ("CRF, ICP associations", Method::Crf, icp),
-        ("CBD", Method::Cbd, icp),
-        ("motion K-Means, ICP", Method::KMeans, icp),
-    ] {
-        let config = EvaluationConfig {
-            method,
-            associations,
-            clusterer: clusterer.clone(),
-            kmeans: Default::default(),
-            cbd: Default::default(),
-        };
-        let outcomes: Vec<PairOutcome> = pairs
-            .par_iter()
-            .map(|p| evaluate_pair(p, &config))
-            .collect::<Result<_, _>>()
-            .map_err(CliError::from_display)?;
-        let s = summarize(&outcomes);
+    for (i, (name, method, associations)) in ROWS.into_iter().enumerate() {
+        let source = association_source(associations, &options).map_err(CliError::from_display)?;
+        let method = clusterer(method, source, &options).map_err(CliError::from_display)?;
+        let report =
+            evaluate_clustering(&pairs, method.as_ref()).map_err(CliError::from_display)?;
+        let s = report.summary;
         println!(
             "{name:<28} {:>8.3} {:>8.3} {:>8.3} {:>8.1}",
             s.homogeneity_mean, s.completeness_mean, s.v_measure_mean, s.iterations_mean
         );
-        if method == Method::Crf && associations == AssociationSource::GroundTruth {
-            let (found, total, centroid, rotation) = motion_error_summary(&outcomes);
+        if i == 0 {
+            let f = report.found_objects;
             println!(
-                "{:<28} found {found} of {total} moving objects; median motion error {} m, {} rad",
+                "{:<28} found {} of {} moving objects; median motion error {} m, {} rad",
                 "",
-                centroid.map_or("-".into(), |x| format!("{x:.3}")),
-                rotation.map_or("-".into(), |x| format!("{x:.4}"))
+                f.found,
+                f.total,
+                f.centroid_error_median
+                    .map_or("-".into(), |x| format!("{x:.3}")),
+                f.rotation_error_median
+                    .map_or("-".into(), |x| format!("{x:.4}"))
             );
         }
     }
     let pair = &pairs[args.svg_pair];
-    let a = AssociationSource::GroundTruth
-        .associate(pair)
-        .map_err(CliError::from_display)?;
-    let clustering = clusterer
-        .cluster_pair(pair, &a)
+    let source = association_source("true", &options).map_err(CliError::from_display)?;
+    let clustering = options
+        .crf
+        .check()
+        .map_err(CliError::from_display)?
+        .cluster_pair(
+            pair,
+            &source.associate(pair).map_err(CliError::from_display)?,
+        )
         .map_err(CliError::from_display)?;
     draw(
         pair,

@@ -9,24 +9,33 @@
 //! `{"method", "pairs", "translation_median", "translation_p90", "rotation_median",
 //! "rotation_p90", "subsets": {NAME: {same fields}}}`.
 //!
-//! Methods: `odometry` returns the pair's odometry prior (the identity when the pair
-//! has none, as for intel-lab, whose log has no independent odometry); `icp` runs
-//! point-to-point ICP ([`pgm_baselines::icp`]) started from the same prior. When ICP
-//! cannot run on a pair (a scan without returns) its estimate is the prior and the
-//! pair is counted in a note on stderr.
+//! Methods (see [`pgm::methods::SCAN_MATCHERS`]): `odometry` returns the pair's
+//! odometry prior (the identity when the pair has none, as for intel-lab, whose log has
+//! no independent odometry); `icp` runs point-to-point ICP
+//! ([`pgm_features::registration`]) started from the same prior. A pair where the
+//! method does not converge (too few correspondences: the estimate is the prior) or
+//! cannot run is counted in `not_converged` and in a note on stderr.
 
-use super::data::{load_pairs, LeighArgs, SourceArgs, SourceKind};
+use super::data::{load_pairs, pair_source, LeighArgs, SourceArgs};
 use super::{CliError, CliResult};
-use clap::{Args, Subcommand, ValueEnum};
-use pgm_baselines::icp::{Icp, IcpParams};
-use pgm_datasets::metrics::{motion_error, summarize_errors, ErrorSummary, MotionError};
-use pgm_datasets::ScanPair;
-use pgm_features::Pose2;
-use rayon::prelude::*;
-use serde::Serialize;
-use std::collections::BTreeMap;
+use clap::builder::{PossibleValue, PossibleValuesParser};
+use clap::{Args, Subcommand};
+use pgm::methods::{scan_matcher, MethodOptions, SCAN_MATCHERS};
+use pgm_datasets::evaluation::evaluate_matching;
+use pgm_datasets::metrics::ErrorSummary;
+use pgm_datasets::source::SourceKind;
+use pgm_features::registration::IcpParams;
 use std::path::PathBuf;
 use std::process::ExitCode;
+
+/// The names of the scan matchers, for clap.
+pub fn matcher_names() -> PossibleValuesParser {
+    PossibleValuesParser::new(
+        SCAN_MATCHERS
+            .iter()
+            .map(|(name, help)| PossibleValue::new(*name).help(*help)),
+    )
+}
 
 /// `pgm eval …`.
 #[derive(Args, Debug)]
@@ -45,22 +54,12 @@ pub enum EvalCommand {
     Clustering(super::eval_clustering::ClusteringEvalArgs),
 }
 
-/// A scan-matching method.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum MatchingMethod {
-    /// The odometry prior (identity without odometry).
-    Odometry,
-    /// Point-to-point ICP started from the odometry prior.
-    Icp,
-}
-
 /// `pgm eval matching`.
 #[derive(Args, Debug)]
 pub struct MatchingArgs {
     /// The method to evaluate.
-    #[arg(long, value_enum)]
-    pub method: MatchingMethod,
+    #[arg(long, value_parser = matcher_names())]
+    pub method: String,
     /// Input logs.
     #[command(flatten)]
     pub source: SourceArgs,
@@ -88,6 +87,9 @@ pub struct MatchingArgs {
     /// ICP: match only every N-th return while the distance is coarse.
     #[arg(long, default_value_t = IcpParams::default().coarse_stride)]
     pub icp_coarse_stride: usize,
+    /// ICP: fewest matched returns for a rigid fit (fewer: the prior is kept).
+    #[arg(long, default_value_t = IcpParams::default().min_correspondences)]
+    pub icp_min_correspondences: usize,
     /// Print one JSON object.
     #[arg(long)]
     pub json: bool,
@@ -101,120 +103,66 @@ pub fn run(args: EvalArgs) -> CliResult {
     }
 }
 
-/// Estimates the ego-motion of one pair with `method`; `Err` carries the fallback
-/// (the prior) when ICP could not run.
-pub fn estimate(
-    pair: &ScanPair,
-    method: MatchingMethod,
-    params: IcpParams,
-) -> Result<Pose2, Pose2> {
-    let prior = pair.odometry.unwrap_or_default();
-    match method {
-        MatchingMethod::Odometry => Ok(prior),
-        MatchingMethod::Icp => Icp::new(&pair.reference, params)
-            .and_then(|icp| icp.align(&pair.current, prior))
-            .map(|r| r.motion)
-            .map_err(|_| prior),
-    }
-}
-
-#[derive(Serialize)]
-struct Report {
-    method: MatchingMethod,
-    #[serde(flatten)]
-    all: ErrorSummary,
-    subsets: BTreeMap<String, ErrorSummary>,
-}
-
 fn run_matching(args: MatchingArgs) -> CliResult {
-    let (kind, pairs) = match &args.pairs {
-        Some(path) => (
-            SourceKind::Relations,
-            pgm_datasets::read_pairs(path).map_err(CliError::from_display)?,
-        ),
-        None => {
-            let leigh = LeighArgs {
-                moving_threshold: 0.0,
-                person_radius: 0.35,
-                unannotated: Default::default(),
-                annotated_sector: false,
-            };
-            load_pairs(&args.source, &leigh, 1)?
-        }
+    let leigh = LeighArgs {
+        moving_threshold: 0.0,
+        person_radius: 0.35,
+        unannotated: Default::default(),
+        annotated_sector: false,
     };
-    let with_truth: Vec<(&ScanPair, Pose2)> = pairs
+    let source = pair_source(args.pairs.as_deref(), &args.source, &leigh, 1)?;
+    let loaded = load_pairs(&source)?;
+    let pairs = loaded.pairs;
+    let scored = pairs
         .iter()
-        .filter_map(|p| p.truth.as_ref()?.ego_motion.map(|e| (p, e)))
-        .collect();
-    if with_truth.is_empty() {
-        return Err(CliError(format!(
-            "none of the {} pairs has a ground-truth ego-motion",
-            pairs.len()
-        )));
-    }
-    if with_truth.len() < pairs.len() {
+        .filter(|p| p.truth.as_ref().is_some_and(|t| t.ego_motion.is_some()))
+        .count();
+    if scored < pairs.len() {
         eprintln!(
             "note: {} of {} pairs have no ground-truth ego-motion and are not scored",
-            pairs.len() - with_truth.len(),
+            pairs.len() - scored,
             pairs.len()
         );
     }
-    if with_truth.iter().any(|(p, _)| p.odometry.is_none()) {
+    if pairs.iter().any(|p| p.odometry.is_none()) {
         eprintln!("note: pairs without an odometry prior start from the identity");
     }
-    let params = IcpParams {
-        initial_max_distance: args.icp_initial_distance,
-        final_max_distance: args.icp_final_distance,
-        distance_decay: args.icp_decay,
-        max_iterations: args.icp_max_iterations,
-        translation_tolerance: args.icp_tolerance,
-        rotation_tolerance: args.icp_tolerance,
-        coarse_stride: args.icp_coarse_stride,
+    let options = MethodOptions {
+        icp: IcpParams {
+            initial_max_distance: args.icp_initial_distance,
+            final_max_distance: args.icp_final_distance,
+            distance_decay: args.icp_decay,
+            max_iterations: args.icp_max_iterations,
+            translation_tolerance: args.icp_tolerance,
+            rotation_tolerance: args.icp_tolerance,
+            coarse_stride: args.icp_coarse_stride,
+            min_correspondences: args.icp_min_correspondences,
+        },
+        ..MethodOptions::default()
     };
-    params.check().map_err(CliError::from_display)?;
-    let results: Vec<(MotionError, f64, bool)> = with_truth
-        .par_iter()
-        .map(|(pair, truth)| {
-            let (estimate, failed) = match estimate(pair, args.method, params) {
-                Ok(e) => (e, false),
-                Err(e) => (e, true),
-            };
-            (
-                motion_error(&estimate, truth),
-                pair.time_gap().abs(),
-                failed,
-            )
-        })
-        .collect();
-    let failed = results.iter().filter(|r| r.2).count();
-    if failed > 0 {
-        eprintln!("note: ICP could not run on {failed} pairs; their estimate is the prior");
-    }
-    let errors: Vec<MotionError> = results.iter().map(|r| r.0).collect();
-    let all = summarize_errors(&errors).ok_or_else(|| CliError("no pair to score".into()))?;
-    let mut subsets = BTreeMap::new();
-    if kind == SourceKind::Relations {
-        let near: Vec<MotionError> = results
+    let matcher = scan_matcher(&args.method, &options).map_err(CliError::from_display)?;
+    let near = matches!(loaded.kind, SourceKind::Relations | SourceKind::Stored)
+        .then_some(args.near_seconds);
+    let report = evaluate_matching(&pairs, matcher.as_ref(), near)
+        .map_err(|e| CliError(format!("{source}: {e}")))?;
+    if report.not_converged > 0 {
+        let example = report
+            .outcomes
             .iter()
-            .filter(|r| r.1 < args.near_seconds)
-            .map(|r| r.0)
-            .collect();
-        let far: Vec<MotionError> = results
-            .iter()
-            .filter(|r| r.1 >= args.near_seconds)
-            .map(|r| r.0)
-            .collect();
-        for (name, set) in [("near", near), ("far", far)] {
-            if let Some(s) = summarize_errors(&set) {
-                subsets.insert(name.to_string(), s);
-            }
-        }
+            .find(|o| !o.converged)
+            .map(|o| {
+                format!(
+                    " (e.g. pair `{}`: {})",
+                    o.name,
+                    o.note.as_deref().unwrap_or("did not converge")
+                )
+            })
+            .unwrap_or_default();
+        eprintln!(
+            "note: {} did not converge on {} of {} pairs{example}",
+            report.method, report.not_converged, report.all.pairs
+        );
     }
-    let report = Report {
-        method: args.method,
-        all,
-        subsets,
-    };
     if args.json {
         println!(
             "{}",
@@ -222,11 +170,7 @@ fn run_matching(args: MatchingArgs) -> CliResult {
         );
         return Ok(ExitCode::SUCCESS);
     }
-    let method = match args.method {
-        MatchingMethod::Odometry => "odometry",
-        MatchingMethod::Icp => "icp",
-    };
-    println!("method {method}: {} pairs", report.all.pairs);
+    println!("method {}: {} pairs", report.method, report.all.pairs);
     println!(
         "{:<24}  {:>5}  {:>14}  {:>12}  {:>15}  {:>13}",
         "subset", "pairs", "transl. median", "transl. p90", "rot. median", "rot. p90"

@@ -1,49 +1,48 @@
 //! `pgm eval clustering`: homogeneity, completeness and V-measure of a clustering
 //! method against ground-truth labels (Table I of the CRF-Clustering paper).
 //!
-//! `pgm eval clustering --method crf|cbd|kmeans|one-cluster (--pairs DIR | --scans FILE
-//! --people FILE [--odometry FILE] --k K [--moving-threshold M]) [--associations
-//! true|icp|segment-icp] [--weights FILE] [--json]` scores every pair with ground-truth labels and
-//! prints the mean and standard deviation over pairs. `--json` prints one object
-//! `{"pairs", "homogeneity_mean", "homogeneity_std", "completeness_mean",
-//! "completeness_std", "v_measure_mean", "v_measure_std", "iterations_mean"}`.
-//! Without odometry the ego-motion comes from the model itself (the largest cluster)
-//! or from ICP (CBD, associations). `--no-prior` hides the pairs' odometry prior from
-//! the methods while the labels still use it (leigh-gtm1 needs odometry to decide who
+//! `pgm eval clustering --method NAME (--pairs DIR | --scans FILE --people FILE
+//! [--odometry FILE] --k K [--moving-threshold M]) [--associations NAME] [--weights
+//! FILE] [--json]` scores every pair with ground-truth labels
+//! ([`pgm_datasets::evaluation::evaluate_clustering`]) and prints the mean and standard
+//! deviation over pairs. The methods and association sources are those of
+//! [`pgm::methods`]. `--json` prints one object `{"method", "pairs",
+//! "homogeneity_mean", "homogeneity_std", "completeness_mean", "completeness_std",
+//! "v_measure_mean", "v_measure_std", "iterations_mean", "objects_found",
+//! "objects_total", "centroid_error_median", "rotation_error_median"}`. Without
+//! odometry the ego-motion comes from the model itself (the largest cluster) or from
+//! ICP (CBD, associations). `--no-prior` hides the pairs' odometry prior from the
+//! methods while the labels still use it (leigh-gtm1 needs odometry to decide who
 //! moved), to measure the methods as they run on a log without odometry.
 
-use super::cluster::{default_associations, AssociationArg, CrfArgs};
-use super::data::{load_pairs, LeighArgs, SourceArgs};
+use super::cluster::{association_names, CrfArgs};
+use super::data::{load_pairs, pair_source, LeighArgs, SourceArgs};
 use super::{CliError, CliResult};
-use clap::{Args, ValueEnum};
-use pgm_baselines::consistency::ConsistencyParams;
-use pgm_baselines::motion_kmeans::MotionKMeansParams;
-use pgm_crf_clustering::evaluation::{
-    evaluate_pair, motion_error_summary, summarize, EvaluationConfig, Method, PairOutcome,
+use clap::builder::{PossibleValue, PossibleValuesParser};
+use clap::Args;
+use pgm::methods::{
+    association_source, clusterer, clusterer_needs_associations, default_association, CLUSTERERS,
 };
-use rayon::prelude::*;
+use pgm_datasets::evaluation::{evaluate_clustering, scorable_for_clustering};
+use serde::Serialize;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-/// A clustering method.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum MethodArg {
-    /// CRF-Clustering.
-    Crf,
-    /// The consistency-based detector.
-    Cbd,
-    /// Motion K-Means (eq. 10).
-    Kmeans,
-    /// Every point in one cluster.
-    OneCluster,
+/// The names of the clustering methods, for clap.
+pub fn clusterer_names() -> PossibleValuesParser {
+    PossibleValuesParser::new(
+        CLUSTERERS
+            .iter()
+            .map(|(name, help)| PossibleValue::new(*name).help(*help)),
+    )
 }
 
 /// `pgm eval clustering`.
 #[derive(Args, Debug)]
 pub struct ClusteringEvalArgs {
     /// The method to evaluate.
-    #[arg(long, value_enum)]
-    pub method: MethodArg,
+    #[arg(long, value_parser = clusterer_names())]
+    pub method: String,
     /// A stored scan-pair data set with ground-truth labels.
     #[arg(long, conflicts_with_all = ["carmen", "log", "scans"])]
     pub pairs: Option<PathBuf>,
@@ -58,16 +57,16 @@ pub struct ClusteringEvalArgs {
     pub k: usize,
     /// Point associations for crf and kmeans (default: true when every pair has them,
     /// else icp).
-    #[arg(long, value_enum)]
-    pub associations: Option<AssociationArg>,
+    #[arg(long, value_parser = association_names())]
+    pub associations: Option<String>,
     /// CRF-Clustering options.
     #[command(flatten)]
     pub crf: CrfArgs,
     /// Motion K-Means: number of clusters.
-    #[arg(long, default_value_t = MotionKMeansParams::default().k)]
+    #[arg(long, default_value_t = pgm::methods::MethodOptions::default().kmeans.k)]
     pub kmeans_k: usize,
     /// CBD: how much closer (m) than the reference return a dynamic point is.
-    #[arg(long, default_value_t = ConsistencyParams::default().margin)]
+    #[arg(long, default_value_t = pgm::methods::MethodOptions::default().cbd.margin)]
     pub cbd_margin: f64,
     /// Hide the pairs' odometry prior from the methods (the labels still use it): the
     /// methods run as on a log without odometry.
@@ -78,81 +77,72 @@ pub struct ClusteringEvalArgs {
     pub json: bool,
 }
 
+/// The `--json` object.
+#[derive(Serialize)]
+struct Report<'a> {
+    method: &'a str,
+    #[serde(flatten)]
+    summary: &'a pgm_datasets::evaluation::ClusteringSummary,
+    objects_found: usize,
+    objects_total: usize,
+    centroid_error_median: Option<f64>,
+    rotation_error_median: Option<f64>,
+}
+
 /// Runs `pgm eval clustering`.
 pub fn run(args: ClusteringEvalArgs) -> CliResult {
-    let mut pairs = match &args.pairs {
-        Some(path) => pgm_datasets::read_pairs(path).map_err(CliError::from_display)?,
-        None => load_pairs(&args.source, &args.leigh, args.k)?.1,
-    };
+    let source = pair_source(args.pairs.as_deref(), &args.source, &args.leigh, args.k)?;
+    let mut pairs = load_pairs(&source)?.pairs;
     if args.no_prior {
         for p in &mut pairs {
             p.odometry = None;
         }
     }
-    let scored: Vec<_> = pairs
-        .iter()
-        .filter(|p| p.truth.as_ref().is_some_and(|t| t.labels.is_some()))
-        .collect();
-    if scored.is_empty() {
+    let total = pairs.len();
+    pairs.retain(scorable_for_clustering);
+    if pairs.is_empty() {
         return Err(CliError(format!(
-            "none of the {} pairs has ground-truth labels",
-            pairs.len()
+            "{source}: none of the {total} pairs has a ground-truth label on any return \
+             (nothing to score)"
         )));
     }
-    if scored.len() < pairs.len() {
+    if pairs.len() < total {
         eprintln!(
-            "note: {} of {} pairs have no ground-truth labels and are not scored",
-            pairs.len() - scored.len(),
-            pairs.len()
+            "note: {} of {total} pairs have no ground-truth label on any return and are not scored",
+            total - pairs.len()
         );
     }
-    let which = args.associations.unwrap_or_else(|| {
-        if scored
-            .iter()
-            .all(|p| default_associations(p) == AssociationArg::True)
-        {
-            AssociationArg::True
-        } else {
-            AssociationArg::Icp
-        }
-    });
-    let config = EvaluationConfig {
-        method: match args.method {
-            MethodArg::Crf => Method::Crf,
-            MethodArg::Cbd => Method::Cbd,
-            MethodArg::Kmeans => Method::KMeans,
-            MethodArg::OneCluster => Method::OneCluster,
-        },
-        associations: args.crf.associations(which),
-        clusterer: args.crf.clusterer()?,
-        kmeans: MotionKMeansParams {
-            k: args.kmeans_k,
-            ..MotionKMeansParams::default()
-        },
-        cbd: ConsistencyParams {
-            margin: args.cbd_margin,
-            ..ConsistencyParams::default()
-        },
-    };
-    let outcomes: Vec<PairOutcome> = scored
-        .par_iter()
-        .map(|p| evaluate_pair(p, &config))
-        .collect::<Result<_, _>>()
-        .map_err(CliError::from_display)?;
-    let summary = summarize(&outcomes);
+    let mut options = args.crf.options()?;
+    options.kmeans.k = args.kmeans_k;
+    options.cbd.margin = args.cbd_margin;
+    let which = args
+        .associations
+        .as_deref()
+        .unwrap_or_else(|| default_association(&pairs));
+    let associations = association_source(which, &options).map_err(CliError::from_display)?;
+    let method = clusterer(&args.method, associations, &options).map_err(CliError::from_display)?;
+    let report = evaluate_clustering(&pairs, method.as_ref()).map_err(CliError::from_display)?;
+    let summary = report.summary;
+    let found = report.found_objects;
     if args.json {
+        let json = Report {
+            method: &report.method,
+            summary: &summary,
+            objects_found: found.found,
+            objects_total: found.total,
+            centroid_error_median: found.centroid_error_median,
+            rotation_error_median: found.rotation_error_median,
+        };
         println!(
             "{}",
-            serde_json::to_string(&summary).map_err(CliError::from_display)?
+            serde_json::to_string(&json).map_err(CliError::from_display)?
         );
         return Ok(ExitCode::SUCCESS);
     }
-    let assoc = if config.method.needs_associations() {
-        format!(", {} associations", config.associations_name())
-    } else {
-        String::new()
-    };
-    println!("method {:?}{assoc}: {} pairs", args.method, summary.pairs);
+    println!(
+        "method {}: {} pairs of {source}",
+        report.method, summary.pairs
+    );
     println!(
         "homogeneity   {:.3} ± {:.3}",
         summary.homogeneity_mean, summary.homogeneity_std
@@ -166,12 +156,17 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
         summary.v_measure_mean, summary.v_measure_std
     );
     println!("iterations    {:.1}", summary.iterations_mean);
-    if config.method == Method::Crf {
-        let (found, total, centroid, rotation) = motion_error_summary(&outcomes);
+    if clusterer_needs_associations(&args.method) {
         println!(
-            "moving objects found {found} of {total}; median motion error {} m at the centroid, {} rad",
-            centroid.map_or("-".into(), |x| format!("{x:.3}")),
-            rotation.map_or("-".into(), |x| format!("{x:.4}"))
+            "moving objects found {} of {}; median motion error {} m at the centroid, {} rad",
+            found.found,
+            found.total,
+            found
+                .centroid_error_median
+                .map_or("-".into(), |x| format!("{x:.3}")),
+            found
+                .rotation_error_median
+                .map_or("-".into(), |x| format!("{x:.4}"))
         );
     }
     Ok(ExitCode::SUCCESS)

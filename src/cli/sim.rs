@@ -4,6 +4,7 @@
 use super::{CliError, CliResult};
 use clap::Args;
 use pgm::datasets::sim::{simulate_pairs, DatasetStats, Preset, SimConfig};
+use pgm::features::ParamGuard;
 use pgm::plot::PairPicture;
 use std::path::PathBuf;
 use std::process::ExitCode;

@@ -10,10 +10,10 @@
 use super::cluster::CrfArgs;
 use super::{CliError, CliResult};
 use clap::{Args, Subcommand, ValueEnum};
-use pgm_crf_clustering::learning::{learn_with_observer, training_instance};
-use pgm_crf_clustering::{AssociationProvider, AssociationSource};
+use pgm::methods::association_source;
+use pgm_crf_clustering::learning::{learn, training_instances};
 use pgm_datasets::sim::{simulate_pairs, Preset, SimConfig};
-use rayon::prelude::*;
+use pgm_features::ParamGuard;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -96,28 +96,27 @@ fn run_clustering(args: TrainClusteringArgs) -> CliResult {
         }
         (None, None) => return Err(CliError("give --data DIR or --simulate N".into())),
     };
-    let clusterer = args.crf.clusterer()?;
-    let icp = args.crf.associations(super::cluster::AssociationArg::Icp);
-    let sources: Vec<AssociationSource> = match args.associations {
-        TrainAssociations::True => vec![AssociationSource::GroundTruth],
-        TrainAssociations::Icp => vec![icp],
-        TrainAssociations::SegmentIcp => {
-            vec![args
-                .crf
-                .associations(super::cluster::AssociationArg::SegmentIcp)]
-        }
-        TrainAssociations::Both => vec![AssociationSource::GroundTruth, icp],
+    let options = args.crf.options()?;
+    let clusterer = options
+        .crf
+        .clone()
+        .check()
+        .map_err(CliError::from_display)?;
+    let names: &[&str] = match args.associations {
+        TrainAssociations::True => &["true"],
+        TrainAssociations::Icp => &["icp"],
+        TrainAssociations::SegmentIcp => &["segment-icp"],
+        TrainAssociations::Both => &["true", "icp"],
     };
-    let built: Vec<_> = pairs
-        .par_iter()
-        .flat_map_iter(|p| sources.iter().map(move |s| (p, s)))
-        .map(|(p, s)| {
-            let a = s.associate(p)?;
-            training_instance(p, &a, clusterer.params())
-        })
+    let sources = names
+        .iter()
+        .map(|n| association_source(n, &options))
         .collect::<Result<Vec<_>, _>>()
         .map_err(CliError::from_display)?;
-    let instances: Vec<_> = built.into_iter().flatten().collect();
+    let sources: Vec<&dyn pgm_features::AssociationSource> =
+        sources.iter().map(|s| s.as_ref()).collect();
+    let instances =
+        training_instances(&pairs, &sources, clusterer.params()).map_err(CliError::from_display)?;
     if instances.is_empty() {
         return Err(CliError(format!(
             "none of the {} pairs has ground-truth labels",
@@ -138,7 +137,7 @@ fn run_clustering(args: TrainClusteringArgs) -> CliResult {
         bar.tick();
         std::ops::ControlFlow::Continue(())
     };
-    let learned = learn_with_observer(&instances, args.prior_variance, &mut observer);
+    let learned = learn(&instances, args.prior_variance, &mut observer);
     bar.finish_and_clear();
     let (weights, result) = learned.map_err(CliError::from_display)?;
     let named = weights.to_weights().map_err(CliError::from_display)?;

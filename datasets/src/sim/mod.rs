@@ -38,6 +38,7 @@
 //!
 //! ```
 //! use pgm_datasets::sim::{simulate_pairs, Preset, SimConfig};
+//! use pgm_datasets::ParamGuard;
 //!
 //! let config = SimConfig { preset: Preset::Intersection, ..SimConfig::default() }
 //!     .check()
@@ -63,6 +64,7 @@ pub use stats::DatasetStats;
 pub use truth::association_tolerance;
 
 use crate::pair::ScanPair;
+use pgm_features::ParamGuard;
 use pgm_features::Pose2;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -169,9 +171,17 @@ fn invalid(name: &'static str, value: impl std::fmt::Debug, expected: &'static s
     }
 }
 
-impl SimConfig {
+impl ParamGuard for SimConfig {
+    type Checked = ValidSimConfig;
+    type Error = SimError;
+
+    fn check(self) -> Result<ValidSimConfig> {
+        self.check_ref()?;
+        Ok(ValidSimConfig { params: self })
+    }
+
     /// Checks every value once; the error names the field and the offending value.
-    pub fn check(&self) -> Result<ValidSimConfig> {
+    fn check_ref(&self) -> Result<()> {
         if !(2..=100_000).contains(&self.beams) {
             return Err(invalid("beams", self.beams, "an integer in 2..=100000"));
         }
@@ -227,9 +237,7 @@ impl SimConfig {
                 "a standard deviation >= 0 in radians per metre",
             ));
         }
-        Ok(ValidSimConfig {
-            params: self.clone(),
-        })
+        Ok(())
     }
 }
 

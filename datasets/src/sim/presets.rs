@@ -749,6 +749,7 @@ impl<'a, R: Rng> Builder<'a, R> {
 mod tests {
     use super::*;
     use crate::sim::{pair_rng, SimConfig};
+    use pgm_features::ParamGuard;
 
     #[test]
     fn names_round_trip() {

@@ -3,7 +3,8 @@
 //! V-B): static objects are consistent about free space, moving ones are not.
 //!
 //! 1. The ego-motion comes from the odometry prior, or from ICP
-//!    ([`crate::icp`], started at the identity) when the pair has no odometry.
+//!    ([`pgm_features::registration`], started at the identity) when the pair has no
+//!    odometry.
 //! 2. Every current return is moved into the reference sensor frame with the
 //!    ego-motion; at its bearing the reference scan's beams within
 //!    [`ConsistencyParams::window`] beams of the nearest one are read. If the point is
@@ -17,12 +18,14 @@
 //!    [`ConsistencyParams::dynamic_fraction`] dynamic points is a moving object, each
 //!    one its own cluster `1, 2, …`; everything else is background `0`.
 
-use crate::icp::{Icp, IcpParams};
 use crate::{Error, Result};
-use pgm_datasets::ScanPair;
-use pgm_features::Pose2;
+use pgm_core::param::{InvalidParameter, ParamGuard};
+use pgm_features::methods::{MotionClusterer, MotionClustering};
+use pgm_features::registration::IcpParams;
+use pgm_features::scan::{segment_by_gap, segment_ranges};
+use pgm_features::{Pose2, ScanPair};
 
-/// Parameters of [`consistency_detect`].
+/// Parameters of [`ConsistencyDetector`], unchecked.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ConsistencyParams {
     /// How much closer (m) than the reference return a point must be to be dynamic.
@@ -49,7 +52,61 @@ impl Default for ConsistencyParams {
     }
 }
 
-/// Where the ego-motion of [`consistency_detect`] came from.
+impl ParamGuard for ConsistencyParams {
+    type Checked = ConsistencyDetector;
+    type Error = Error;
+
+    fn check_ref(&self) -> Result<()> {
+        InvalidParameter::non_negative("margin", self.margin, "a number of metres >= 0")?;
+        InvalidParameter::non_negative("segment_gap", self.segment_gap, "a number of metres >= 0")?;
+        if !(0.0..1.0).contains(&self.dynamic_fraction) {
+            return Err(InvalidParameter::new(
+                "dynamic_fraction",
+                self.dynamic_fraction,
+                "a fraction in [0, 1)",
+            )
+            .into());
+        }
+        self.icp.check_ref()?;
+        Ok(())
+    }
+
+    fn check(self) -> Result<ConsistencyDetector> {
+        self.check_ref()?;
+        Ok(ConsistencyDetector { params: self })
+    }
+}
+
+/// The consistency-based detector with checked parameters (see the module docs).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ConsistencyDetector {
+    params: ConsistencyParams,
+}
+
+impl Default for ConsistencyDetector {
+    fn default() -> Self {
+        ConsistencyParams::default().check_unwrap()
+    }
+}
+
+impl MotionClusterer for ConsistencyDetector {
+    fn name(&self) -> String {
+        "cbd".into()
+    }
+
+    fn cluster(&self, pair: &ScanPair) -> pgm_features::Result<MotionClustering> {
+        let r = self.detect(pair)?;
+        Ok(MotionClustering {
+            labels: r.labels,
+            motions: Vec::new(),
+            ego_motion: Some(r.ego_motion),
+            iterations: 0,
+            converged: true,
+        })
+    }
+}
+
+/// Where the ego-motion of [`ConsistencyDetector::detect`] came from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum EgoSource {
     /// The pair's odometry prior.
@@ -58,7 +115,7 @@ pub enum EgoSource {
     Icp,
 }
 
-/// The result of [`consistency_detect`].
+/// The result of [`ConsistencyDetector::detect`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct ConsistencyResult {
     /// Per beam of the current scan: 0 static, 1, 2, … moving segments, `None` without
@@ -72,34 +129,26 @@ pub struct ConsistencyResult {
     pub ego_source: EgoSource,
 }
 
-/// Runs CBD on `pair`.
-pub fn consistency_detect(
-    pair: &ScanPair,
-    params: &ConsistencyParams,
-) -> Result<ConsistencyResult> {
-    for (name, value) in [
-        ("margin", params.margin),
-        ("segment_gap", params.segment_gap),
-    ] {
-        if !(value.is_finite() && value >= 0.0) {
-            return Err(Error::InvalidParameter {
-                name,
-                value,
-                reason: "must be a number of metres >= 0",
-            });
-        }
+impl ConsistencyDetector {
+    /// The parameters.
+    pub fn params(&self) -> &ConsistencyParams {
+        &self.params
     }
-    if !(0.0..1.0).contains(&params.dynamic_fraction) {
-        return Err(Error::InvalidParameter {
-            name: "dynamic_fraction",
-            value: params.dynamic_fraction,
-            reason: "must be in [0, 1)",
-        });
+
+    /// Runs CBD on `pair`. Errors name the pair.
+    pub fn detect(&self, pair: &ScanPair) -> Result<ConsistencyResult> {
+        detect(pair, &self.params).map_err(|e| match e {
+            Error::Features(f) => Error::Features(f.in_pair(&pair.name)),
+            other => other,
+        })
     }
+}
+
+fn detect(pair: &ScanPair, params: &ConsistencyParams) -> Result<ConsistencyResult> {
     let (ego_motion, ego_source) = match pair.odometry {
         Some(o) => (o, EgoSource::Odometry),
         None => {
-            let icp = Icp::new(&pair.reference, params.icp)?;
+            let icp = params.icp.check()?.reference(&pair.reference)?;
             (
                 icp.align(&pair.current, Pose2::identity())?.motion,
                 EgoSource::Icp,
@@ -107,33 +156,17 @@ pub fn consistency_detect(
         }
     };
     let reference = &pair.reference;
-    let angles = &reference.angles;
-    let m = angles.len();
-    let half_step = if m > 1 {
-        (angles[m - 1] - angles[0]).abs() / (m - 1) as f64 / 2.0
-    } else {
-        0.0
-    };
+    let m = reference.len();
     let current = &pair.current;
     let mut dynamic = vec![false; current.len()];
     for (k, d) in dynamic.iter_mut().enumerate() {
-        if !current.valid[k] || m == 0 {
+        if !current.valid[k] {
             continue;
         }
         let q = ego_motion.transform_point(&current.beam_point(k));
-        let range = q.coords.norm();
-        let bearing = q.y.atan2(q.x);
-        if bearing < angles[0] - half_step || bearing > angles[m - 1] + half_step {
+        // Nearest reference beam by bearing (any angle order, see `Scan`).
+        let Some(nearest) = reference.beam_near_bearing(q.y.atan2(q.x)) else {
             continue;
-        }
-        // Nearest reference beam by angle (angles increase with the beam index).
-        let p = angles.partition_point(|&a| a < bearing);
-        let nearest = if p == 0 {
-            0
-        } else if p >= m || (bearing - angles[p - 1]) <= (angles[p] - bearing) {
-            p.min(m) - 1
-        } else {
-            p
         };
         let lo = nearest.saturating_sub(params.window);
         let hi = (nearest + params.window).min(m - 1);
@@ -141,21 +174,15 @@ pub fn consistency_detect(
             .filter(|&b| reference.valid[b])
             .map(|b| reference.ranges[b])
             .fold(f64::INFINITY, f64::min);
-        if closest.is_finite() && range < closest - params.margin {
+        if closest.is_finite() && q.coords.norm() < closest - params.margin {
             *d = true;
         }
     }
     let (points, beams) = current.points();
     let mut labels = vec![None; current.len()];
-    let mut start = 0;
     let mut next = 1u32;
-    for i in 0..=points.len() {
-        let end_here = i == points.len()
-            || (i > start && (points[i] - points[i - 1]).norm() > params.segment_gap);
-        if !end_here || i == start {
-            continue;
-        }
-        let seg = &beams[start..i];
+    for range in segment_ranges(&segment_by_gap(&points, params.segment_gap)) {
+        let seg = &beams[range];
         let dyn_count = seg.iter().filter(|&&b| dynamic[b]).count();
         let label = if dyn_count as f64 > params.dynamic_fraction * seg.len() as f64 {
             next += 1;
@@ -166,7 +193,6 @@ pub fn consistency_detect(
         for &b in seg {
             labels[b] = Some(label);
         }
-        start = i;
     }
     Ok(ConsistencyResult {
         labels,

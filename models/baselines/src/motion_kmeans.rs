@@ -19,10 +19,14 @@
 
 use crate::{Error, Result};
 use nalgebra::Point2;
-use pgm_datasets::{Association, ScanPair};
-use pgm_features::{wrap_angle, Pose2, RigidAlignment};
+use pgm_core::param::{InvalidParameter, ParamGuard};
+use pgm_features::methods::{ClusterWithAssociations, MotionClustering};
+use pgm_features::scan::segment_by_gap;
+use pgm_features::{
+    wrap_angle, Association, ClusterMotion, PointAssociations, Pose2, RigidAlignment, ScanPair,
+};
 
-/// Parameters of [`motion_kmeans`].
+/// Parameters of [`MotionKMeans`], unchecked.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MotionKMeansParams {
     /// Number of clusters `k` (the maximum number of objects, background included).
@@ -43,7 +47,80 @@ impl Default for MotionKMeansParams {
     }
 }
 
-/// The result of [`motion_kmeans`].
+impl ParamGuard for MotionKMeansParams {
+    type Checked = MotionKMeans;
+    type Error = Error;
+
+    fn check_ref(&self) -> Result<()> {
+        if self.k == 0 || self.k > 64 {
+            return Err(
+                InvalidParameter::new("k", self.k, "a number of clusters in 1..=64").into(),
+            );
+        }
+        if self.max_iterations == 0 {
+            return Err(
+                InvalidParameter::new("max_iterations", self.max_iterations, "at least 1").into(),
+            );
+        }
+        InvalidParameter::positive(
+            "segment_gap",
+            self.segment_gap,
+            "a positive number of metres",
+        )?;
+        Ok(())
+    }
+
+    fn check(self) -> Result<MotionKMeans> {
+        self.check_ref()?;
+        Ok(MotionKMeans { params: self })
+    }
+}
+
+/// Motion K-Means with checked parameters (see the module docs); with an association
+/// source it is a [`MotionClusterer`](pgm_features::MotionClusterer)
+/// ([`pgm_features::methods::Associated`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MotionKMeans {
+    params: MotionKMeansParams,
+}
+
+impl Default for MotionKMeans {
+    fn default() -> Self {
+        MotionKMeansParams::default().check_unwrap()
+    }
+}
+
+impl ClusterWithAssociations for MotionKMeans {
+    fn name(&self) -> &str {
+        "kmeans"
+    }
+
+    fn cluster_with(
+        &self,
+        pair: &ScanPair,
+        associations: &PointAssociations,
+    ) -> pgm_features::Result<MotionClustering> {
+        let r = self.run(pair, &associations.associations)?;
+        Ok(MotionClustering {
+            motions: r
+                .motions
+                .iter()
+                .enumerate()
+                .map(|(label, m)| ClusterMotion {
+                    label: label as u32,
+                    motion: *m,
+                    kind: if label == 0 { "background" } else { "cluster" }.into(),
+                })
+                .collect(),
+            ego_motion: r.motions.first().copied(),
+            labels: r.labels,
+            iterations: r.iterations,
+            converged: r.converged,
+        })
+    }
+}
+
+/// The result of [`MotionKMeans::run`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct MotionKMeansResult {
     /// Per beam of the current scan: 0 background, 1, 2, … the other clusters, `None`
@@ -61,33 +138,35 @@ fn fit(stats: &RigidAlignment) -> Option<Pose2> {
     stats.solve().map(|a| a.motion)
 }
 
-/// Runs motion K-Means on `pair` with `associations` (one per current beam).
-pub fn motion_kmeans(
+impl MotionKMeans {
+    /// The parameters.
+    pub fn params(&self) -> &MotionKMeansParams {
+        &self.params
+    }
+
+    /// Runs motion K-Means on `pair` with `associations` (one per current beam).
+    /// Errors name the pair.
+    pub fn run(
+        &self,
+        pair: &ScanPair,
+        associations: &[Option<Association>],
+    ) -> Result<MotionKMeansResult> {
+        if associations.len() != pair.current.len() {
+            return Err(Error::Features(pgm_features::Error::AssociationCount {
+                pair: pair.name.clone(),
+                associations: associations.len(),
+                beams: pair.current.len(),
+            }));
+        }
+        Ok(kmeans(pair, associations, &self.params))
+    }
+}
+
+fn kmeans(
     pair: &ScanPair,
     associations: &[Option<Association>],
     params: &MotionKMeansParams,
-) -> Result<MotionKMeansResult> {
-    if params.k == 0 || params.k > 64 {
-        return Err(Error::InvalidParameter {
-            name: "k",
-            value: params.k as f64,
-            reason: "must be in 1..=64",
-        });
-    }
-    if !(params.segment_gap.is_finite() && params.segment_gap > 0.0) {
-        return Err(Error::InvalidParameter {
-            name: "segment_gap",
-            value: params.segment_gap,
-            reason: "must be a positive number of metres",
-        });
-    }
-    if associations.len() != pair.current.len() {
-        return Err(Error::InvalidParameter {
-            name: "associations",
-            value: associations.len() as f64,
-            reason: "must have one entry per beam of the current scan",
-        });
-    }
+) -> MotionKMeansResult {
     let (points, beams) = pair.current.points();
     let n = points.len();
     let partners: Vec<Option<Point2<f64>>> = beams
@@ -100,11 +179,7 @@ pub fn motion_kmeans(
         })
         .collect();
     // Segments for the initialisation.
-    let mut segment = vec![0usize; n];
-    for i in 1..n {
-        segment[i] =
-            segment[i - 1] + usize::from((points[i] - points[i - 1]).norm() > params.segment_gap);
-    }
+    let segment = segment_by_gap(&points, params.segment_gap);
     let segments = segment.last().map_or(0, |s| s + 1);
     let mut seg_stats = vec![RigidAlignment::new(); segments];
     for i in 0..n {
@@ -223,12 +298,12 @@ pub fn motion_kmeans(
             0
         });
     }
-    Ok(MotionKMeansResult {
+    MotionKMeansResult {
         labels,
         motions,
         iterations,
         converged,
-    })
+    }
 }
 
 fn mahalanobis(m: &Pose2, odometry: &Pose2) -> f64 {

@@ -5,11 +5,17 @@
 //!
 //! Run: `cargo run --release -p pgm-crf-clustering --example analyse -- [seed] [pairs] [true|icp|segment] [preset]`.
 
-use pgm_crf_clustering::evaluation::{evaluate_pair, EvaluationConfig, Method};
-use pgm_crf_clustering::{AssociationProvider, AssociationSource, NearestParams};
+use pgm_crf_clustering::{ClusteringParams, DetectionParams};
+use pgm_datasets::evaluation::evaluate_clustering_pair;
 use pgm_datasets::metrics::clustering_v_measure;
 use pgm_datasets::sim::{simulate_pairs, SimConfig};
 use pgm_datasets::Association;
+use pgm_features::association::{
+    AssociationSource, GroundTruthAssociations, NearestAfterIcp, SegmentIcp,
+};
+use pgm_features::methods::Associated;
+use pgm_features::ParamGuard;
+use std::sync::Arc;
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
@@ -24,31 +30,28 @@ fn main() {
     .check()
     .expect("config");
     let pairs = simulate_pairs(&config, seed, n);
-    let associations = match which {
-        "true" => AssociationSource::GroundTruth,
-        "icp" => AssociationSource::NearestAfterIcp(NearestParams::default()),
-        _ => AssociationSource::automatic(),
+    let associations: Arc<dyn AssociationSource> = match which {
+        "true" => Arc::new(GroundTruthAssociations),
+        "icp" => Arc::new(NearestAfterIcp::default()),
+        _ => Arc::new(SegmentIcp::default()),
     };
     let min_points: usize = std::env::var("MIN_POINTS")
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(3);
-    let clusterer = pgm_crf_clustering::ClusteringParams {
-        min_object_points: min_points,
+    let clusterer = ClusteringParams {
+        detection: DetectionParams {
+            min_object_points: min_points,
+            ..DetectionParams::default()
+        },
         ..Default::default()
     }
     .check()
     .unwrap();
-    let eval = EvaluationConfig {
-        method: Method::Crf,
-        associations,
-        clusterer,
-        kmeans: Default::default(),
-        cbd: Default::default(),
-    };
+    let eval = Associated::new(clusterer, associations.clone());
     let (mut sum, mut oracle_sum) = (0.0, 0.0);
     for pair in &pairs {
-        let out = evaluate_pair(pair, &eval).expect("evaluates");
+        let out = evaluate_clustering_pair(pair, &eval).expect("evaluates");
         let truth = pair.truth.as_ref().unwrap();
         let labels = truth.labels.as_ref().unwrap();
         let assoc = associations.associate(pair).unwrap().associations;

@@ -15,12 +15,19 @@
 //! CRF gets oracle associations for every person annotated in both scans: an upper
 //! bound for any better association source, CRF-Matching included).
 
-use pgm_crf_clustering::evaluation::{evaluate_pair, EvaluationConfig, Method};
-use pgm_crf_clustering::{AssociationSource, NearestParams};
+use pgm_baselines::consistency::ConsistencyDetector;
+use pgm_crf_clustering::{ClusteringParams, DetectionParams};
 use pgm_datasets::builders::{leigh_pairs, LeighPairOptions};
+use pgm_datasets::evaluation::evaluate_clustering_pair;
 use pgm_datasets::leigh;
+use pgm_features::association::{
+    AssociationSource, GroundTruthAssociations, NearestParams, SegmentIcp,
+};
+use pgm_features::methods::Associated;
+use pgm_features::ParamGuard;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
+use std::sync::Arc;
 
 fn describe(
     pair: &pgm_datasets::ScanPair,
@@ -63,25 +70,28 @@ fn env<T: std::str::FromStr>(name: &str, default: T) -> T {
 }
 
 /// Default parameters with overrides from the environment (experiments only).
-fn params() -> pgm_crf_clustering::ClusteringParams {
-    let d = pgm_crf_clustering::ClusteringParams::default();
-    pgm_crf_clustering::ClusteringParams {
+fn params() -> ClusteringParams {
+    let d = ClusteringParams::default();
+    let e = DetectionParams::default();
+    ClusteringParams {
         max_clusters: env("MAX_CLUSTERS", d.max_clusters),
         segment_gap: env("SEGMENT_GAP", d.segment_gap),
-        min_object_points: env("MIN_POINTS", d.min_object_points),
-        min_object_displacement: env("MIN_DISP", d.min_object_displacement),
-        min_free_fraction: env("MIN_FREE", d.min_free_fraction),
-        free_space_margin: env("FREE_MARGIN", d.free_space_margin),
         merge_threshold: env("MERGE", d.merge_threshold),
-        min_object_chi2: env("CHI2", d.min_object_chi2),
+        detection: DetectionParams {
+            min_object_points: env("MIN_POINTS", e.min_object_points),
+            min_object_displacement: env("MIN_DISP", e.min_object_displacement),
+            min_free_fraction: env("MIN_FREE", e.min_free_fraction),
+            free_space_margin: env("FREE_MARGIN", e.free_space_margin),
+            min_object_chi2: env("CHI2", e.min_object_chi2),
+            ..e
+        },
         ..d
     }
 }
 
 /// Per true mover: returns, associated returns, mean partner distance under the ICP
 /// ego-motion, fraction in the reference's free space; and the background's median.
-fn detail(pair: &pgm_datasets::ScanPair, truth: &[Option<u32>], source: &AssociationSource) {
-    use pgm_crf_clustering::AssociationProvider;
+fn detail(pair: &pgm_datasets::ScanPair, truth: &[Option<u32>], source: &dyn AssociationSource) {
     let a = source.associate(pair).expect("associations");
     let ego = a.ego_motion.unwrap_or_default();
     let dist = |k: usize| match a.associations[k] {
@@ -109,11 +119,8 @@ fn detail(pair: &pgm_datasets::ScanPair, truth: &[Option<u32>], source: &Associa
         let free = members
             .iter()
             .filter(|&&k| {
-                pgm_crf_clustering::associations::in_free_space(
-                    &pair.reference,
-                    &ego.transform_point(&pair.current.beam_point(k)),
-                    0.3,
-                )
+                pair.reference
+                    .in_free_space(&ego.transform_point(&pair.current.beam_point(k)), 0.3)
             })
             .count();
         let r = members.iter().map(|&k| pair.current.ranges[k]).sum::<f64>() / members.len() as f64;
@@ -136,9 +143,8 @@ fn detail(pair: &pgm_datasets::ScanPair, truth: &[Option<u32>], source: &Associa
 fn oracle(
     pair: &mut pgm_datasets::ScanPair,
     people: &[leigh::PersonAnnotation],
-    source: &AssociationSource,
+    source: &dyn AssociationSource,
 ) {
-    use pgm_crf_clustering::AssociationProvider;
     let a = source.associate(pair).expect("associations");
     let ego = a.ego_motion.unwrap_or_default();
     let mut out = a.associations;
@@ -181,13 +187,17 @@ fn main() {
             .unwrap_or_else(|| "../shared/data/leigh-gtm1".into()),
     );
     let k: usize = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(5);
-    let associations = match args.get(3).map(String::as_str) {
-        Some("segment") => AssociationSource::automatic(),
-        _ => AssociationSource::NearestAfterIcp(NearestParams {
-            static_tolerance: Some(env("STATIC_TOL", -1.0)).filter(|&t| t >= 0.0),
-            gate: env("GATE", 1.0),
-            ..NearestParams::default()
-        }),
+    let associations: Arc<dyn AssociationSource> = match args.get(3).map(String::as_str) {
+        Some("segment") => Arc::new(SegmentIcp::default()),
+        _ => Arc::new(
+            NearestParams {
+                static_tolerance: Some(env("STATIC_TOL", -1.0)).filter(|&t| t >= 0.0),
+                gate: env("GATE", 1.0),
+                ..NearestParams::default()
+            }
+            .check()
+            .expect("valid association parameters"),
+        ),
     };
     let mut log = leigh::read_scans(dir.join("scans.txt")).expect("scans");
     let odometry = dir.join("odom_at_scan.txt");
@@ -204,14 +214,7 @@ fn main() {
         },
     )
     .expect("pairs");
-    let config = |method| EvaluationConfig {
-        method,
-        associations,
-        clusterer: params().check().unwrap(),
-        kmeans: Default::default(),
-        cbd: Default::default(),
-    };
-    let (crf, cbd) = (config(Method::Crf), config(Method::Cbd));
+    let cbd = ConsistencyDetector::default();
     let (mut s_crf, mut s_cbd) = (0.0, 0.0);
     // Pairs by what their labelled movers do over their whole tracks (see the
     // `leigh_labels` example of pgm-datasets): kind -> (pairs, CRF sum, CBD sum).
@@ -227,18 +230,15 @@ fn main() {
     }
     if env("ORACLE", 0) == 1 {
         for pair in &mut pairs {
-            oracle(pair, &people, &associations);
+            oracle(pair, &people, associations.as_ref());
         }
     }
-    let associations = if env("ORACLE", 0) == 1 {
-        AssociationSource::GroundTruth
+    let associations: Arc<dyn AssociationSource> = if env("ORACLE", 0) == 1 {
+        Arc::new(GroundTruthAssociations)
     } else {
         associations
     };
-    let crf = EvaluationConfig {
-        associations,
-        ..crf
-    };
+    let crf = Associated::new(params().check().unwrap(), associations.clone());
     for pair in &pairs {
         let truth = pair.truth.as_ref().unwrap().labels.as_ref().unwrap();
         let mut movers: BTreeMap<u32, usize> = BTreeMap::new();
@@ -246,7 +246,7 @@ fn main() {
             *movers.entry(*l).or_default() += 1;
         }
         if std::env::var("DETAIL").is_ok() {
-            detail(pair, truth, &associations);
+            detail(pair, truth, associations.as_ref());
         }
         let j: usize = pair
             .name
@@ -259,8 +259,8 @@ fn main() {
             .filter(|p| p.scan == j)
             .map(|p| p.centre)
             .collect();
-        let a = evaluate_pair(pair, &crf).expect("crf");
-        let b = evaluate_pair(pair, &cbd).expect("cbd");
+        let a = evaluate_clustering_pair(pair, &crf).expect("crf");
+        let b = evaluate_clustering_pair(pair, &cbd).expect("cbd");
         s_crf += a.score.v_measure;
         s_cbd += b.score.v_measure;
         // Labelled movers: annotated people of scan j with a moving return near them.

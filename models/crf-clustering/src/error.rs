@@ -4,7 +4,7 @@
 /// cannot work on, and errors of the crates it builds on.
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
-    /// A parameter is outside its allowed range.
+    /// A parameter is outside its allowed range (the workspace's one shape).
     #[error("parameter `{name}` = {value}: expected {expected}")]
     InvalidParameter {
         /// Parameter name.
@@ -22,24 +22,41 @@ pub enum Error {
         /// What is wrong.
         problem: String,
     },
-    /// Associations do not fit the pair's current scan.
-    #[error(
-        "pair `{pair}`: {associations} associations for the {beams} beams of the current scan"
-    )]
-    AssociationCount {
-        /// Name of the pair.
-        pair: String,
-        /// Number of associations given.
-        associations: usize,
-        /// Number of beams of the current scan.
-        beams: usize,
-    },
+    /// An error of the shared scan code (geometry, registration, associations).
+    #[error(transparent)]
+    Features(#[from] pgm_features::Error),
     /// An error of the inference or learning core.
     #[error(transparent)]
     Core(#[from] pgm_core::Error),
-    /// An error of a baseline (ICP while computing associations).
-    #[error(transparent)]
-    Baseline(#[from] pgm_baselines::Error),
+}
+
+impl From<pgm_core::InvalidParameter> for Error {
+    fn from(e: pgm_core::InvalidParameter) -> Self {
+        Error::InvalidParameter {
+            name: e.name,
+            value: e.value,
+            expected: e.expected,
+        }
+    }
+}
+
+impl From<Error> for pgm_features::Error {
+    fn from(e: Error) -> Self {
+        match e {
+            Error::InvalidParameter {
+                name,
+                value,
+                expected,
+            } => pgm_features::Error::InvalidParameter {
+                name,
+                value,
+                expected,
+            },
+            Error::BadPair { pair, problem } => pgm_features::Error::BadPair { pair, problem },
+            Error::Features(e) => e,
+            Error::Core(e) => pgm_features::Error::Core(e),
+        }
+    }
 }
 
 /// Result type of `pgm-crf-clustering`.

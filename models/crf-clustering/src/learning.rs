@@ -8,22 +8,26 @@
 //! them, are solved in closed form (eq. 3) from the points of each true cluster with
 //! their associations; a cluster without associated points takes its ground-truth
 //! motion when the pair has one, else the odometry prior. The features of every clique
-//! (eqs. 2, 4-6) are then fixed numbers and the pseudo-likelihood of the true labels
-//! is maximised. The optional outlier state is not trained (its potential is derived
-//! from the distance weight).
+//! are then fixed numbers, written by the same code that writes them at inference time
+//! ([`ClusteringModel`]), and the pseudo-likelihood of the true labels is maximised.
+//! The optional outlier state is not trained (its potential is derived from the
+//! distance weight).
+//!
+//! Learning needs pairs with a moving object: with every point in one true cluster
+//! every feature of "different clusters" is unseen and the distance weights are not
+//! identifiable, so [`learn`] refuses such a training set, and it refuses weights
+//! that the model would reject ([`ClusteringWeights::check_ref`]).
 
-use crate::associations::PointAssociations;
-use crate::clusterer::{ClusteringInput, ClusteringParams};
-use crate::model::{build_edges, MAX_CLUSTERS};
-use crate::weights::{feature_set, templates, ClusteringWeights};
+use crate::input::ClusteringInput;
+use crate::model::{build_edges, ClusteringModel, MAX_CLUSTERS};
+use crate::params::ClusteringParams;
+use crate::weights::{feature_set, ClusteringWeights};
 use crate::{Error, Result};
-use pgm_core::learning::{
-    DenseFeatures, LabelledInstance, LearnerParams, LearningResult, LogLinearModel,
-};
-use pgm_core::VariableId;
-use pgm_datasets::ScanPair;
-use pgm_features::clustering::{distance_feature, stiffness_feature};
-use pgm_features::{Pose2, RigidAlignment};
+use pgm_core::hybrid::chain::{add_feature_cliques, chain_instance, FeatureTable};
+use pgm_core::learning::{LabelledInstance, LearnerParams, LearningObserver, LearningResult};
+use pgm_core::{ParamGuard, VariableId};
+use pgm_features::{AssociationSource, PointAssociations, Pose2, ScanPair};
+use rayon::prelude::*;
 
 /// The labelled instance of one pair, or `None` when the pair has no ground-truth
 /// labels or no valid point. `params` gives the edges (`knn`).
@@ -69,106 +73,112 @@ pub fn training_instance(
         .iter()
         .map(|l| classes.binary_search(l).unwrap_or(0))
         .collect();
+    // Each true cluster's motion: solved from its associated points (eq. 3), else
+    // its ground-truth motion, else the odometry prior.
     let fallback = pair.odometry.unwrap_or_default();
     let motions: Vec<Pose2> = classes
         .iter()
-        .enumerate()
-        .map(|(c, &label)| {
-            let mut stats = RigidAlignment::new();
-            for (i, _) in states.iter().enumerate().filter(|(_, &s)| s == c) {
-                if let Some(g) = &input.partners[i] {
-                    stats.add(&input.points[i], g, 1.0 / input.variances[i]);
-                }
-            }
-            stats.solve().map(|a| a.motion).unwrap_or_else(|| {
-                pair.truth
-                    .as_ref()
-                    .and_then(|t| t.motions.iter().find(|m| m.label == label))
-                    .map_or(fallback, |m| m.motion)
-            })
+        .map(|&label| {
+            pair.truth
+                .as_ref()
+                .and_then(|t| t.motions.iter().find(|m| m.label == label))
+                .map_or(fallback, |m| m.motion)
         })
         .collect();
+    let edges = build_edges(&input.points, params.knn);
+    let mut model = ClusteringModel::new(
+        &input.points,
+        &input.partners,
+        &input.variances,
+        &edges,
+        motions,
+        &params.weights,
+        None,
+    )?;
+    for (i, &s) in states.iter().enumerate() {
+        model.relabel(i, None, Some(s));
+    }
+    model.solve_motions();
     let features = feature_set();
-    let mut model = LogLinearModel::new(features, &vec![k; n])?;
-    for i in 0..n {
-        let table = match &input.partners[i] {
-            Some(g) => motions
-                .iter()
-                .flat_map(|m| {
-                    let d = distance_feature(m, &input.points[i], g);
-                    [d, d / input.variances[i]]
-                })
-                .collect(),
-            None => vec![0.0; 2 * k],
-        };
-        model.add_clique(
-            templates::DISTANCE,
-            DenseFeatures::new(vec![VariableId(i)], vec![k], 2, table)?,
+    let mut instance = chain_instance(&model, &features, &[states])?;
+    // Edges beyond the chain (k nearest neighbours), written by the same code.
+    let width = features.num_weights();
+    let mut buffer = vec![0.0; k * k * width];
+    for (e, edge) in edges.iter().enumerate().skip(n - 1) {
+        buffer.fill(0.0);
+        model.write_edge_features(e, &mut FeatureTable::new(width, &mut buffer));
+        add_feature_cliques(
+            &mut instance.model,
+            vec![VariableId(edge.i), VariableId(edge.j)],
+            vec![k, k],
+            &buffer,
         )?;
     }
-    for edge in build_edges(&input.points, params.knn) {
-        let scope = vec![VariableId(edge.i), VariableId(edge.j)];
-        let mut neighbour = Vec::with_capacity(2 * k * k);
-        let mut weighted = Vec::with_capacity(2 * k * k);
-        let mut stiffness = Vec::with_capacity(2 * k * k);
-        for a in 0..k {
-            for b in 0..k {
-                let same = a == b;
-                let f = stiffness_feature(
-                    &motions[a],
-                    &motions[b],
-                    &input.points[edge.i],
-                    &input.points[edge.j],
-                );
-                let (x, y) = if same { (1.0, 0.0) } else { (0.0, 1.0) };
-                neighbour.extend([x, y]);
-                weighted.extend([x * edge.inverse_distance, y * edge.inverse_distance]);
-                stiffness.extend([x * f, y * f]);
-            }
-        }
-        model.add_clique(
-            templates::NEIGHBOUR,
-            DenseFeatures::new(scope.clone(), vec![k, k], 2, neighbour)?,
-        )?;
-        model.add_clique(
-            templates::WEIGHTED_NEIGHBOUR,
-            DenseFeatures::new(scope.clone(), vec![k, k], 2, weighted)?,
-        )?;
-        model.add_clique(
-            templates::STIFFNESS,
-            DenseFeatures::new(scope, vec![k, k], 2, stiffness)?,
-        )?;
-    }
-    Ok(Some(LabelledInstance::new(model, states)))
+    Ok(Some(instance))
+}
+
+/// The training set of `pairs`: each pair once per association source (the pair
+/// index and source index of each instance are kept for error messages). Pairs
+/// without ground-truth labels or without a valid point give no instance.
+///
+/// # Errors
+/// The first association or instance error, naming its pair.
+pub fn training_instances(
+    pairs: &[ScanPair],
+    sources: &[&dyn AssociationSource],
+    params: &ClusteringParams,
+) -> Result<Vec<LabelledInstance>> {
+    let built: Vec<Option<LabelledInstance>> = pairs
+        .par_iter()
+        .flat_map_iter(|p| sources.iter().map(move |s| (p, *s)))
+        .map(|(p, s)| {
+            let a = s.associate(p)?;
+            training_instance(p, &a, params)
+        })
+        .collect::<Result<_>>()?;
+    Ok(built.into_iter().flatten().collect())
 }
 
 /// Learns the weights from labelled instances by pseudo-likelihood with a Gaussian
-/// prior of variance `prior_variance` on each weight.
+/// prior of variance `prior_variance` on each weight; the observer sees every L-BFGS
+/// iteration (for progress bars or logs) and may stop learning early (`&mut ()` for
+/// none).
+///
+/// # Errors
+/// When no instance has a moving object (more than one true cluster), when learning
+/// fails, or when the learned weights are not usable by the model
+/// ([`ClusteringWeights::check_ref`]: weights that do not penalise distance).
 pub fn learn(
     instances: &[LabelledInstance],
     prior_variance: f64,
+    observer: &mut dyn LearningObserver,
 ) -> Result<(ClusteringWeights, LearningResult)> {
-    let features = feature_set();
-    let learner = LearnerParams::default()
-        .prior_variance(prior_variance)
-        .max_iterations(500)
-        .check()?;
-    let result = learner.learn(&features, instances, &mut ())?;
-    Ok((ClusteringWeights::from_weights(&result.weights), result))
-}
-
-/// [`learn`] with an observer that sees every L-BFGS iteration (for progress bars or
-/// logs) and may stop learning early.
-pub fn learn_with_observer(
-    instances: &[LabelledInstance],
-    prior_variance: f64,
-    observer: &mut dyn pgm_core::learning::LearningObserver,
-) -> Result<(ClusteringWeights, LearningResult)> {
+    let moving = instances
+        .iter()
+        .filter(|i| i.labels.iter().any(|&l| l != i.labels[0]))
+        .count();
+    if moving == 0 {
+        return Err(Error::InvalidParameter {
+            name: "training set",
+            value: format!(
+                "{} labelled pairs, none with a moving object",
+                instances.len()
+            ),
+            expected: "pairs whose labels hold at least one moving object besides the background",
+        });
+    }
     let features = feature_set();
     let learner = LearnerParams::default()
         .prior_variance(prior_variance)
         .max_iterations(500)
         .check()?;
     let result = learner.learn(&features, instances, observer)?;
-    Ok((ClusteringWeights::from_weights(&result.weights), result))
+    let weights = ClusteringWeights::from_weights(&result.weights);
+    weights.check_ref().map_err(|e| Error::InvalidParameter {
+        name: "learned weights",
+        value: format!("{e}"),
+        expected:
+            "weights the model accepts; the training pairs do not teach it to penalise distance",
+    })?;
+    Ok((weights, result))
 }

@@ -7,50 +7,50 @@
 //! is the background (the robot's own motion) and the others are moving objects with
 //! their estimated motions.
 //!
-//! **Big picture.**
-//! - [`associations`]: where each current point's partner in the reference scan comes
-//!   from (ground truth, nearest neighbour after ICP, segment-wise ICP, or your own
-//!   [`AssociationProvider`]).
-//! - [`segmentation`]: the initial clusters (gap segmentation capped by motion-residual
-//!   merging).
-//! - [`model`]: the factor graph (features of `pgm_features::clustering`, eqs. 2, 4-6)
-//!   and the rigid-motion [`ContinuousModel`](pgm_core::hybrid::ContinuousModel).
-//! - [`clusterer`]: inference rounds (hybrid message passing, IV-D), merging by the
-//!   effective number of clusters (eq. 8), background selection.
-//! - [`weights`] and [`learning`]: named weights, the shipped defaults, and
-//!   pseudo-likelihood training from labelled pairs.
+//! **Big picture.** The crate depends on `pgm-core` (the hybrid chain solver, loopy
+//! BP, learning) and `pgm-features` (scans, pairs, association sources, the features
+//! of eqs. 2 and 4-6); [`Clusterer`] runs six steps, one file each:
+//! [`input`], [`segmentation`], [`inference`] (inference rounds and merging by eq. 8),
+//! [`background`] and [`cleanup`], orchestrated by [`clusterer`]; [`model`] is the CRF
+//! (its features written once for inference and learning), [`params`] the checked
+//! parameters (the paper's, and the moving-object thresholds it does not have), and
+//! [`weights`] and [`learning`] the named weights, the shipped defaults and
+//! pseudo-likelihood training. With an association source a [`Clusterer`] is a
+//! [`MotionClusterer`](pgm_features::MotionClusterer)
+//! ([`Associated`](pgm_features::methods::Associated)), the interface evaluation uses.
 //!
 //! ```
-//! use pgm_crf_clustering::{AssociationProvider, AssociationSource, Clusterer};
+//! use pgm_crf_clustering::Clusterer;
+//! use pgm_features::association::{AssociationSource, GroundTruthAssociations};
 //! use pgm_datasets::sim::{simulate_pair, SimConfig};
+//! use pgm_features::ParamGuard;
 //!
 //! let pair = simulate_pair(&SimConfig::default().check().unwrap(), 1, 0);
-//! let associations = AssociationSource::GroundTruth.associate(&pair).unwrap();
+//! let associations = GroundTruthAssociations.associate(&pair).unwrap();
 //! let result = Clusterer::default().cluster_pair(&pair, &associations).unwrap();
 //! assert_eq!(result.labels.len(), pair.current.len());
 //! assert!(result.clusters[0].background);
 //! println!("{} moving objects after {} sweeps", result.clusters.len() - 1, result.iterations);
 //! ```
 //!
-//! **Current state.** Model, inference, merging, learning and ICP associations are
-//! complete; CRF-Matching associations plug in through [`AssociationProvider`].
+//! **Current state.** Model, inference, merging and learning are complete; any
+//! [`AssociationSource`](pgm_features::AssociationSource) feeds it (ground truth,
+//! nearest neighbour after ICP, segment-wise ICP, CRF-Matching).
 
-pub mod associations;
-mod chain;
+pub mod background;
+pub mod cleanup;
 pub mod clusterer;
 mod error;
-pub mod evaluation;
+pub mod inference;
+pub mod input;
 pub mod learning;
 pub mod model;
+pub mod params;
 pub mod segmentation;
 pub mod weights;
 
-pub use associations::{
-    AssociationProvider, AssociationSource, NearestParams, PointAssociations, SegmentParams,
-};
-pub use clusterer::{
-    BackgroundChoice, Cluster, Clusterer, Clustering, ClusteringInput, ClusteringParams,
-    UpdateSchedule,
-};
+pub use clusterer::{BackgroundChoice, Cluster, Clusterer, Clustering};
 pub use error::{Error, Result};
+pub use input::ClusteringInput;
+pub use params::{ClusteringParams, DetectionParams, UpdateSchedule};
 pub use weights::ClusteringWeights;

@@ -1,42 +1,40 @@
-//! The CRF of one scan pair as a factor graph with rigid-motion hybrid nodes.
+//! The CRF of one scan pair: its features (eqs. 2, 4-6, written once for inference
+//! and learning) and its rigid-motion continuous nodes.
 //!
 //! Variables: the valid points of the current scan in beam order, each with `K`
-//! cluster states (plus the optional outlier state, last). Factors:
+//! cluster states (plus the optional outlier state, last). Cliques, each `w · f`:
 //!
-//! - one local [`TableFactor`] per point: `(w_sq + w_norm / σ_i²) · ‖T_l + R_l s_i − g_i‖²`
+//! - one local clique per point: `f = [d, d / σ_i²]` with `d = ‖T_l + R_l s_i − g_i‖²`
 //!   for each cluster `l` (eq. 2 and its normalised form, `σ_i²` the point's
 //!   association variance; zero for points without a partner); the outlier state gets
-//!   the same with `d_out²` for points with a partner and `0` for points without
-//!   (the factor `w_sq + w_norm / σ_i²` is clamped at 0 from above, so a distance never
-//!   attracts);
-//! - one pairwise [`TableFactor`] per edge (the chain of consecutive points, plus
-//!   optional k-nearest-neighbour edges): `w_ng · f_ng + w_wng · f_wng + w_st · f_st`
-//!   (eqs. 4-6; stiffness is zero when either state is the outlier state).
+//!   the same with `d = d_out²` for points with a partner and zero otherwise;
+//! - one pairwise clique per edge (the chain of consecutive points, plus optional
+//!   k-nearest-neighbour edges): the neighbour indicators of eq. (4), the same divided
+//!   by the points' distance (eq. 5), and the stiffness of eq. (6) (zero when either
+//!   state is the outlier state), each in a "same cluster" and a "different clusters"
+//!   weight.
 //!
-//! [`ClusterMotionNodes`] is the [`ContinuousModel`] of the `K` motions: O(1)
-//! sufficient statistics per cluster ([`RigidAlignment`]), closed-form solves (eq. 3,
-//! each pair weighted by `1/σ_i²`),
-//! and refreshes of every factor that depends on the motions (the local factor of a
-//! point and its incident pairwise factors, because of the stiffness feature), in
-//! place and without allocating.
+//! [`ClusteringModel`] writes these features through a
+//! [`FeatureSink`], the one implementation of
+//! the equations: the core's chain solver weighs them into tables
+//! ([`HybridChainModel`]), the generic loopy engine refreshes its factors from them
+//! ([`ContinuousModel`], for graphs with k-nearest-neighbour edges) and learning
+//! records them ([`crate::learning`]). The `K` motions are a
+//! [`ClusterMotions`]: O(1) sufficient statistics per cluster and closed-form solves
+//! (eq. 3, each pair weighted by `1/σ_i²`).
 
-use crate::weights::ClusteringWeights;
-use crate::{Error, Result};
+use crate::weights::{index, ClusteringWeights};
+use crate::Result;
 use nalgebra::Point2;
+use pgm_core::hybrid::chain::{FeatureSink, HybridChainModel, WeightedTable};
 use pgm_core::hybrid::{ContinuousModel, DiscreteSummary, VariableState};
+use pgm_core::param::InvalidParameter;
 use pgm_core::{FactorGraph, FactorId, Potentials, TableFactor, VariableId};
 use pgm_features::clustering::{distance_feature, inverse_neighbour_distance};
-use pgm_features::{Pose2, RigidAlignment};
+use pgm_features::{ClusterMotions, Pose2};
 
 /// Largest number of cluster states the model supports.
 pub const MAX_CLUSTERS: usize = 32;
-
-/// What a factor of the graph is.
-#[derive(Clone, Copy, Debug)]
-enum Role {
-    Local(usize),
-    Pair(usize),
-}
 
 /// One edge of the CRF: two point indices and `1/Δ` of eq. (5).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -49,9 +47,9 @@ pub struct Edge {
     pub inverse_distance: f64,
 }
 
-/// The edges of the CRF over `points`: the chain of consecutive points plus, when
-/// `knn > 0`, each point's `knn` nearest neighbours (Euclidean, in the current scan)
-/// that are not already joined.
+/// The edges of the CRF over `points`: the chain of consecutive points (edge `e`
+/// joins `e` and `e + 1`), then, when `knn > 0`, each point's `knn` nearest
+/// neighbours (Euclidean, in the current scan) that are not already joined.
 pub fn build_edges(points: &[Point2<f64>], knn: usize) -> Vec<Edge> {
     let n = points.len();
     let mut pairs: Vec<(usize, usize)> = (1..n).map(|i| (i - 1, i)).collect();
@@ -88,67 +86,80 @@ pub fn build_edges(points: &[Point2<f64>], knn: usize) -> Vec<Edge> {
         .collect()
 }
 
-/// The `K` rigid motions of the clusters as observed-continuous nodes (see the module
-/// docs).
+/// What a factor of the generic graph is.
+#[derive(Clone, Copy, Debug)]
+enum Role {
+    Local(usize),
+    Pair(usize),
+}
+
+/// The factor graph bookkeeping of the generic path ([`ClusteringModel::build_graph`]).
+#[derive(Clone, Debug, Default)]
+struct GraphRoles {
+    roles: Vec<Role>,
+    dependent: Vec<Vec<FactorId>>,
+}
+
+/// The CRF of one pair with its `K` rigid motions (see the module docs).
 #[derive(Clone, Debug)]
-pub struct ClusterMotionNodes {
+pub struct ClusteringModel {
     points: Vec<Point2<f64>>,
     partners: Vec<Option<Point2<f64>>>,
     variances: Vec<f64>,
     edges: Vec<Edge>,
     clusters: usize,
     outlier_distance: Option<f64>,
-    weights: ClusteringWeights,
-    motions: Vec<Pose2>,
-    stats: Vec<RigidAlignment>,
-    roles: Vec<Role>,
-    local: Vec<FactorId>,
-    pair_factors: Vec<FactorId>,
-    dependent: Vec<Vec<FactorId>>,
+    weights: Vec<f64>,
+    motions: ClusterMotions,
+    graph: GraphRoles,
 }
 
-impl ClusterMotionNodes {
-    /// The motion nodes alone, without a factor graph (for the dedicated chain solver
-    /// of `crate::chain`); [`ContinuousModel::refresh_factor`] does nothing on them.
-    /// Same arguments and checks as [`ClusterMotionNodes::build`].
-    pub fn without_graph(
+impl ClusteringModel {
+    /// The model over `points` (current scan, beam order) with their `partners` in
+    /// the reference scan and association `variances` (m², positive), the `edges`
+    /// ([`build_edges`]; the first `n − 1` must be the chain), starting `motions` (one
+    /// per cluster, `K = motions.len()` in `1..=`[`MAX_CLUSTERS`]), `weights`, and the
+    /// optional outlier state.
+    ///
+    /// # Errors
+    /// [`crate::Error::InvalidParameter`] when the arrays disagree in length, an edge names a
+    /// missing point, the chain edges are missing, or `K` is out of range.
+    pub fn new(
         points: &[Point2<f64>],
         partners: &[Option<Point2<f64>>],
         variances: &[f64],
         edges: &[Edge],
         motions: Vec<Pose2>,
-        weights: ClusteringWeights,
+        weights: &ClusteringWeights,
         outlier_distance: Option<f64>,
     ) -> Result<Self> {
         let k = motions.len();
+        let n = points.len();
         if k == 0 || k > MAX_CLUSTERS {
-            return Err(Error::InvalidParameter {
-                name: "clusters",
-                value: k.to_string(),
-                expected: "between 1 and 32 clusters",
-            });
+            return Err(InvalidParameter::new("clusters", k, "between 1 and 32 clusters").into());
         }
-        if points.len() != partners.len() || points.len() != variances.len() {
-            return Err(Error::InvalidParameter {
-                name: "partners",
-                value: format!(
-                    "{} partners and {} variances for {} points",
+        if partners.len() != n || variances.len() != n {
+            return Err(InvalidParameter::new(
+                "partners",
+                format!(
+                    "{} partners and {} variances for {n} points",
                     partners.len(),
-                    variances.len(),
-                    points.len()
+                    variances.len()
                 ),
-                expected: "one (optional) partner and one variance per point",
-            });
+                "one (optional) partner and one variance per point",
+            )
+            .into());
         }
-        if edges
-            .iter()
-            .any(|e| e.i >= points.len() || e.j >= points.len())
+        if edges.iter().any(|e| e.i >= n || e.j >= n)
+            || (0..n.saturating_sub(1))
+                .any(|e| edges.get(e).is_none_or(|x| (x.i, x.j) != (e, e + 1)))
         {
-            return Err(Error::InvalidParameter {
-                name: "edges",
-                value: format!("an edge beyond {} points", points.len()),
-                expected: "edges between existing points",
-            });
+            return Err(InvalidParameter::new(
+                "edges",
+                format!("{} edges for {n} points", edges.len()),
+                "the chain edges (e, e + 1) first, then edges between existing points",
+            )
+            .into());
         }
         Ok(Self {
             points: points.to_vec(),
@@ -157,75 +168,15 @@ impl ClusterMotionNodes {
             edges: edges.to_vec(),
             clusters: k,
             outlier_distance,
-            weights,
-            stats: vec![RigidAlignment::new(); k],
-            motions,
-            roles: Vec::new(),
-            local: Vec::new(),
-            pair_factors: Vec::new(),
-            dependent: Vec::new(),
+            weights: weights.to_vec(),
+            motions: ClusterMotions::new(motions),
+            graph: GraphRoles::default(),
         })
-    }
-
-    /// Builds the factor graph of the CRF and its motion nodes. `motions` gives the
-    /// starting motion of each of the `K = motions.len()` clusters; `outlier_distance`
-    /// adds the outlier state.
-    pub fn build(
-        points: &[Point2<f64>],
-        partners: &[Option<Point2<f64>>],
-        variances: &[f64],
-        edges: &[Edge],
-        motions: Vec<Pose2>,
-        weights: ClusteringWeights,
-        outlier_distance: Option<f64>,
-    ) -> Result<(FactorGraph, Self)> {
-        let mut nodes = Self::without_graph(
-            points,
-            partners,
-            variances,
-            edges,
-            motions,
-            weights,
-            outlier_distance,
-        )?;
-        let states = nodes.states();
-        let n = points.len();
-        let mut graph = FactorGraph::with_variables(&vec![states; n])?;
-        let mut roles = Vec::with_capacity(n + edges.len());
-        let mut local = Vec::with_capacity(n);
-        let mut dependent: Vec<Vec<FactorId>> = vec![Vec::with_capacity(3); n];
-        for (i, deps) in dependent.iter_mut().enumerate() {
-            let a = graph.add_factor(TableFactor::new(
-                vec![VariableId(i)],
-                vec![states],
-                vec![0.0; states],
-            )?)?;
-            roles.push(Role::Local(i));
-            local.push(a);
-            deps.push(a);
-        }
-        let mut pair_factors = Vec::with_capacity(edges.len());
-        for (e, edge) in edges.iter().enumerate() {
-            let a = graph.add_factor(TableFactor::new(
-                vec![VariableId(edge.i), VariableId(edge.j)],
-                vec![states, states],
-                vec![0.0; states * states],
-            )?)?;
-            roles.push(Role::Pair(e));
-            pair_factors.push(a);
-            dependent[edge.i].push(a);
-            dependent[edge.j].push(a);
-        }
-        nodes.roles = roles;
-        nodes.local = local;
-        nodes.pair_factors = pair_factors;
-        nodes.dependent = dependent;
-        Ok((graph, nodes))
     }
 
     /// The current motions, one per cluster.
     pub fn motions(&self) -> &[Pose2] {
-        &self.motions
+        self.motions.motions()
     }
 
     /// Number of cluster states (without the outlier state).
@@ -238,131 +189,171 @@ impl ClusterMotionNodes {
         self.clusters + usize::from(self.outlier_distance.is_some())
     }
 
-    /// Writes the local log-potentials of point `i` into `out` (`states()` entries).
-    pub fn write_local(&self, i: usize, out: &mut [f64]) {
-        match &self.partners[i] {
-            Some(g) => {
-                let [w0, w1] = self.weights.distance;
-                // Clamped: a far partner never attracts a point to a cluster.
-                let scale = (w0 + w1 / self.variances[i]).min(0.0);
-                for (l, m) in self.motions.iter().enumerate() {
-                    out[l] = scale * distance_feature(m, &self.points[i], g);
-                }
-                if let Some(d) = self.outlier_distance {
-                    out[self.clusters] = scale * d * d;
-                }
-            }
-            None => {
-                out[..self.clusters].fill(0.0);
-                if self.outlier_distance.is_some() {
-                    out[self.clusters] = 0.0;
-                }
-            }
+    /// Number of points.
+    pub fn len(&self) -> usize {
+        self.points.len()
+    }
+
+    /// True without points.
+    pub fn is_empty(&self) -> bool {
+        self.points.is_empty()
+    }
+
+    /// The edges.
+    pub fn edges(&self) -> &[Edge] {
+        &self.edges
+    }
+
+    /// Writes the local features of point `i` (entry = state): eq. (2) and its
+    /// normalised form for every cluster under its current motion, and for the outlier
+    /// state the same at distance `d_out`.
+    pub fn write_local_features<S: FeatureSink>(&self, i: usize, sink: &mut S) {
+        let Some(g) = &self.partners[i] else {
+            return;
+        };
+        let inverse_variance = 1.0 / self.variances[i];
+        for (l, m) in self.motions.motions().iter().enumerate() {
+            let d = distance_feature(m, &self.points[i], g);
+            sink.add(l, index::DISTANCE_SQUARED, d);
+            sink.add(l, index::DISTANCE_NORMALISED, d * inverse_variance);
+        }
+        if let Some(d_out) = self.outlier_distance {
+            let d = d_out * d_out;
+            sink.add(self.clusters, index::DISTANCE_SQUARED, d);
+            sink.add(
+                self.clusters,
+                index::DISTANCE_NORMALISED,
+                d * inverse_variance,
+            );
         }
     }
 
-    /// Writes the pairwise log-potentials of edge `e` into `out` (`states()²`
-    /// entries, row-major: state of `i` first).
-    pub fn write_pair(&self, e: usize, out: &mut [f64]) {
+    /// Writes the features of edge `e` (entry `a · states + b`, `a` the state of the
+    /// edge's first point): eqs. (4), (5) and (6).
+    pub fn write_edge_features<S: FeatureSink>(&self, e: usize, sink: &mut S) {
         let edge = self.edges[e];
         let states = self.states();
-        let w = &self.weights;
-        let same = w.neighbour[0] + w.weighted_neighbour[0] * edge.inverse_distance;
-        let different = w.neighbour[1] + w.weighted_neighbour[1] * edge.inverse_distance;
-        let stiff = w.stiffness[0] != 0.0 || w.stiffness[1] != 0.0;
+        let k = self.clusters;
         let (si, sj) = (&self.points[edge.i], &self.points[edge.j]);
         // Eq. (6) from the moved points, each moved once per cluster (no allocation).
         let mut moved_i = [Point2::origin(); MAX_CLUSTERS];
         let mut moved_j = [Point2::origin(); MAX_CLUSTERS];
-        if stiff {
-            for (l, m) in self.motions.iter().enumerate() {
-                moved_i[l] = m.transform_point(si);
-                moved_j[l] = m.transform_point(sj);
-            }
+        for (l, m) in self.motions.motions().iter().enumerate() {
+            moved_i[l] = m.transform_point(si);
+            moved_j[l] = m.transform_point(sj);
         }
         let before = si - sj;
+        // Indices, not iterators: the outlier state (a or b = k) has no moved point.
+        #[allow(clippy::needless_range_loop)]
         for a in 0..states {
             for b in 0..states {
-                let mut v = if a == b { same } else { different };
-                if stiff && a < self.clusters && b < self.clusters {
+                let entry = a * states + b;
+                let (neighbour, weighted, stiffness) = if a == b {
+                    (
+                        index::NEIGHBOUR_SAME,
+                        index::WEIGHTED_NEIGHBOUR_SAME,
+                        index::STIFFNESS_SAME,
+                    )
+                } else {
+                    (
+                        index::NEIGHBOUR_DIFFERENT,
+                        index::WEIGHTED_NEIGHBOUR_DIFFERENT,
+                        index::STIFFNESS_DIFFERENT,
+                    )
+                };
+                sink.add(entry, neighbour, 1.0);
+                sink.add(entry, weighted, edge.inverse_distance);
+                if a < k && b < k {
                     let f = (before - (moved_i[a] - moved_j[b])).norm_squared();
-                    v += if a == b {
-                        w.stiffness[0]
-                    } else {
-                        w.stiffness[1]
-                    } * f;
+                    sink.add(entry, stiffness, f);
                 }
-                out[a * states + b] = v;
             }
         }
     }
 
-    /// Writes the local tables of every point (`states()` entries each) and the
-    /// pairwise tables of every edge (`states()²` each, as [`Self::write_pair`]) for
-    /// the current motions, moving each point once per cluster (`moved` is scratch).
-    /// Same values as [`Self::write_local`] and [`Self::write_pair`].
-    pub fn write_tables(&self, moved: &mut Vec<Point2<f64>>, local: &mut [f64], pair: &mut [f64]) {
-        let k = self.clusters;
+    /// Moves point `i`'s pair between the statistics of its `old` and `new` state.
+    pub fn relabel(&mut self, i: usize, old: Option<usize>, new: Option<usize>) {
+        if let Some(g) = self.partners[i] {
+            let w = 1.0 / self.variances[i];
+            let (s, k) = (self.points[i], self.clusters);
+            self.motions
+                .relabel(&s, &g, w, old.filter(|&l| l < k), new.filter(|&l| l < k));
+        }
+    }
+
+    /// Re-solves every cluster's motion (eq. 3); returns the largest change.
+    pub fn solve_motions(&mut self) -> f64 {
+        self.motions.solve()
+    }
+
+    /// The factor graph of the generic path: one table factor per point and per edge,
+    /// all zero until refreshed ([`ContinuousModel`]).
+    pub fn build_graph(&mut self) -> Result<FactorGraph> {
         let states = self.states();
         let n = self.points.len();
-        moved.clear();
-        for s in &self.points {
-            moved.extend(self.motions.iter().map(|m| m.transform_point(s)));
+        let mut graph = FactorGraph::with_variables(&vec![states; n])?;
+        let mut roles = Vec::with_capacity(n + self.edges.len());
+        let mut dependent: Vec<Vec<FactorId>> = vec![Vec::with_capacity(3); n];
+        for (i, deps) in dependent.iter_mut().enumerate() {
+            let a = graph.add_factor(TableFactor::new(
+                vec![VariableId(i)],
+                vec![states],
+                vec![0.0; states],
+            )?)?;
+            roles.push(Role::Local(i));
+            deps.push(a);
         }
-        let [w0, w1] = self.weights.distance;
-        for i in 0..n {
-            let out = &mut local[i * states..(i + 1) * states];
-            match &self.partners[i] {
-                Some(g) => {
-                    let scale = (w0 + w1 / self.variances[i]).min(0.0);
-                    for (o, m) in out.iter_mut().zip(&moved[i * k..(i + 1) * k]) {
-                        *o = scale * (m - g).norm_squared();
-                    }
-                    if let Some(d) = self.outlier_distance {
-                        out[k] = scale * d * d;
-                    }
-                }
-                None => out.fill(0.0),
-            }
-        }
-        let w = &self.weights;
-        let stiff = w.stiffness[0] != 0.0 || w.stiffness[1] != 0.0;
         for (e, edge) in self.edges.iter().enumerate() {
-            let out = &mut pair[e * states * states..(e + 1) * states * states];
-            let same = w.neighbour[0] + w.weighted_neighbour[0] * edge.inverse_distance;
-            let different = w.neighbour[1] + w.weighted_neighbour[1] * edge.inverse_distance;
-            let before = self.points[edge.i] - self.points[edge.j];
-            let mi = &moved[edge.i * k..(edge.i + 1) * k];
-            let mj = &moved[edge.j * k..(edge.j + 1) * k];
-            for a in 0..states {
-                let row = &mut out[a * states..(a + 1) * states];
-                for (b, v) in row.iter_mut().enumerate() {
-                    *v = if a == b { same } else { different };
-                    if stiff && a < k && b < k {
-                        let f = (before - (mi[a] - mj[b])).norm_squared();
-                        *v += if a == b {
-                            w.stiffness[0]
-                        } else {
-                            w.stiffness[1]
-                        } * f;
-                    }
-                }
-            }
+            let a = graph.add_factor(TableFactor::new(
+                vec![VariableId(edge.i), VariableId(edge.j)],
+                vec![states, states],
+                vec![0.0; states * states],
+            )?)?;
+            roles.push(Role::Pair(e));
+            dependent[edge.i].push(a);
+            dependent[edge.j].push(a);
         }
-    }
-
-    /// The local factor ids, by point.
-    pub fn local_factors(&self) -> &[FactorId] {
-        &self.local
-    }
-
-    /// The pairwise factor ids, by edge.
-    pub fn pair_factors(&self) -> &[FactorId] {
-        &self.pair_factors
+        self.graph = GraphRoles { roles, dependent };
+        Ok(graph)
     }
 }
 
-impl ContinuousModel for ClusterMotionNodes {
+impl HybridChainModel for ClusteringModel {
+    fn weights(&self) -> &[f64] {
+        &self.weights
+    }
+
+    fn num_chains(&self) -> usize {
+        1
+    }
+
+    fn chain_len(&self, _chain: usize) -> usize {
+        self.points.len()
+    }
+
+    fn num_states(&self, _chain: usize, _i: usize) -> usize {
+        self.states()
+    }
+
+    fn write_local<S: FeatureSink>(&self, _chain: usize, i: usize, sink: &mut S) {
+        self.write_local_features(i, sink);
+    }
+
+    fn write_pair<S: FeatureSink>(&self, _chain: usize, i: usize, sink: &mut S) {
+        // The first n − 1 edges are the chain (checked in `new`).
+        self.write_edge_features(i, sink);
+    }
+
+    fn set_label(&mut self, _chain: usize, i: usize, old: Option<usize>, new: usize) {
+        self.relabel(i, old, Some(new));
+    }
+
+    fn solve(&mut self) -> f64 {
+        self.solve_motions()
+    }
+}
+
+impl ContinuousModel for ClusteringModel {
     fn summary(&self) -> DiscreteSummary {
         DiscreteSummary::MapLabels
     }
@@ -373,33 +364,26 @@ impl ContinuousModel for ClusterMotionNodes {
         old: Option<VariableState<'_>>,
         new: VariableState<'_>,
     ) {
-        let Some(Some(g)) = self.partners.get(v.0).copied() else {
+        if v.0 >= self.points.len() {
             return;
+        }
+        let label = |state: Option<VariableState<'_>>| match state {
+            Some(VariableState::Label(l)) => Some(l),
+            _ => None,
         };
-        let s = self.points[v.0];
-        let w = 1.0 / self.variances[v.0];
-        if let Some(VariableState::Label(l)) = old {
-            if l < self.clusters {
-                self.stats[l].remove(&s, &g, w);
-            }
-        }
-        if let VariableState::Label(l) = new {
-            if l < self.clusters {
-                self.stats[l].add(&s, &g, w);
-            }
-        }
+        self.relabel(v.0, label(old), label(Some(new)));
     }
 
     fn solve(&mut self) -> f64 {
-        pgm_features::motion_nodes::solve_motions(&self.stats, &mut self.motions)
+        self.solve_motions()
     }
 
     fn dependent_factors(&self, v: VariableId) -> &[FactorId] {
-        self.dependent.get(v.0).map_or(&[], |d| d.as_slice())
+        self.graph.dependent.get(v.0).map_or(&[], |d| d.as_slice())
     }
 
     fn refresh_factor(&self, a: FactorId, potentials: &mut Potentials<'_>) -> pgm_core::Result<()> {
-        let Some(role) = self.roles.get(a.0).copied() else {
+        let Some(role) = self.graph.roles.get(a.0).copied() else {
             return Ok(());
         };
         let Some(table) = potentials
@@ -410,17 +394,20 @@ impl ContinuousModel for ClusterMotionNodes {
             return Err(pgm_core::Error::InvalidParameter {
                 name: "clustering factor",
                 value: a.0.to_string(),
-                expected: "a TableFactor built by ClusterMotionNodes::build",
+                expected: "a TableFactor built by ClusteringModel::build_graph",
             });
         };
+        let table = table.table_mut();
+        table.fill(0.0);
+        let mut sink = WeightedTable::new(&self.weights, table);
         match role {
-            Role::Local(i) => self.write_local(i, table.table_mut()),
-            Role::Pair(e) => self.write_pair(e, table.table_mut()),
+            Role::Local(i) => self.write_local_features(i, &mut sink),
+            Role::Pair(e) => self.write_edge_features(e, &mut sink),
         }
         Ok(())
     }
 
     fn all_dependent_factors(&self, _graph: &FactorGraph) -> Vec<FactorId> {
-        (0..self.roles.len()).map(FactorId).collect()
+        (0..self.graph.roles.len()).map(FactorId).collect()
     }
 }

@@ -1,5 +1,5 @@
-//! The initial clusters (section V-A of the CRF-Clustering paper: "we segment the scan
-//! based on a distance heuristic").
+//! Step 2: the initial clusters (section V-A of the CRF-Clustering paper: "we segment
+//! the scan based on a distance heuristic").
 //!
 //! 1. [`segment_by_gap`]: walking the valid points in beam order, a point farther
 //!    than the gap from the previous one starts a new segment.
@@ -16,21 +16,8 @@
 //! The cluster ids returned are `0..K` in order of first appearance.
 
 use nalgebra::Point2;
+use pgm_features::scan::segment_by_gap;
 use pgm_features::RigidAlignment;
-
-/// Segment index of every point (points in beam order): consecutive points farther
-/// apart than `gap` (m) start a new segment.
-pub fn segment_by_gap(points: &[Point2<f64>], gap: f64) -> Vec<usize> {
-    let mut out = Vec::with_capacity(points.len());
-    let mut segment = 0;
-    for (i, p) in points.iter().enumerate() {
-        if i > 0 && (p - points[i - 1]).norm() > gap {
-            segment += 1;
-        }
-        out.push(segment);
-    }
-    out
-}
 
 /// Renames labels `0..` in order of first appearance.
 pub fn relabel_by_first_appearance(labels: &mut [usize]) -> usize {

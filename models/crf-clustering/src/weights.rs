@@ -14,6 +14,7 @@
 
 use crate::Result;
 use pgm_core::learning::{FeatureSet, Weights};
+use pgm_core::param::InvalidParameter;
 use std::path::Path;
 use std::sync::Arc;
 
@@ -24,13 +25,17 @@ pub const MODEL_VERSION: u32 = 1;
 /// The default weights as JSON (`weights/default.json`).
 pub const DEFAULT_WEIGHTS_JSON: &str = include_str!("../weights/default.json");
 
-/// Template ids of the feature set, in the order they are added.
-pub(crate) mod templates {
-    use pgm_core::learning::TemplateId;
-    pub const DISTANCE: TemplateId = TemplateId(0);
-    pub const NEIGHBOUR: TemplateId = TemplateId(1);
-    pub const WEIGHTED_NEIGHBOUR: TemplateId = TemplateId(2);
-    pub const STIFFNESS: TemplateId = TemplateId(3);
+/// Index of each weight in the weight vector of [`feature_set`] (the order of
+/// [`ClusteringWeights::to_vec`]).
+pub(crate) mod index {
+    pub const DISTANCE_SQUARED: usize = 0;
+    pub const DISTANCE_NORMALISED: usize = 1;
+    pub const NEIGHBOUR_SAME: usize = 2;
+    pub const NEIGHBOUR_DIFFERENT: usize = 3;
+    pub const WEIGHTED_NEIGHBOUR_SAME: usize = 4;
+    pub const WEIGHTED_NEIGHBOUR_DIFFERENT: usize = 5;
+    pub const STIFFNESS_SAME: usize = 6;
+    pub const STIFFNESS_DIFFERENT: usize = 7;
 }
 
 /// The feature set of CRF-Clustering (see the module table).
@@ -73,6 +78,29 @@ impl ClusteringWeights {
             weighted_neighbour: [v[4], v[5]],
             stiffness: [v[6], v[7]],
         }
+    }
+
+    /// Checks that every weight is finite and that the distance weights penalise
+    /// distance at every range: the coefficient `w_sq + w_norm / σ_i²` of eq. (2) is
+    /// negative for every association variance `σ_i² ≥ σ0²`
+    /// ([`pgm_features::clustering::ASSOCIATION_NOISE`]), that is `w_sq ≤ 0` and
+    /// `w_sq + w_norm / σ0² < 0` (the coefficient is linear in `1/σ_i²`). Otherwise a
+    /// far partner would attract a point to a cluster.
+    pub fn check_ref(&self) -> Result<()> {
+        if !self.to_vec().iter().all(|w| w.is_finite()) {
+            return Err(InvalidParameter::new("weights", self, "finite weights").into());
+        }
+        let [d0, d1] = self.distance;
+        let smallest = pgm_features::clustering::ASSOCIATION_NOISE.powi(2);
+        if d0 > 0.0 || d0 + d1 / smallest >= 0.0 {
+            return Err(InvalidParameter::new(
+                "weights.distance",
+                self.distance,
+                "weights that penalise distance at every range (w_sq <= 0 and w_sq + w_norm / σ0² < 0)",
+            )
+            .into());
+        }
+        Ok(())
     }
 
     /// As a weight vector of [`feature_set`].

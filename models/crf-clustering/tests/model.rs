@@ -2,15 +2,17 @@
 
 use nalgebra::Point2;
 use pgm_core::learning::Weights;
-use pgm_crf_clustering::segmentation::{initial_clusters, segment_by_gap};
+use pgm_crf_clustering::segmentation::initial_clusters;
 use pgm_crf_clustering::weights::{feature_set, DEFAULT_WEIGHTS_JSON};
 use pgm_crf_clustering::{
     BackgroundChoice, Clusterer, ClusteringInput, ClusteringParams, ClusteringWeights,
+    DetectionParams,
 };
 use pgm_features::clustering::{
     association_variance, distance_feature, stiffness_feature, weighted_neighbour_feature,
 };
-use pgm_features::Pose2;
+use pgm_features::scan::segment_by_gap;
+use pgm_features::{ParamGuard, Pose2};
 
 /// Points on a wall at y = 5 (x from -6 to 6, 5 cm apart) and a 0.6 m object at
 /// x in [1, 1.6], y = 3, as current-scan points; the wall moves with `ego`, the object
@@ -77,17 +79,19 @@ fn shipped_weights_match_the_feature_set_and_are_checked() {
     let w = Weights::from_json(feature_set(), DEFAULT_WEIGHTS_JSON).expect("default weights load");
     assert_eq!(w.values().len(), 8);
     assert!(ClusteringParams::default().check().is_ok());
-    let bad = ClusteringParams {
-        weights: ClusteringWeights {
-            distance: [1.0, 0.0],
-            ..ClusteringWeights::default()
-        },
-        ..ClusteringParams::default()
-    };
-    assert!(
-        bad.check().is_err(),
-        "a distance weight that attracts must be rejected"
-    );
+    for distance in [[1.0, 0.0], [0.01, -1.0], [-1.0, 1.0]] {
+        let bad = ClusteringParams {
+            weights: ClusteringWeights {
+                distance,
+                ..ClusteringWeights::default()
+            },
+            ..ClusteringParams::default()
+        };
+        assert!(
+            bad.check().is_err(),
+            "a distance weight that attracts at some range must be rejected: {distance:?}"
+        );
+    }
     assert!(ClusteringParams {
         max_clusters: 0,
         ..ClusteringParams::default()
@@ -222,42 +226,77 @@ fn unassociated_background_next_to_an_object_stays_background() {
 }
 
 #[test]
-fn chain_tables_match_the_factor_tables() {
-    use pgm_crf_clustering::model::{build_edges, ClusterMotionNodes};
+fn model_tables_are_the_papers_features_times_the_weights() {
+    use pgm_core::hybrid::chain::{HybridChainModel, WeightedTable};
+    use pgm_crf_clustering::model::{build_edges, ClusteringModel};
     let ego = Pose2::new(0.6, 0.05, 0.02);
-    let (input, _) = scene(ego, Pose2::new(-0.4, 0.3, -0.1));
+    let object = Pose2::new(-0.4, 0.3, -0.1);
+    let (input, _) = scene(ego, object);
     let mut partners = input.partners.clone();
     partners[3] = None;
     let edges = build_edges(&input.points, 0);
-    let motions = vec![ego, Pose2::new(-0.4, 0.3, -0.1), Pose2::default()];
-    let weights = ClusteringWeights::default();
-    let nodes = ClusterMotionNodes::without_graph(
+    let motions = vec![ego, object, Pose2::default()];
+    let w = ClusteringWeights::default();
+    let d_out = 1.0;
+    let model = ClusteringModel::new(
         &input.points,
         &partners,
         &input.variances,
         &edges,
-        motions,
-        weights,
-        Some(1.0),
+        motions.clone(),
+        &w,
+        Some(d_out),
     )
-    .expect("nodes");
-    let (n, s) = (input.points.len(), nodes.states());
+    .expect("model");
+    let s = model.states();
     assert_eq!(s, 4);
-    let mut moved = Vec::new();
-    let mut local = vec![f64::NAN; n * s];
-    let mut pair = vec![f64::NAN; edges.len() * s * s];
-    nodes.write_tables(&mut moved, &mut local, &mut pair);
-    let mut one = vec![0.0; s * s];
-    for i in 0..n {
-        nodes.write_local(i, &mut one[..s]);
-        for a in 0..s {
-            assert!((one[a] - local[i * s + a]).abs() < 1e-9, "local {i} {a}");
+    let weights = model.weights().to_vec();
+    for i in [0, 3, 17, input.points.len() - 1] {
+        let mut table = vec![0.0; s];
+        model.write_local(0, i, &mut WeightedTable::new(&weights, &mut table));
+        for (l, m) in motions.iter().enumerate() {
+            let expected = match &partners[i] {
+                // Eq. (2) and its normalised form.
+                Some(g) => {
+                    let d = distance_feature(m, &input.points[i], g);
+                    w.distance[0] * d + w.distance[1] * d / input.variances[i]
+                }
+                None => 0.0,
+            };
+            assert!((table[l] - expected).abs() < 1e-9, "local {i} {l}");
         }
+        let outlier = match &partners[i] {
+            Some(_) => (w.distance[0] + w.distance[1] / input.variances[i]) * d_out * d_out,
+            None => 0.0,
+        };
+        assert!((table[3] - outlier).abs() < 1e-9, "outlier state of {i}");
     }
-    for e in 0..edges.len() {
-        nodes.write_pair(e, &mut one);
-        for a in 0..s * s {
-            assert!((one[a] - pair[e * s * s + a]).abs() < 1e-9, "pair {e} {a}");
+    for e in [0, 5, edges.len() - 1] {
+        let (i, j) = (edges[e].i, edges[e].j);
+        let mut table = vec![0.0; s * s];
+        model.write_pair(0, e, &mut WeightedTable::new(&weights, &mut table));
+        for a in 0..s {
+            for b in 0..s {
+                let same = a == b;
+                let k = usize::from(!same);
+                // Eqs. (4), (5) and (6); no stiffness with the outlier state.
+                let mut expected = w.neighbour[k]
+                    + w.weighted_neighbour[k]
+                        * weighted_neighbour_feature(true, &input.points[i], &input.points[j])[0];
+                if a < 3 && b < 3 {
+                    expected += w.stiffness[k]
+                        * stiffness_feature(
+                            &motions[a],
+                            &motions[b],
+                            &input.points[i],
+                            &input.points[j],
+                        );
+                }
+                assert!(
+                    (table[a * s + b] - expected).abs() < 1e-9,
+                    "pair {e} {a} {b}"
+                );
+            }
         }
     }
 }
@@ -269,7 +308,10 @@ fn acceptance_thresholds_reject_objects_and_are_checked() {
     let (input, _) = scene(ego, object);
     let with = |chi2: f64| {
         ClusteringParams {
-            min_object_chi2: chi2,
+            detection: DetectionParams {
+                min_object_chi2: chi2,
+                ..DetectionParams::default()
+            },
             ..ClusteringParams::default()
         }
         .check()
@@ -281,19 +323,23 @@ fn acceptance_thresholds_reject_objects_and_are_checked() {
     assert_eq!(with(16.0).clusters.len(), 2);
     assert_eq!(with(1e9).clusters.len(), 1);
     for bad in [
-        ClusteringParams {
+        DetectionParams {
             min_free_fraction: 1.5,
-            ..ClusteringParams::default()
+            ..DetectionParams::default()
         },
-        ClusteringParams {
+        DetectionParams {
             min_object_chi2: f64::NAN,
-            ..ClusteringParams::default()
+            ..DetectionParams::default()
         },
-        ClusteringParams {
+        DetectionParams {
             free_space_margin: -1.0,
-            ..ClusteringParams::default()
+            ..DetectionParams::default()
         },
     ] {
-        assert!(bad.check().is_err());
+        let params = ClusteringParams {
+            detection: bad,
+            ..ClusteringParams::default()
+        };
+        assert!(params.check().is_err());
     }
 }

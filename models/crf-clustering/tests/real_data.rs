@@ -9,25 +9,32 @@
 //! notes/issue7.md), so this test pins the level it reaches and that it beats both
 //! baselines, with and without odometry; it does not (yet) meet the target.
 
-use pgm_crf_clustering::evaluation::{evaluate_pair, summarize, EvaluationConfig, Method, Summary};
-use pgm_crf_clustering::{AssociationSource, Clusterer, NearestParams};
+use pgm_baselines::consistency::ConsistencyDetector;
+use pgm_baselines::motion_kmeans::MotionKMeans;
+use pgm_crf_clustering::Clusterer;
 use pgm_datasets::builders::{leigh_pairs, LeighPairOptions};
+use pgm_datasets::evaluation::{evaluate_clustering, ClusteringSummary};
 use pgm_datasets::{leigh, testdata, ScanPair};
+use pgm_features::association::NearestAfterIcp;
+use pgm_features::methods::{Associated, MotionClusterer, OneCluster};
+use std::sync::Arc;
 
-fn score(pairs: &[ScanPair], method: Method) -> Summary {
-    let config = EvaluationConfig {
-        method,
-        associations: AssociationSource::NearestAfterIcp(NearestParams::default()),
-        clusterer: Clusterer::default(),
-        kmeans: Default::default(),
-        cbd: Default::default(),
-    };
-    summarize(
-        &pairs
-            .iter()
-            .map(|p| evaluate_pair(p, &config).expect("evaluates"))
-            .collect::<Vec<_>>(),
-    )
+/// The methods of the test: CRF-Clustering and K-Means with ICP associations, CBD
+/// and one cluster.
+fn methods() -> [Box<dyn MotionClusterer>; 4] {
+    let icp = Arc::new(NearestAfterIcp::default());
+    [
+        Box::new(Associated::new(Clusterer::default(), icp.clone())),
+        Box::new(Associated::new(MotionKMeans::default(), icp)),
+        Box::new(ConsistencyDetector::default()),
+        Box::new(OneCluster),
+    ]
+}
+
+fn score(pairs: &[ScanPair], method: &dyn MotionClusterer) -> ClusteringSummary {
+    evaluate_clustering(pairs, method)
+        .expect("evaluates")
+        .summary
 }
 
 #[test]
@@ -43,16 +50,17 @@ fn leigh_gtm1_k5() {
     let people = leigh::read_people(base.join("people_gt.txt")).expect("people");
     let pairs = leigh_pairs(&log, &people, &LeighPairOptions::default()).expect("pairs");
     assert!(pairs.len() >= 80, "{} pairs", pairs.len());
-    let crf = score(&pairs, Method::Crf);
-    let kmeans = score(&pairs, Method::KMeans);
-    let cbd = score(&pairs, Method::Cbd);
+    let [crf_method, kmeans_method, cbd_method, one_method] = methods();
+    let crf = score(&pairs, crf_method.as_ref());
+    let kmeans = score(&pairs, kmeans_method.as_ref());
+    let cbd = score(&pairs, cbd_method.as_ref());
     eprintln!(
         "leigh-gtm1 k=5: CRF V {:.3}, CBD {:.3}, K-Means {:.3}",
         crf.v_measure_mean, cbd.v_measure_mean, kmeans.v_measure_mean
     );
     // The labelling reproduces the issue's independent figures: one cluster about
     // 0.50 (46 of 92 pairs have a moving person), CBD about 0.31, K-Means about 0.10.
-    let one = score(&pairs, Method::OneCluster);
+    let one = score(&pairs, one_method.as_ref());
     assert!(
         (one.v_measure_mean - 0.5).abs() < 0.03,
         "one cluster {:.3}",
@@ -87,9 +95,9 @@ fn leigh_gtm1_k5() {
             p
         })
         .collect();
-    let crf = score(&blind, Method::Crf);
-    let cbd = score(&blind, Method::Cbd);
-    let kmeans = score(&blind, Method::KMeans);
+    let crf = score(&blind, crf_method.as_ref());
+    let cbd = score(&blind, cbd_method.as_ref());
+    let kmeans = score(&blind, kmeans_method.as_ref());
     eprintln!(
         "leigh-gtm1 k=5 without odometry: CRF V {:.3}, CBD {:.3}, K-Means {:.3}",
         crf.v_measure_mean, cbd.v_measure_mean, kmeans.v_measure_mean

@@ -8,37 +8,40 @@
 //! associations do on simulated pairs (about 0.74 against CBD 0.66 on 50 pairs),
 //! plain nearest neighbours after ICP do not (about 0.2).
 
-use pgm_crf_clustering::evaluation::{evaluate_pair, summarize, EvaluationConfig, Method, Summary};
-use pgm_crf_clustering::learning::{learn, training_instance};
-use pgm_crf_clustering::{
-    AssociationProvider, AssociationSource, Clusterer, ClusteringParams, NearestParams,
-};
+use pgm_baselines::consistency::ConsistencyDetector;
+use pgm_baselines::motion_kmeans::MotionKMeans;
+use pgm_crf_clustering::learning::{learn, training_instances};
+use pgm_crf_clustering::{Clusterer, ClusteringParams};
+use pgm_datasets::evaluation::{evaluate_clustering, ClusteringSummary};
 use pgm_datasets::sim::{simulate_pairs, SimConfig};
 use pgm_datasets::ScanPair;
+use pgm_features::association::{
+    AssociationSource, GroundTruthAssociations, NearestAfterIcp, SegmentIcp,
+};
+use pgm_features::methods::{Associated, MotionClusterer};
+use pgm_features::ParamGuard;
+use std::sync::Arc;
 
-fn score(pairs: &[ScanPair], method: Method, associations: AssociationSource) -> Summary {
-    let config = EvaluationConfig {
-        method,
-        associations,
-        clusterer: Clusterer::default(),
-        kmeans: Default::default(),
-        cbd: Default::default(),
-    };
-    summarize(
-        &pairs
-            .iter()
-            .map(|p| evaluate_pair(p, &config).expect("evaluates"))
-            .collect::<Vec<_>>(),
-    )
+fn score(pairs: &[ScanPair], method: &dyn MotionClusterer) -> ClusteringSummary {
+    evaluate_clustering(pairs, method)
+        .expect("evaluates")
+        .summary
+}
+
+fn crf(source: impl AssociationSource + 'static) -> Associated<Clusterer> {
+    Associated::new(Clusterer::default(), Arc::new(source))
+}
+
+fn kmeans(source: impl AssociationSource + 'static) -> Associated<MotionKMeans> {
+    Associated::new(MotionKMeans::default(), Arc::new(source))
 }
 
 #[test]
 fn crf_with_true_associations_beats_the_baselines_on_held_out_pairs() {
     let pairs = simulate_pairs(&SimConfig::default().check().unwrap(), 1, 8);
-    let icp = AssociationSource::NearestAfterIcp(NearestParams::default());
-    let crf = score(&pairs, Method::Crf, AssociationSource::GroundTruth);
-    let cbd = score(&pairs, Method::Cbd, icp);
-    let kmeans = score(&pairs, Method::KMeans, icp);
+    let crf = score(&pairs, &crf(GroundTruthAssociations));
+    let cbd = score(&pairs, &ConsistencyDetector::default());
+    let kmeans = score(&pairs, &kmeans(NearestAfterIcp::default()));
     eprintln!(
         "CRF-T V {:.3}, CBD {:.3}, K-Means (ICP) {:.3}",
         crf.v_measure_mean, cbd.v_measure_mean, kmeans.v_measure_mean
@@ -56,12 +59,10 @@ fn crf_with_true_associations_beats_the_baselines_on_held_out_pairs() {
 #[test]
 fn crf_with_segment_icp_associations_beats_the_baselines() {
     let pairs = simulate_pairs(&SimConfig::default().check().unwrap(), 1, 16);
-    let icp = AssociationSource::NearestAfterIcp(NearestParams::default());
-    let segment = AssociationSource::automatic();
-    let crf = score(&pairs, Method::Crf, segment);
-    let crf_icp = score(&pairs, Method::Crf, icp);
-    let cbd = score(&pairs, Method::Cbd, icp);
-    let kmeans = score(&pairs, Method::KMeans, segment);
+    let crf_icp = score(&pairs, &crf(NearestAfterIcp::default()));
+    let cbd = score(&pairs, &ConsistencyDetector::default());
+    let kmeans = score(&pairs, &kmeans(SegmentIcp::default()));
+    let crf = score(&pairs, &crf(SegmentIcp::default()));
     eprintln!(
         "CRF (segment-ICP) V {:.3}, CRF (ICP) {:.3}, CBD {:.3}, K-Means (segment-ICP) {:.3}",
         crf.v_measure_mean, crf_icp.v_measure_mean, cbd.v_measure_mean, kmeans.v_measure_mean
@@ -76,21 +77,11 @@ fn crf_with_segment_icp_associations_beats_the_baselines() {
 
 #[test]
 fn training_recovers_weights_that_penalise_distance() {
-    let pairs = simulate_pairs(&SimConfig::default().check().unwrap(), 1000, 6);
+    let pairs = simulate_pairs(&SimConfig::default().check().unwrap(), 1000, 20);
     let params = ClusteringParams::default();
-    let instances: Vec<_> = pairs
-        .iter()
-        .filter_map(|p| {
-            training_instance(
-                p,
-                &AssociationSource::GroundTruth.associate(p).unwrap(),
-                &params,
-            )
-            .unwrap()
-        })
-        .collect();
-    assert_eq!(instances.len(), 6);
-    let (weights, result) = learn(&instances, 10.0).expect("learns");
+    let instances = training_instances(&pairs, &[&GroundTruthAssociations], &params).unwrap();
+    assert_eq!(instances.len(), 20);
+    let (weights, result) = learn(&instances, 10.0, &mut ()).expect("learns");
     assert!(result.converged);
     // Far partners must be unlikely for near points and neighbours must like to agree.
     assert!(
@@ -108,8 +99,8 @@ fn training_recovers_weights_that_penalise_distance() {
 
 #[test]
 fn chain_solver_agrees_with_the_generic_hybrid_inference() {
-    // The dedicated chain solver runs the same algorithm as pgm-core's
-    // HybridInference on the chain graph: same labels on (nearly) every point.
+    // The core's chain solver runs the same algorithm as pgm-core's HybridInference
+    // on the chain graph: same labels on (nearly) every point.
     let pairs = simulate_pairs(&SimConfig::default().check().unwrap(), 1, 8);
     let fast = Clusterer::default();
     let generic = ClusteringParams {
@@ -120,7 +111,7 @@ fn chain_solver_agrees_with_the_generic_hybrid_inference() {
     .unwrap();
     let (mut same, mut total) = (0usize, 0usize);
     for pair in &pairs {
-        let a = AssociationSource::GroundTruth.associate(pair).unwrap();
+        let a = GroundTruthAssociations.associate(pair).unwrap();
         let x = fast.cluster_pair(pair, &a).unwrap();
         let y = generic.cluster_pair(pair, &a).unwrap();
         assert_eq!(x.labels.len(), y.labels.len());
@@ -143,4 +134,23 @@ fn chain_solver_agrees_with_the_generic_hybrid_inference() {
         same as f64 >= 0.99 * total as f64,
         "{same} of {total} labels agree"
     );
+}
+
+#[test]
+fn training_without_a_moving_object_is_refused() {
+    // Pairs whose labels hold only the background (a static log) teach nothing about
+    // distance; learning must refuse them instead of writing weights the model
+    // rejects.
+    let mut pairs = simulate_pairs(&SimConfig::default().check().unwrap(), 1000, 3);
+    for p in &mut pairs {
+        let truth = p.truth.as_mut().unwrap();
+        for l in truth.labels.as_mut().unwrap().iter_mut().flatten() {
+            *l = 0;
+        }
+    }
+    let params = ClusteringParams::default();
+    let instances = training_instances(&pairs, &[&GroundTruthAssociations], &params).unwrap();
+    assert_eq!(instances.len(), 3);
+    let err = learn(&instances, 10.0, &mut ()).unwrap_err().to_string();
+    assert!(err.contains("none with a moving object"), "{err}");
 }

@@ -621,33 +621,6 @@ pub fn chain_instance<M: HybridChainModel>(
     }
     let mut model_out = LogLinearModel::new(Arc::clone(features), &cardinalities)?;
     let mut buffer = Vec::new();
-    let add = |out: &mut LogLinearModel,
-               scope: Vec<VariableId>,
-               shape: Vec<usize>,
-               buffer: &[f64]|
-     -> Result<()> {
-        let entries: usize = shape.iter().product();
-        for (t, tmpl) in features.templates().iter().enumerate() {
-            let range = tmpl.weights();
-            let used = (0..entries).any(|e| {
-                buffer[e * width + range.start..e * width + range.end]
-                    .iter()
-                    .any(|&x| x != 0.0)
-            });
-            if !used {
-                continue;
-            }
-            let mut table = Vec::with_capacity(entries * range.len());
-            for e in 0..entries {
-                table.extend_from_slice(&buffer[e * width + range.start..e * width + range.end]);
-            }
-            out.add_clique(
-                TemplateId(t),
-                DenseFeatures::new(scope.clone(), shape.clone(), range.len(), table)?,
-            )?;
-        }
-        Ok(())
-    };
     for (c, &base) in first.iter().enumerate() {
         let n = model.chain_len(c);
         for i in 0..n {
@@ -655,13 +628,13 @@ pub fn chain_instance<M: HybridChainModel>(
             buffer.clear();
             buffer.resize(s * width, 0.0);
             model.write_local(c, i, &mut FeatureTable::new(width, &mut buffer));
-            add(&mut model_out, vec![VariableId(base + i)], vec![s], &buffer)?;
+            add_feature_cliques(&mut model_out, vec![VariableId(base + i)], vec![s], &buffer)?;
             if i + 1 < n {
                 let t = model.num_states(c, i + 1);
                 buffer.clear();
                 buffer.resize(s * t * width, 0.0);
                 model.write_pair(c, i, &mut FeatureTable::new(width, &mut buffer));
-                add(
+                add_feature_cliques(
                     &mut model_out,
                     vec![VariableId(base + i), VariableId(base + i + 1)],
                     vec![s, t],
@@ -671,4 +644,45 @@ pub fn chain_instance<M: HybridChainModel>(
         }
     }
     Ok(LabelledInstance::new(model_out, all_labels))
+}
+
+/// Adds to `model` the cliques over `scope` (with `shape`) whose features were
+/// recorded in `features` by a [`FeatureTable`] (entries × all weights of the model's
+/// feature set): one [`DenseFeatures`] clique per template that some entry uses
+/// (templates whose features are all zero are left out).
+///
+/// # Errors
+/// When `features` does not hold `Π shape × num_weights` values, or the learning
+/// model refuses the clique (scope, shape).
+pub fn add_feature_cliques(
+    model: &mut LogLinearModel,
+    scope: Vec<VariableId>,
+    shape: Vec<usize>,
+    features: &[f64],
+) -> Result<()> {
+    let set = Arc::clone(model.feature_set());
+    let width = set.num_weights();
+    let entries: usize = shape.iter().product();
+    if features.len() != entries * width {
+        return Err(Error::TableSize {
+            expected: entries * width,
+            actual: features.len(),
+        });
+    }
+    for (t, template) in set.templates().iter().enumerate() {
+        let range = template.weights();
+        let row = |e: usize| &features[e * width + range.start..e * width + range.end];
+        if !(0..entries).any(|e| row(e).iter().any(|&x| x != 0.0)) {
+            continue;
+        }
+        let mut table = Vec::with_capacity(entries * range.len());
+        for e in 0..entries {
+            table.extend_from_slice(row(e));
+        }
+        model.add_clique(
+            TemplateId(t),
+            DenseFeatures::new(scope.clone(), shape.clone(), range.len(), table)?,
+        )?;
+    }
+    Ok(())
 }

@@ -1,5 +1,7 @@
-//! Point-to-point ICP (iterative closest point), the scan-matching baseline of the
-//! joint-model paper (van de Ven, Ramos and Tipaldi, Table I and III).
+//! Registration: point-to-point ICP (iterative closest point), the scan-matching
+//! baseline of the joint-model paper (van de Ven, Ramos and Tipaldi, Table I and III)
+//! and the ego-motion step of the nearest-neighbour association sources
+//! ([`crate::association`]).
 //!
 //! Each iteration moves the current scan's returns by the motion estimate, pairs each
 //! with its nearest reference return within the correspondence distance (a 2D k-d
@@ -7,7 +9,7 @@
 //! distance to the previous partner as a bound; exact nearest neighbours),
 //! drops pairs farther apart than a correspondence distance, and re-solves the motion
 //! in closed form from the kept pairs (eq. 3 of the CRF-Clustering paper,
-//! [`pgm_features::RigidAlignment`]). The correspondence distance starts at
+//! [`crate::RigidAlignment`]). The correspondence distance starts at
 //! [`IcpParams::initial_max_distance`] and shrinks by [`IcpParams::distance_decay`]
 //! per iteration down to [`IcpParams::final_max_distance`], so large initial errors
 //! are still caught while the final estimate ignores outliers; when the estimate
@@ -22,19 +24,40 @@
 //! `Some(Association::Point(k))` for the nearest reference beam `k` within the final
 //! distance at the final estimate, `Some(Association::Outlier)` otherwise.
 //!
-//! ```no_run
-//! use pgm_baselines::icp::{Icp, IcpParams};
-//! # fn demo(pair: &pgm_datasets::ScanPair) -> Result<(), pgm_baselines::Error> {
-//! let icp = Icp::new(&pair.reference, IcpParams::default())?;
-//! let result = icp.align(&pair.current, pair.odometry.unwrap_or_default())?;
-//! println!("{:?} after {} iterations", result.motion, result.iterations);
-//! # Ok(()) }
+//! **Too little data.** A rigid fit needs correspondences that pin down three degrees
+//! of freedom, and ICP on a handful of returns converges to whatever its nearest
+//! neighbours suggest. When fewer than [`IcpParams::min_correspondences`] returns
+//! are matched (in the first iteration, or at the final estimate), ICP keeps the
+//! starting motion (the prior) and says so: [`IcpResult::status`] is
+//! [`IcpStatus::TooFewCorrespondences`] and `converged` is false.
+//!
+//! **Cost.** Building the search structures is O(m log m) for `m` reference returns
+//! and a query O(log m) plus the points it inspects: the grid's cell side shrinks on
+//! dense scans so that a cell holds a bounded number of returns on average, and a
+//! run stays near O(n log m) for `n` current returns (`carmen-long100000`: two
+//! 100 000-beam scans).
+//!
+//! ```
+//! use pgm_features::registration::IcpParams;
+//! use pgm_features::{ParamGuard, Pose2, Scan};
+//!
+//! // A wall of returns seen from two poses 0.2 m apart.
+//! let wall = |dx: f64| -> Scan {
+//!     let angles: Vec<f64> = (0..181).map(|k| -1.2 + 2.4 * k as f64 / 180.0).collect();
+//!     let ranges: Vec<f64> = angles.iter().map(|a| (3.0 - dx) / a.cos()).collect();
+//!     Scan { timestamp: 0.0, valid: vec![true; 181], angles, ranges, max_range: 30.0,
+//!            odometry: None, laser_offset: Pose2::identity() }
+//! };
+//! let icp = IcpParams::default().check().unwrap().reference(&wall(0.0)).unwrap();
+//! let result = icp.align(&wall(0.2), Pose2::new(0.15, 0.0, 0.0)).unwrap();
+//! assert!((result.motion.x() - 0.2).abs() < 0.01, "{:?}", result.motion);
 //! ```
 
-use crate::{Error, Result};
+use crate::pair::{Association, ScanPair};
+use crate::{Error, Pose2, Result, RigidAlignment, Scan};
 use nalgebra::Point2;
-use pgm_datasets::Association;
-use pgm_features::{Pose2, RigidAlignment, Scan};
+use pgm_core::param::{InvalidParameter, ParamGuard};
+use serde::Serialize;
 
 /// ICP parameters (checked by [`IcpParams::check`] when an [`Icp`] is built).
 ///
@@ -63,6 +86,9 @@ pub struct IcpParams {
     /// `coarse_stride`-th current return is matched (1 = all); the final iterations
     /// always use every return.
     pub coarse_stride: usize,
+    /// Fewest matched returns for a rigid fit (10; 0 turns the check off, otherwise at
+    /// least 2): with fewer, ICP keeps the starting motion (see the module docs).
+    pub min_correspondences: usize,
 }
 
 impl Default for IcpParams {
@@ -75,31 +101,37 @@ impl Default for IcpParams {
             translation_tolerance: 1e-4,
             rotation_tolerance: 1e-4,
             coarse_stride: 3,
+            min_correspondences: 10,
         }
     }
 }
 
-impl IcpParams {
-    /// Checks every parameter; the error names the first bad one and its value.
-    pub fn check(&self) -> Result<()> {
-        let bad = |name: &'static str, value: f64, reason: &'static str| {
-            Err(Error::InvalidParameter {
-                name,
-                value,
-                reason,
-            })
+impl ParamGuard for IcpParams {
+    type Checked = IcpMatcher;
+    type Error = Error;
+
+    fn check_ref(&self) -> Result<()> {
+        let bad = |name: &'static str, value: f64, expected: &'static str| {
+            Err(InvalidParameter::new(name, value, expected).into())
         };
         if self.max_iterations == 0 {
-            return bad("max_iterations", 0.0, "must be at least 1");
+            return bad("max_iterations", 0.0, "at least 1");
         }
         if self.coarse_stride == 0 {
-            return bad("coarse_stride", 0.0, "must be at least 1");
+            return bad("coarse_stride", 0.0, "at least 1");
+        }
+        if self.min_correspondences == 1 {
+            return bad(
+                "min_correspondences",
+                1.0,
+                "0 (no check) or at least 2 (a rigid fit needs two points)",
+            );
         }
         if !(self.final_max_distance > 0.0 && self.final_max_distance.is_finite()) {
             return bad(
                 "final_max_distance",
                 self.final_max_distance,
-                "must be positive",
+                "a positive number of metres",
             );
         }
         if !(self.initial_max_distance >= self.final_max_distance
@@ -108,35 +140,91 @@ impl IcpParams {
             return bad(
                 "initial_max_distance",
                 self.initial_max_distance,
-                "must be finite and at least final_max_distance",
+                "a finite number of metres at least final_max_distance",
             );
         }
         if !(self.distance_decay > 0.0 && self.distance_decay <= 1.0) {
-            return bad("distance_decay", self.distance_decay, "must be in (0, 1]");
+            return bad("distance_decay", self.distance_decay, "a factor in (0, 1]");
         }
         if self.distance_decay == 1.0 && self.initial_max_distance > self.final_max_distance {
             return bad(
                 "distance_decay",
                 self.distance_decay,
-                "must be below 1 when initial_max_distance exceeds final_max_distance",
+                "a factor below 1 when initial_max_distance exceeds final_max_distance",
             );
         }
         if !(self.translation_tolerance >= 0.0 && self.translation_tolerance.is_finite()) {
             return bad(
                 "translation_tolerance",
                 self.translation_tolerance,
-                "must be finite and >= 0",
+                "a finite number of metres >= 0",
             );
         }
         if !(self.rotation_tolerance >= 0.0 && self.rotation_tolerance.is_finite()) {
             return bad(
                 "rotation_tolerance",
                 self.rotation_tolerance,
-                "must be finite and >= 0",
+                "a finite number of radians >= 0",
             );
         }
         Ok(())
     }
+
+    fn check(self) -> Result<IcpMatcher> {
+        self.check_ref()?;
+        Ok(IcpMatcher { params: self })
+    }
+}
+
+/// ICP with checked parameters: prepares the search structures of a reference scan
+/// ([`IcpMatcher::reference`]) and estimates the ego-motion of scan pairs (a
+/// [`ScanMatcher`](crate::methods::ScanMatcher), started from the pair's odometry
+/// prior, the identity without one).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct IcpMatcher {
+    params: IcpParams,
+}
+
+impl Default for IcpMatcher {
+    fn default() -> Self {
+        IcpParams::default().check_unwrap()
+    }
+}
+
+impl IcpMatcher {
+    /// The parameters.
+    pub fn params(&self) -> &IcpParams {
+        &self.params
+    }
+
+    /// Builds the search structures on `reference`'s returns.
+    ///
+    /// # Errors
+    /// [`Error::EmptyScan`] when the scan has no valid return.
+    pub fn reference(&self, reference: &Scan) -> Result<Icp> {
+        Icp::prepared(reference, self.params)
+    }
+
+    /// Aligns the current scan of `pair` to its reference scan from its odometry prior
+    /// (the identity without one). Errors name the pair.
+    pub fn align_pair(&self, pair: &ScanPair) -> Result<IcpResult> {
+        self.reference(&pair.reference)
+            .and_then(|icp| icp.align(&pair.current, pair.odometry.unwrap_or_default()))
+            .map_err(|e| e.in_pair(&pair.name))
+    }
+}
+
+/// How an ICP run ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum IcpStatus {
+    /// The estimate settled within the tolerances at the final distance.
+    Converged,
+    /// The iteration limit came first.
+    IterationLimit,
+    /// Fewer than [`IcpParams::min_correspondences`] returns were matched: the motion
+    /// is the starting motion (the prior).
+    TooFewCorrespondences,
 }
 
 /// What [`Icp::align`] found.
@@ -144,6 +232,8 @@ impl IcpParams {
 pub struct IcpResult {
     /// Motion mapping current points onto reference points.
     pub motion: Pose2,
+    /// How the run ended.
+    pub status: IcpStatus,
     /// Per beam of the current scan (see the module docs).
     pub associations: Vec<Option<Association>>,
     /// Number of iterations run.
@@ -181,9 +271,13 @@ impl std::fmt::Debug for Icp {
 }
 
 impl Icp {
-    /// Builds the k-d tree on the reference scan's returns.
+    /// Checks `params` and builds the search structures on the reference scan's
+    /// returns (the same as `params.check()?.reference(reference)`).
     pub fn new(reference: &Scan, params: IcpParams) -> Result<Self> {
-        params.check()?;
+        params.check()?.reference(reference)
+    }
+
+    fn prepared(reference: &Scan, params: IcpParams) -> Result<Self> {
         let (points, reference_beams) = reference.points();
         if points.is_empty() {
             return Err(Error::EmptyScan { which: "reference" });
@@ -223,15 +317,46 @@ impl Icp {
         }
     }
 
+    /// One association per beam of a scan of `beams_total` beams whose returns are
+    /// `points` (at `beams`), moved by `motion`: the nearest reference return strictly
+    /// within `sqrt(limit)`; also the number of matched returns and their summed
+    /// squared distances.
+    fn associate(
+        &self,
+        points: &[Point2<f64>],
+        beams: &[usize],
+        beams_total: usize,
+        motion: &Pose2,
+        limit: f64,
+    ) -> (Vec<Option<Association>>, usize, f64) {
+        let (sin, cos) = motion.theta().sin_cos();
+        let mut associations = vec![None; beams_total];
+        let mut inliers = 0;
+        let mut sum_d2 = 0.0;
+        for (s, &beam) in points.iter().zip(beams) {
+            let q = [
+                cos * s.x - sin * s.y + motion.x(),
+                sin * s.x + cos * s.y + motion.y(),
+            ];
+            associations[beam] = Some(match self.nearest_within(q, limit) {
+                Some((item, d2)) => {
+                    inliers += 1;
+                    sum_d2 += d2;
+                    Association::Point(self.reference_beams[item])
+                }
+                None => Association::Outlier,
+            });
+        }
+        (associations, inliers, sum_d2)
+    }
+
     /// Aligns `current` to the reference scan starting from `initial` (for example
     /// the odometry prior, or the identity).
     pub fn align(&self, current: &Scan, initial: Pose2) -> Result<IcpResult> {
         if !initial.is_finite() {
-            return Err(Error::InvalidParameter {
-                name: "initial",
-                value: f64::NAN,
-                reason: "initial guess is not finite",
-            });
+            return Err(
+                InvalidParameter::new("initial", initial, "a finite starting motion").into(),
+            );
         }
         let (points, beams) = current.points();
         if points.is_empty() {
@@ -298,26 +423,23 @@ impl Icp {
         }
         // Associations at the final estimate and the final distance.
         let limit = p.final_max_distance * p.final_max_distance;
-        let (sin, cos) = motion.theta().sin_cos();
-        let mut associations = vec![None; current.len()];
-        let mut inliers = 0;
-        let mut sum_d2 = 0.0;
-        for (s, &beam) in points.iter().zip(&beams) {
-            let q = [
-                cos * s.x - sin * s.y + motion.x(),
-                sin * s.x + cos * s.y + motion.y(),
-            ];
-            associations[beam] = Some(match self.nearest_within(q, limit) {
-                Some((item, d2)) => {
-                    inliers += 1;
-                    sum_d2 += d2;
-                    Association::Point(self.reference_beams[item])
-                }
-                None => Association::Outlier,
-            });
-        }
+        let (mut associations, mut inliers, mut sum_d2) =
+            self.associate(&points, &beams, current.len(), &motion, limit);
+        let status = if inliers < p.min_correspondences {
+            // Too little data for a rigid fit: keep the prior (and its associations).
+            motion = initial;
+            (associations, inliers, sum_d2) =
+                self.associate(&points, &beams, current.len(), &motion, limit);
+            converged = false;
+            IcpStatus::TooFewCorrespondences
+        } else if converged {
+            IcpStatus::Converged
+        } else {
+            IcpStatus::IterationLimit
+        };
         Ok(IcpResult {
             motion,
+            status,
             associations,
             iterations,
             converged,
@@ -468,16 +590,34 @@ struct CellGrid {
 
 const EMPTY_CELL: u64 = u64::MAX;
 
+/// Largest mean number of returns per occupied cell: denser scans get smaller cells
+/// (and queries with larger bounds go to the tree), so a query inspects a bounded
+/// number of points however many beams the scanner has.
+const MAX_CELL_OCCUPANCY: usize = 8;
+
 impl CellGrid {
+    /// A grid with cells of side `cell`, halved (at most 16 times) while the occupied
+    /// cells hold more than [`MAX_CELL_OCCUPANCY`] points on average.
     fn new(source: &[[f64; 2]], cell: f64) -> Self {
-        let key_of = |p: &[f64; 2]| cell_key((p[0] / cell).floor(), (p[1] / cell).floor());
-        let mut order: Vec<(u64, [f64; 2], u32)> = source
-            .iter()
-            .enumerate()
-            .map(|(k, p)| (key_of(p), *p, k as u32))
-            .collect();
-        order.sort_unstable_by_key(|e| e.0);
-        let occupied = order.windows(2).filter(|w| w[0].0 != w[1].0).count() + 1;
+        let mut cell = cell;
+        let mut order: Vec<(u64, [f64; 2], u32)>;
+        let mut occupied;
+        let mut halvings = 0;
+        loop {
+            let key_of = |p: &[f64; 2]| cell_key((p[0] / cell).floor(), (p[1] / cell).floor());
+            order = source
+                .iter()
+                .enumerate()
+                .map(|(k, p)| (key_of(p), *p, k as u32))
+                .collect();
+            order.sort_unstable_by_key(|e| e.0);
+            occupied = order.windows(2).filter(|w| w[0].0 != w[1].0).count() + 1;
+            if source.len() <= MAX_CELL_OCCUPANCY * occupied || halvings == 16 {
+                break;
+            }
+            cell /= 2.0;
+            halvings += 1;
+        }
         let bits = (2 * occupied).next_power_of_two().max(16).trailing_zeros();
         let size = 1usize << bits;
         let mut grid = Self {

@@ -1,0 +1,196 @@
+//! Where scan pairs come from: a stored data set, or one of the real-log formats with
+//! its ground truth, as one value ([`PairSource`]) that every command and example
+//! loads the same way.
+//!
+//! ```no_run
+//! use pgm_datasets::source::PairSource;
+//!
+//! # fn main() -> pgm_datasets::Result<()> {
+//! let source = PairSource::CarmenRelations {
+//!     log: "mit-csail.clf".into(),
+//!     relations: "mit-csail.relations".into(),
+//! };
+//! let loaded = source.load()?;
+//! for note in &loaded.notes {
+//!     eprintln!("note: {note}");
+//! }
+//! println!("{} pairs from {}", loaded.pairs.len(), source);
+//! # Ok(())
+//! # }
+//! ```
+
+use crate::builders::{
+    consecutive_pairs, leigh_pairs, relation_pairs, LeighPairOptions, RelationPairOptions,
+};
+use crate::error::Result;
+use crate::{carmen, leigh, relations, ScanPair};
+use std::collections::BTreeMap;
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+/// Which kind of source the pairs came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SourceKind {
+    /// A stored data set (`datasets/FORMAT.md`).
+    Stored,
+    /// A CARMEN log with a Kümmerle-style relations file (mit-csail).
+    Relations,
+    /// A CARMEN log with `VERTEX2` poses: consecutive scans (intel-lab).
+    ConsecutiveLog,
+    /// leigh-gtm1 text logs.
+    Leigh,
+}
+
+/// A source of scan pairs.
+#[derive(Clone, Debug, PartialEq)]
+pub enum PairSource {
+    /// A stored data set: a directory, its `index.json`, or one pair file.
+    Stored(PathBuf),
+    /// One pair per relation of `relations` between scans of the CARMEN `log`, with
+    /// the relation as the true ego-motion.
+    CarmenRelations {
+        /// The CARMEN log (FLASER / ROBOTLASER1 lines).
+        log: PathBuf,
+        /// The relations file (`t1 t2 x y z roll pitch yaw`).
+        relations: PathBuf,
+    },
+    /// Consecutive scans of a CARMEN log with `VERTEX2` poses (the poses give the true
+    /// ego-motion).
+    ConsecutiveLog(PathBuf),
+    /// leigh-gtm1 style logs: pairs `k` scans apart with per-point motion labels.
+    Leigh {
+        /// `SCAN` lines.
+        scans: PathBuf,
+        /// `PERSON` annotations.
+        people: PathBuf,
+        /// `ODOM` lines (optional).
+        odometry: Option<PathBuf>,
+        /// The builder's options (`k`, thresholds, labelling rule).
+        options: LeighPairOptions,
+    },
+}
+
+/// Pairs loaded from a [`PairSource`], with what the readers noted on the way.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LoadedPairs {
+    /// The pairs.
+    pub pairs: Vec<ScanPair>,
+    /// The kind of source.
+    pub kind: SourceKind,
+    /// Notes for the user (skipped lines, unmatched relations, dropped odometry), each
+    /// naming its file.
+    pub notes: Vec<String>,
+}
+
+impl fmt::Display for PairSource {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            PairSource::Stored(path) => write!(f, "data set {}", path.display()),
+            PairSource::CarmenRelations { log, relations } => {
+                write!(
+                    f,
+                    "{} with relations {}",
+                    log.display(),
+                    relations.display()
+                )
+            }
+            PairSource::ConsecutiveLog(path) => {
+                write!(f, "consecutive scans of {}", path.display())
+            }
+            PairSource::Leigh { scans, options, .. } => {
+                write!(f, "{} (k = {})", scans.display(), options.k)
+            }
+        }
+    }
+}
+
+/// The file name without extension, or `log`.
+pub fn file_stem(path: &Path) -> String {
+    path.file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "log".into())
+}
+
+fn skipped_note(path: &Path, skipped: &BTreeMap<String, usize>) -> Option<String> {
+    (!skipped.is_empty()).then(|| {
+        let list: Vec<String> = skipped.iter().map(|(k, v)| format!("{k} ×{v}")).collect();
+        format!("{}: skipped lines: {}", path.display(), list.join(", "))
+    })
+}
+
+/// Reads leigh-gtm1 scans (with odometry when given) and annotations; notes on skipped
+/// lines go to `notes`.
+pub fn read_leigh(
+    scans: &Path,
+    people: &Path,
+    odometry: Option<&Path>,
+    notes: &mut Vec<String>,
+) -> Result<(leigh::LeighScans, Vec<leigh::PersonAnnotation>)> {
+    let mut log = leigh::read_scans(scans)?;
+    notes.extend(skipped_note(scans, &log.skipped));
+    if let Some(path) = odometry {
+        let odo = leigh::read_odometry(path)?;
+        leigh::attach_odometry(&mut log, &odo, path)?;
+    }
+    let annotations = leigh::read_people(people)?;
+    Ok((log, annotations))
+}
+
+impl PairSource {
+    /// Reads the source and builds its pairs.
+    ///
+    /// # Errors
+    /// The first reader or builder error, naming its file and line.
+    pub fn load(&self) -> Result<LoadedPairs> {
+        let mut notes = Vec::new();
+        let (kind, pairs) = match self {
+            PairSource::Stored(path) => (SourceKind::Stored, crate::read_pairs(path)?),
+            PairSource::CarmenRelations { log, relations } => {
+                let carmen_log = carmen::read_carmen(log)?;
+                notes.extend(skipped_note(log, &carmen_log.skipped));
+                let rels = relations::read_relations(relations)?;
+                let options = RelationPairOptions {
+                    name: file_stem(log),
+                    ..Default::default()
+                };
+                let built = relation_pairs(&carmen_log, &rels, &options);
+                if let Some(first) = built.unmatched.first() {
+                    notes.push(format!(
+                        "{}: {} of {} relations name a time stamp with no scan within {} s \
+                         (first on line {})",
+                        relations.display(),
+                        built.unmatched.len(),
+                        rels.len(),
+                        options.tolerance,
+                        first.line
+                    ));
+                }
+                (SourceKind::Relations, built.pairs)
+            }
+            PairSource::ConsecutiveLog(path) => {
+                let log = carmen::read_carmen(path)?;
+                notes.extend(skipped_note(path, &log.skipped));
+                let built = consecutive_pairs(&log, &file_stem(path));
+                if built.odometry_was_ground_truth {
+                    notes.push(format!(
+                        "{}: the robot poses of the laser lines equal the VERTEX2 poses; \
+                         they are ground truth, not odometry, and were removed (no odometry prior)",
+                        path.display()
+                    ));
+                }
+                (SourceKind::ConsecutiveLog, built.pairs)
+            }
+            PairSource::Leigh {
+                scans,
+                people,
+                odometry,
+                options,
+            } => {
+                let (log, annotations) =
+                    read_leigh(scans, people, odometry.as_deref(), &mut notes)?;
+                (SourceKind::Leigh, leigh_pairs(&log, &annotations, options)?)
+            }
+        };
+        Ok(LoadedPairs { pairs, kind, notes })
+    }
+}

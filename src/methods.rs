@@ -1,0 +1,182 @@
+//! The methods the command-line tool, the examples and the tests know by name: one
+//! table per interface ([`MotionClusterer`], [`ScanMatcher`],
+//! [`AssociationSource`]). A model crate implements the interface; adding it here is
+//! one entry, never a branch in a command.
+//!
+//! ```
+//! use pgm::methods::{association_source, clusterer, MethodOptions};
+//!
+//! let options = MethodOptions::default();
+//! let icp = association_source("icp", &options).unwrap();
+//! let crf = clusterer("crf", icp, &options).unwrap();
+//! assert_eq!(crf.name(), "crf (icp)");
+//! assert!(clusterer("no-such-method", association_source("true", &options).unwrap(), &options).is_err());
+//! ```
+
+use pgm_baselines::consistency::ConsistencyParams;
+use pgm_baselines::motion_kmeans::MotionKMeansParams;
+use pgm_crf_clustering::{ClusteringParams, ClusteringWeights};
+use pgm_features::association::{
+    AssociationSource, GroundTruthAssociations, NearestParams, SegmentParams,
+};
+use pgm_features::methods::{Associated, MotionClusterer, Odometry, OneCluster, ScanMatcher};
+use pgm_features::registration::IcpParams;
+use pgm_features::{ParamGuard, ScanPair};
+use std::fmt;
+use std::sync::Arc;
+
+/// Why a method could not be made: an unknown name (with the known ones) or invalid
+/// parameters.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct MethodError(pub String);
+
+impl fmt::Display for MethodError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for MethodError {}
+
+fn invalid(e: impl fmt::Display) -> MethodError {
+    MethodError(e.to_string())
+}
+
+fn unknown(kind: &str, name: &str, known: &[(&str, &str)]) -> MethodError {
+    let names: Vec<&str> = known.iter().map(|(n, _)| *n).collect();
+    MethodError(format!(
+        "unknown {kind} `{name}`: expected one of {}",
+        names.join(", ")
+    ))
+}
+
+/// The parameters of every method, as the command line sets them (defaults: each
+/// method's own).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MethodOptions {
+    /// CRF-Clustering.
+    pub crf: ClusteringParams,
+    /// Motion K-Means.
+    pub kmeans: MotionKMeansParams,
+    /// The consistency-based detector.
+    pub cbd: ConsistencyParams,
+    /// ICP (scan matching).
+    pub icp: IcpParams,
+    /// Nearest neighbour after ICP (associations).
+    pub nearest: NearestParams,
+    /// Segment-wise ICP (associations).
+    pub segment: SegmentParams,
+}
+
+impl MethodOptions {
+    /// These options with the CRF-Clustering weights loaded from `path` (a file
+    /// written by `pgm train clustering`).
+    pub fn with_crf_weights(mut self, path: &std::path::Path) -> Result<Self, MethodError> {
+        self.crf.weights = ClusteringWeights::load(path)
+            .map_err(|e| MethodError(format!("{}: {e}", path.display())))?;
+        Ok(self)
+    }
+}
+
+/// The association sources: name and what it is.
+pub const ASSOCIATION_SOURCES: &[(&str, &str)] = &[
+    (
+        "true",
+        "the pair's ground-truth associations (simulated data)",
+    ),
+    ("icp", "nearest neighbour after ICP (ego-motion only)"),
+    (
+        "segment-icp",
+        "segment-wise ICP, then nearest neighbours under each segment's motion",
+    ),
+];
+
+/// The association source named `name` (see [`ASSOCIATION_SOURCES`]).
+pub fn association_source(
+    name: &str,
+    options: &MethodOptions,
+) -> Result<Arc<dyn AssociationSource>, MethodError> {
+    Ok(match name {
+        "true" => Arc::new(GroundTruthAssociations),
+        "icp" => Arc::new(options.nearest.check().map_err(invalid)?),
+        "segment-icp" => Arc::new(options.segment.check().map_err(invalid)?),
+        _ => return Err(unknown("association source", name, ASSOCIATION_SOURCES)),
+    })
+}
+
+/// The default association source for `pairs`: their ground truth when every pair has
+/// it, else nearest neighbour after ICP (segment-wise ICP is better on simulated
+/// street scenes but worse on leigh-gtm1; notes/issue7.md).
+pub fn default_association(pairs: &[ScanPair]) -> &'static str {
+    if !pairs.is_empty()
+        && pairs
+            .iter()
+            .all(|p| p.truth.as_ref().is_some_and(|t| t.associations.is_some()))
+    {
+        "true"
+    } else {
+        "icp"
+    }
+}
+
+/// The motion clusterers: name and what it is.
+pub const CLUSTERERS: &[(&str, &str)] = &[
+    (
+        "crf",
+        "CRF-Clustering (Tipaldi and Ramos), fed by an association source",
+    ),
+    ("cbd", "the consistency-based detector (Wang et al.)"),
+    (
+        "kmeans",
+        "motion K-Means (eq. 10), fed by an association source",
+    ),
+    ("one-cluster", "every return in the background cluster"),
+];
+
+/// Whether the clusterer `name` takes point associations.
+pub fn clusterer_needs_associations(name: &str) -> bool {
+    matches!(name, "crf" | "kmeans")
+}
+
+/// The motion clusterer named `name` (see [`CLUSTERERS`]); `associations` feeds the
+/// methods that need them.
+pub fn clusterer(
+    name: &str,
+    associations: Arc<dyn AssociationSource>,
+    options: &MethodOptions,
+) -> Result<Box<dyn MotionClusterer>, MethodError> {
+    Ok(match name {
+        "crf" => Box::new(Associated::new(
+            options.crf.clone().check().map_err(invalid)?,
+            associations,
+        )),
+        "cbd" => Box::new(options.cbd.check().map_err(invalid)?),
+        "kmeans" => Box::new(Associated::new(
+            options.kmeans.check().map_err(invalid)?,
+            associations,
+        )),
+        "one-cluster" => Box::new(OneCluster),
+        _ => return Err(unknown("clustering method", name, CLUSTERERS)),
+    })
+}
+
+/// The scan matchers: name and what it is.
+pub const SCAN_MATCHERS: &[(&str, &str)] = &[
+    (
+        "odometry",
+        "the odometry prior (the identity without odometry)",
+    ),
+    ("icp", "point-to-point ICP from the odometry prior"),
+];
+
+/// The scan matcher named `name` (see [`SCAN_MATCHERS`]).
+pub fn scan_matcher(
+    name: &str,
+    options: &MethodOptions,
+) -> Result<Box<dyn ScanMatcher>, MethodError> {
+    Ok(match name {
+        "odometry" => Box::new(Odometry),
+        "icp" => Box::new(options.icp.check().map_err(invalid)?),
+        _ => return Err(unknown("scan-matching method", name, SCAN_MATCHERS)),
+    })
+}
