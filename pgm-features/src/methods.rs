@@ -10,8 +10,7 @@
 //! use pgm_features::pair::ScanPair;
 //! use pgm_features::{Pose2, Scan};
 //!
-//! let scan = Scan { timestamp: 0.0, angles: vec![0.0], ranges: vec![1.0], valid: vec![true],
-//!                   max_range: 10.0, odometry: None, laser_offset: Pose2::identity() };
+//! let scan = Scan::from_ranges(vec![0.0], vec![1.0], 10.0);
 //! let pair = ScanPair { name: "p".into(), reference: scan.clone(), current: scan,
 //!                       odometry: Some(Pose2::new(0.5, 0.0, 0.0)), truth: None };
 //! let estimate = Odometry.estimate(&pair).unwrap();

@@ -45,8 +45,7 @@
 //! let wall = |dx: f64| -> Scan {
 //!     let angles: Vec<f64> = (0..181).map(|k| -1.2 + 2.4 * k as f64 / 180.0).collect();
 //!     let ranges: Vec<f64> = angles.iter().map(|a| (3.0 - dx) / a.cos()).collect();
-//!     Scan { timestamp: 0.0, valid: vec![true; 181], angles, ranges, max_range: 30.0,
-//!            odometry: None, laser_offset: Pose2::identity() }
+//!     Scan::from_ranges(angles, ranges, 30.0)
 //! };
 //! let icp = IcpParams::default().check().unwrap().reference(&wall(0.0)).unwrap();
 //! let result = icp.align(&wall(0.2), Pose2::new(0.15, 0.0, 0.0)).unwrap();
@@ -742,15 +741,7 @@ mod tests {
             angles.push(a);
             ranges.push(if best.is_finite() { best } else { 0.0 });
         }
-        Scan {
-            timestamp: 0.0,
-            valid: ranges.iter().map(|r| *r > 0.0).collect(),
-            angles,
-            ranges,
-            max_range: 30.0,
-            odometry: None,
-            laser_offset: Pose2::identity(),
-        }
+        Scan::from_ranges(angles, ranges, 30.0)
     }
 
     #[test]
@@ -801,6 +792,75 @@ mod tests {
         assert!(r.motion.rotation_error(&truth) < 0.005, "{:?}", r.motion);
         assert_eq!(r.associations.len(), current.len());
         assert!(r.inliers > 300);
+    }
+
+    #[test]
+    fn too_few_correspondences_keep_the_prior() {
+        // Scans with 1 and 5 returns (case L05): no rigid fit can be trusted, the prior
+        // is kept and the result says why.
+        let room = room_scan(&Pose2::identity());
+        let moved = room_scan(&Pose2::new(0.25, 0.08, 0.06));
+        let prior = Pose2::new(0.25, 0.08, 0.06);
+        for keep in [1usize, 5] {
+            let thin = |scan: &Scan| {
+                let mut s = scan.clone();
+                let valid: Vec<usize> = (0..s.len()).filter(|&k| s.valid[k]).collect();
+                for &k in &valid[keep..] {
+                    s.valid[k] = false;
+                }
+                s
+            };
+            let icp = Icp::new(&thin(&room), IcpParams::default()).unwrap();
+            let r = icp.align(&thin(&moved), prior).unwrap();
+            assert_eq!(r.status, IcpStatus::TooFewCorrespondences, "{keep} returns");
+            assert_eq!(r.motion, prior);
+            assert!(!r.converged);
+        }
+        // With the check off, ICP reports whatever it reached.
+        let params = IcpParams {
+            min_correspondences: 0,
+            ..IcpParams::default()
+        };
+        let r = Icp::new(&room, params)
+            .unwrap()
+            .align(&moved, prior)
+            .unwrap();
+        assert_eq!(r.status, IcpStatus::Converged);
+        assert!(IcpParams {
+            min_correspondences: 1,
+            ..IcpParams::default()
+        }
+        .check()
+        .is_err());
+    }
+
+    #[test]
+    fn dense_scans_get_smaller_grid_cells() {
+        // 20 000 returns within a few metres: the grid halves its cells until they
+        // hold few points each, so a query stays cheap, and stays exact.
+        let mut state = 7u64;
+        let mut next = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let points: Vec<[f64; 2]> = (0..20_000).map(|_| [5.0 * next(), next()]).collect();
+        let grid = CellGrid::new(&points, 0.2);
+        assert!(grid.cell < 0.2, "cell {}", grid.cell);
+        assert!(
+            points.len()
+                <= MAX_CELL_OCCUPANCY * grid.keys.iter().filter(|&&k| k != EMPTY_CELL).count()
+        );
+        let tree = NearestTree::new(&points);
+        for _ in 0..200 {
+            let q = [5.0 * next(), next()];
+            let bound = grid.max_bound * 0.99;
+            assert_eq!(
+                grid.nearest_within(q, bound).map(|x| x.1),
+                tree.nearest_within(q, bound).map(|x| x.1)
+            );
+        }
     }
 
     #[test]

@@ -47,6 +47,36 @@ pub struct Scan {
 }
 
 impl Scan {
+    /// A scan at time 0 without odometry, the laser at the base origin: beam `k` at
+    /// `angles[k]` (rad) measured `ranges[k]` (m), a valid return when the range is
+    /// finite and inside `(0, max_range)`; other ranges are stored as 0 (no return).
+    /// Readers with their own rules (a minimum range, special values) build the
+    /// fields themselves.
+    ///
+    /// # Panics
+    /// If `angles` and `ranges` differ in length.
+    pub fn from_ranges(angles: Vec<f64>, ranges: Vec<f64>, max_range: f64) -> Self {
+        assert_eq!(angles.len(), ranges.len(), "one range per beam angle");
+        let valid: Vec<bool> = ranges
+            .iter()
+            .map(|&r| r.is_finite() && r > 0.0 && r < max_range)
+            .collect();
+        let ranges = ranges
+            .iter()
+            .zip(&valid)
+            .map(|(&r, &v)| if v { r } else { 0.0 })
+            .collect();
+        Self {
+            timestamp: 0.0,
+            angles,
+            ranges,
+            valid,
+            max_range,
+            odometry: None,
+            laser_offset: Pose2::identity(),
+        }
+    }
+
     /// Number of beams (valid or not).
     pub fn len(&self) -> usize {
         self.ranges.len()
@@ -274,15 +304,7 @@ mod tests {
     use super::*;
 
     fn scan(angles: Vec<f64>, ranges: Vec<f64>) -> Scan {
-        Scan {
-            timestamp: 0.0,
-            valid: ranges.iter().map(|r| *r > 0.0).collect(),
-            angles,
-            ranges,
-            max_range: 30.0,
-            odometry: None,
-            laser_offset: Pose2::identity(),
-        }
+        Scan::from_ranges(angles, ranges, 30.0)
     }
 
     #[test]

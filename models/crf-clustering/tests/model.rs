@@ -343,3 +343,27 @@ fn acceptance_thresholds_reject_objects_and_are_checked() {
         assert!(params.check().is_err());
     }
 }
+
+#[test]
+fn thousands_of_segments_merge_without_a_quadratic_matrix() {
+    // 3000 two-point segments (a long, noisy scan): the first half moves by `a`, the
+    // second by `b`. Capped at 2 clusters, the halves must end apart.
+    let a = Pose2::new(0.3, 0.0, 0.0);
+    let b = Pose2::new(-0.5, 0.8, 0.1);
+    let mut points = Vec::new();
+    for s in 0..3000 {
+        let x = s as f64;
+        points.push(Point2::new(x, 0.0));
+        points.push(Point2::new(x + 0.1, 0.05 * (s % 3) as f64));
+    }
+    let partners: Vec<Option<Point2<f64>>> = points
+        .iter()
+        .enumerate()
+        .map(|(i, p)| Some(if i < 3000 { a } else { b }.transform_point(p)))
+        .collect();
+    let variances = vec![0.01; points.len()];
+    let (labels, k) = initial_clusters(&points, &partners, &variances, 0.5, 2);
+    assert_eq!(k, 2);
+    assert!(labels[..3000].iter().all(|&l| l == 0));
+    assert!(labels[3000..].iter().all(|&l| l == 1));
+}
