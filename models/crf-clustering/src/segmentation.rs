@@ -248,8 +248,7 @@ fn merge_down(mut stats: Vec<RigidAlignment>, cap: usize) -> Vec<usize> {
             merge(&mut stats, &mut residuals, &mut alive, live[x], live[y]);
             remaining -= 1;
             let a = live[x];
-            for z in 0..l {
-                let c = live[z];
+            for (z, &c) in live.iter().enumerate() {
                 if z == x || !alive[c] {
                     continue;
                 }
