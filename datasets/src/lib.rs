@@ -4,10 +4,15 @@
 //! ([`pair`]), the real-log readers ([`carmen`] for CARMEN logs, [`relations`] for
 //! Kümmerle-style relation files, [`leigh`] for the leigh-gtm1 text logs), the
 //! builders that turn logs into pairs with ground truth ([`builders`]), the on-disk
-//! pair format ([`format`](mod@format), specified in `datasets/FORMAT.md`), the evaluation
-//! metrics of both papers ([`metrics`]) and the shared-data lookup for real-data
-//! tests ([`testdata`]). The simulator lives in its own module (see the workspace
-//! README for the current state).
+//! pair format ([`format`](mod@format), specified in `datasets/FORMAT.md`), pair
+//! sources ([`source`]: a stored data set or a real log, loaded one way), the
+//! evaluation metrics of both papers ([`metrics`]), the one evaluation loop every
+//! method runs through ([`evaluation`], over the
+//! [`MotionClusterer`](pgm_features::MotionClusterer) and
+//! [`ScanMatcher`](pgm_features::ScanMatcher) traits), the urban laser simulator
+//! ([`sim`]) and the shared-data lookup for real-data tests ([`testdata`]). The
+//! scan-pair types themselves live in `pgm-features` (models depend on them, not on
+//! this crate) and are re-exported here.
 //!
 //! ```no_run
 //! use pgm_datasets::{builders, carmen, relations};

@@ -10,8 +10,12 @@
 //! parallel, [`Sequential`], [`Residual`], or yours), with damping, a tolerance, an
 //! iteration limit, a time budget and warm starts. An [`UpdateHook`] sees every update
 //! and may refresh potentials in between (the mechanism hybrid continuous nodes use).
-//! [`exact`] holds independent references (brute force, chains, trees) and [`uai`]
-//! reads and writes the UAI competition formats.
+//! [`hybrid`] couples discrete variables to observed-continuous nodes solved in closed
+//! form, on any graph ([`hybrid::HybridInference`]) or, exactly per sweep, on one or
+//! several chains ([`hybrid::chain`], where a model writes its log-linear features
+//! once for inference and for [`learning`]). [`exact`] holds independent references
+//! (brute force, chains, trees), [`param`] the checked-parameters pattern every crate
+//! of the workspace follows, and [`uai`] reads and writes the UAI competition formats.
 //!
 //! ```
 //! use pgm_core::{BeliefPropagation, FactorGraph, Mode, PottsFactor, Residual, TableFactor, VariableId};

@@ -30,7 +30,7 @@ use pgm_core::hybrid::chain::{FeatureSink, HybridChainModel, WeightedTable};
 use pgm_core::hybrid::{ContinuousModel, DiscreteSummary, VariableState};
 use pgm_core::param::InvalidParameter;
 use pgm_core::{FactorGraph, FactorId, Potentials, TableFactor, VariableId};
-use pgm_features::clustering::{distance_feature, inverse_neighbour_distance};
+use pgm_features::clustering::inverse_neighbour_distance;
 use pgm_features::{ClusterMotions, Pose2};
 
 /// Largest number of cluster states the model supports.
@@ -111,7 +111,21 @@ pub struct ClusteringModel {
     outlier_distance: Option<f64>,
     weights: Vec<f64>,
     motions: ClusterMotions,
+    /// Bumped whenever a motion changes: the moved points of `moved` are valid for the
+    /// version recorded next to them.
+    version: u64,
+    /// Each point moved by each cluster's motion (`clusters` per point), computed when
+    /// a table first needs them after the motions changed: once per point per sweep
+    /// instead of once per table.
+    moved: MovedPoints,
     graph: GraphRoles,
+}
+
+/// The lazily updated cache of moved points (see [`ClusteringModel`]).
+#[derive(Clone, Debug, Default)]
+struct MovedPoints {
+    points: std::cell::RefCell<Vec<Point2<f64>>>,
+    versions: std::cell::RefCell<Vec<u64>>,
 }
 
 impl ClusteringModel {
@@ -170,6 +184,11 @@ impl ClusteringModel {
             outlier_distance,
             weights: weights.to_vec(),
             motions: ClusterMotions::new(motions),
+            version: 1,
+            moved: MovedPoints {
+                points: std::cell::RefCell::new(vec![Point2::origin(); n * k]),
+                versions: std::cell::RefCell::new(vec![0; n]),
+            },
             graph: GraphRoles::default(),
         })
     }
@@ -212,8 +231,12 @@ impl ClusteringModel {
             return;
         };
         let inverse_variance = 1.0 / self.variances[i];
-        for (l, m) in self.motions.motions().iter().enumerate() {
-            let d = distance_feature(m, &self.points[i], g);
+        self.update_moved(i);
+        let k = self.clusters;
+        let moved = self.moved.points.borrow();
+        // Eq. (2): the point moved by each cluster's motion against its partner.
+        for (l, m) in moved[i * k..(i + 1) * k].iter().enumerate() {
+            let d = (m - g).norm_squared();
             sink.add(l, index::DISTANCE_SQUARED, d);
             sink.add(l, index::DISTANCE_NORMALISED, d * inverse_variance);
         }
@@ -235,39 +258,49 @@ impl ClusteringModel {
         let states = self.states();
         let k = self.clusters;
         let (si, sj) = (&self.points[edge.i], &self.points[edge.j]);
-        // Eq. (6) from the moved points, each moved once per cluster (no allocation).
-        let mut moved_i = [Point2::origin(); MAX_CLUSTERS];
-        let mut moved_j = [Point2::origin(); MAX_CLUSTERS];
-        for (l, m) in self.motions.motions().iter().enumerate() {
-            moved_i[l] = m.transform_point(si);
-            moved_j[l] = m.transform_point(sj);
-        }
+        self.update_moved(edge.i);
+        self.update_moved(edge.j);
+        let moved = self.moved.points.borrow();
+        // Eq. (6) from the moved points.
+        let moved_i = &moved[edge.i * k..(edge.i + 1) * k];
+        let moved_j = &moved[edge.j * k..(edge.j + 1) * k];
         let before = si - sj;
-        // Indices, not iterators: the outlier state (a or b = k) has no moved point.
-        #[allow(clippy::needless_range_loop)]
-        for a in 0..states {
-            for b in 0..states {
-                let entry = a * states + b;
-                let (neighbour, weighted, stiffness) = if a == b {
-                    (
-                        index::NEIGHBOUR_SAME,
-                        index::WEIGHTED_NEIGHBOUR_SAME,
-                        index::STIFFNESS_SAME,
-                    )
-                } else {
-                    (
-                        index::NEIGHBOUR_DIFFERENT,
-                        index::WEIGHTED_NEIGHBOUR_DIFFERENT,
-                        index::STIFFNESS_DIFFERENT,
-                    )
-                };
-                sink.add(entry, neighbour, 1.0);
-                sink.add(entry, weighted, edge.inverse_distance);
-                if a < k && b < k {
-                    let f = (before - (moved_i[a] - moved_j[b])).norm_squared();
-                    sink.add(entry, stiffness, f);
-                }
-            }
+        // Eqs. (4) and (5): same / different cluster, and the same over the distance.
+        sink.add_agreement(
+            states,
+            index::NEIGHBOUR_SAME,
+            index::NEIGHBOUR_DIFFERENT,
+            1.0,
+        );
+        sink.add_agreement(
+            states,
+            index::WEIGHTED_NEIGHBOUR_SAME,
+            index::WEIGHTED_NEIGHBOUR_DIFFERENT,
+            edge.inverse_distance,
+        );
+        // Eq. (6) between cluster states (the outlier state has no motion).
+        sink.add_agreement_with(
+            (k, k, states),
+            index::STIFFNESS_SAME,
+            index::STIFFNESS_DIFFERENT,
+            |a, b| (before - (moved_i[a] - moved_j[b])).norm_squared(),
+        );
+    }
+
+    /// Brings point `i`'s moved copies up to date with the current motions.
+    fn update_moved(&self, i: usize) {
+        let mut versions = self.moved.versions.borrow_mut();
+        if versions[i] == self.version {
+            return;
+        }
+        versions[i] = self.version;
+        let k = self.clusters;
+        let mut moved = self.moved.points.borrow_mut();
+        for (out, m) in moved[i * k..(i + 1) * k]
+            .iter_mut()
+            .zip(self.motions.motions())
+        {
+            *out = m.transform_point(&self.points[i]);
         }
     }
 
@@ -283,7 +316,12 @@ impl ClusteringModel {
 
     /// Re-solves every cluster's motion (eq. 3); returns the largest change.
     pub fn solve_motions(&mut self) -> f64 {
-        self.motions.solve()
+        let change = self.motions.solve();
+        // A motion that changed at all changes a translation or an angle (> 0).
+        if change != 0.0 {
+            self.version += 1;
+        }
+        change
     }
 
     /// The factor graph of the generic path: one table factor per point and per edge,

@@ -35,7 +35,7 @@ pub fn relabel_by_first_appearance(labels: &mut [usize]) -> usize {
 }
 
 fn residual(stats: &RigidAlignment) -> f64 {
-    stats.solve().map_or(0.0, |a| a.residual.max(0.0))
+    stats.residual().unwrap_or(0.0)
 }
 
 /// The initial cluster of every point: segments by `gap`, then capped at

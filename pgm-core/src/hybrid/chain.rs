@@ -97,6 +97,41 @@ use std::sync::Arc;
 pub trait FeatureSink {
     /// Adds `value` of feature `feature` to entry `entry`.
     fn add(&mut self, entry: usize, feature: usize, value: f64);
+
+    /// In a pairwise table over one label space (`states × states` entries), adds
+    /// `value` of feature `same` to the entries of equal states and of feature
+    /// `different` to the others (the shape of Potts-like features such as eqs. 4 and
+    /// 5 of CRF-Clustering). The same as calling [`FeatureSink::add`] per entry;
+    /// sinks may do it faster.
+    fn add_agreement(&mut self, states: usize, same: usize, different: usize, value: f64) {
+        for a in 0..states {
+            for b in 0..states {
+                self.add(a * states + b, if a == b { same } else { different }, value);
+            }
+        }
+    }
+
+    /// In a pairwise table with rows of `stride` entries, adds for every pair of
+    /// states `a < rows`, `b < columns` the value `value(a, b)` of feature `same` when
+    /// `a == b` and of feature `different` otherwise, to entry `a · stride + b` (the
+    /// shape of eq. 6 of CRF-Clustering, split by whether the clusters agree). The
+    /// same as calling [`FeatureSink::add`] per entry; sinks may do it faster.
+    fn add_agreement_with(
+        &mut self,
+        (rows, columns, stride): (usize, usize, usize),
+        same: usize,
+        different: usize,
+        mut value: impl FnMut(usize, usize) -> f64,
+    ) where
+        Self: Sized,
+    {
+        for a in 0..rows {
+            for b in 0..columns {
+                let feature = if a == b { same } else { different };
+                self.add(a * stride + b, feature, value(a, b));
+            }
+        }
+    }
 }
 
 /// A [`FeatureSink`] that accumulates log-potentials `w · f` into a table (inference).
@@ -118,6 +153,37 @@ impl FeatureSink for WeightedTable<'_> {
     #[inline]
     fn add(&mut self, entry: usize, feature: usize, value: f64) {
         self.table[entry] += self.weights[feature] * value;
+    }
+
+    #[inline]
+    fn add_agreement(&mut self, states: usize, same: usize, different: usize, value: f64) {
+        let (on, off) = (self.weights[same] * value, self.weights[different] * value);
+        for (a, row) in self.table[..states * states]
+            .chunks_exact_mut(states)
+            .enumerate()
+        {
+            for x in row.iter_mut() {
+                *x += off;
+            }
+            row[a] += on - off;
+        }
+    }
+
+    #[inline]
+    fn add_agreement_with(
+        &mut self,
+        (rows, columns, stride): (usize, usize, usize),
+        same: usize,
+        different: usize,
+        mut value: impl FnMut(usize, usize) -> f64,
+    ) {
+        let (on, off) = (self.weights[same], self.weights[different]);
+        for a in 0..rows {
+            let row = &mut self.table[a * stride..a * stride + columns];
+            for (b, x) in row.iter_mut().enumerate() {
+                *x += if a == b { on } else { off } * value(a, b);
+            }
+        }
     }
 }
 
