@@ -30,6 +30,8 @@ enum Command {
     Plot(cli::plot::PlotArgs),
     /// CRF-Clustering of one scan pair: JSON clusters and motions, optional SVG.
     Cluster(cli::cluster::ClusterArgs),
+    /// CRF-Matching of one scan pair: JSON associations and motion, optional SVG.
+    Match(cli::matching::MatchArgs),
     /// Learn model weights from labelled pairs (`pgm train clustering …`).
     Train(cli::train::TrainArgs),
     /// CRF-Clustering on the built-in simulator: summary table and an SVG.
@@ -46,6 +48,7 @@ fn main() -> ExitCode {
         Command::Sim(args) => cli::sim::run(args),
         Command::Plot(args) => cli::plot::run(args),
         Command::Cluster(args) => cli::cluster::run(args),
+        Command::Match(args) => cli::matching::run_match(args),
         Command::Train(args) => cli::train::run(args),
         Command::Demo(args) => cli::demo::run(args),
     };

@@ -16,6 +16,7 @@
 use pgm_baselines::consistency::ConsistencyParams;
 use pgm_baselines::motion_kmeans::MotionKMeansParams;
 use pgm_crf_clustering::{ClusteringParams, ClusteringWeights};
+use pgm_crf_matching::{MatchingParams, MatchingWeights};
 use pgm_features::association::{
     AssociationSource, GroundTruthAssociations, NearestParams, SegmentParams,
 };
@@ -66,9 +67,18 @@ pub struct MethodOptions {
     pub nearest: NearestParams,
     /// Segment-wise ICP (associations).
     pub segment: SegmentParams,
+    /// CRF-Matching (associations and scan matching).
+    pub matching: MatchingParams,
 }
 
 impl MethodOptions {
+    /// These options with the CRF-Matching weights and boosters loaded from `path` (a
+    /// file written by `pgm train matching`).
+    pub fn with_matching_weights(mut self, path: &std::path::Path) -> Result<Self, MethodError> {
+        self.matching.weights = MatchingWeights::load(path).map_err(invalid)?;
+        Ok(self)
+    }
+
     /// These options with the CRF-Clustering weights loaded from `path` (a file
     /// written by `pgm train clustering`).
     pub fn with_crf_weights(mut self, path: &std::path::Path) -> Result<Self, MethodError> {
@@ -89,6 +99,10 @@ pub const ASSOCIATION_SOURCES: &[(&str, &str)] = &[
         "segment-icp",
         "segment-wise ICP, then nearest neighbours under each segment's motion",
     ),
+    (
+        "crf-matching",
+        "CRF-Matching: learned association by a chain CRF over boosted shape features",
+    ),
 ];
 
 /// The association source named `name` (see [`ASSOCIATION_SOURCES`]).
@@ -100,6 +114,7 @@ pub fn association_source(
         "true" => Arc::new(GroundTruthAssociations),
         "icp" => Arc::new(options.nearest.check().map_err(invalid)?),
         "segment-icp" => Arc::new(options.segment.check().map_err(invalid)?),
+        "crf-matching" => Arc::new(options.matching.clone().check().map_err(invalid)?),
         _ => return Err(unknown("association source", name, ASSOCIATION_SOURCES)),
     })
 }
@@ -167,6 +182,10 @@ pub const SCAN_MATCHERS: &[(&str, &str)] = &[
         "the odometry prior (the identity without odometry)",
     ),
     ("icp", "point-to-point ICP from the odometry prior"),
+    (
+        "crf-matching",
+        "CRF-Matching: the ego-motion of its MAP associations",
+    ),
 ];
 
 /// The scan matcher named `name` (see [`SCAN_MATCHERS`]).
@@ -177,6 +196,7 @@ pub fn scan_matcher(
     Ok(match name {
         "odometry" => Box::new(Odometry),
         "icp" => Box::new(options.icp.check().map_err(invalid)?),
+        "crf-matching" => Box::new(options.matching.clone().check().map_err(invalid)?),
         _ => return Err(unknown("scan-matching method", name, SCAN_MATCHERS)),
     })
 }

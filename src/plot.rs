@@ -98,6 +98,10 @@ pub struct PairPicture<'a> {
     /// Region drawn, in the reference sensor frame: `[x_min, x_max, y_min, y_max]`
     /// metres. Default: all points, clipped to 60 m ahead and 30 m to either side.
     pub view: Option<[f64; 4]>,
+    /// Associations (one per current beam) drawn as lines from each aligned current
+    /// point to its reference partner, like Fig. 3 of the joint-model paper (outliers
+    /// get no line). Default: none.
+    pub associations: Option<&'a [Option<pgm_features::Association>]>,
 }
 
 impl<'a> PairPicture<'a> {
@@ -117,6 +121,7 @@ impl<'a> PairPicture<'a> {
             title: pair.name.clone(),
             width: 900,
             view: None,
+            associations: None,
         }
     }
 
@@ -137,6 +142,14 @@ impl<'a> PairPicture<'a> {
             .iter()
             .map(|p| self.alignment.transform_point(p))
             .collect();
+        if let Some(a) = self.associations {
+            if a.len() != current.len() {
+                return Err(PlotError::LabelCount {
+                    labels: a.len(),
+                    beams: current.len(),
+                });
+            }
+        }
         let label_of = |k: usize| self.labels.and_then(|l| l[k]);
 
         // Points of every moving cluster, in the current sensor frame, by label.
@@ -203,6 +216,25 @@ impl<'a> PairPicture<'a> {
             let screen = |p: &Point2<f64>| (-p.y, p.x);
             let inside = |p: &Point2<f64>| p.x >= x0 && p.x <= x1 && p.y >= y0 && p.y <= y1;
 
+            if let Some(associations) = self.associations {
+                let reference = &self.pair.reference;
+                let lines = aligned
+                    .iter()
+                    .zip(&current_beams)
+                    .filter_map(|(p, &k)| match associations[k] {
+                        Some(pgm_features::Association::Point(r))
+                            if r < reference.len() && reference.valid[r] =>
+                        {
+                            Some((*p, reference.beam_point(r)))
+                        }
+                        _ => None,
+                    })
+                    .filter(|(p, g)| inside(p) || inside(g))
+                    .map(|(p, g)| {
+                        PathElement::new(vec![screen(&p), screen(&g)], RGBColor(120, 170, 120))
+                    });
+                chart.draw_series(lines).map_err(drawing)?;
+            }
             chart
                 .draw_series(
                     reference_points

@@ -264,6 +264,31 @@ pub fn association_accuracy(
     Ok((scored > 0).then(|| hits as f64 / scored as f64))
 }
 
+/// Fraction of the beams with a ground-truth association whose predicted association
+/// is within `beams` reference beams of it (`beams = 0`: the same beam), or an outlier
+/// where the truth is one; `None` when no beam has a ground-truth association. A
+/// missing prediction counts as wrong.
+pub fn association_accuracy_within(
+    truth: &[Option<Association>],
+    predicted: &[Option<Association>],
+    beams: usize,
+) -> Result<Option<f64>> {
+    check_lengths("association accuracy", truth.len(), predicted.len())?;
+    let mut scored = 0usize;
+    let mut hits = 0usize;
+    for (t, p) in truth.iter().zip(predicted) {
+        if let Some(t) = t {
+            scored += 1;
+            hits += usize::from(match (t, p) {
+                (Association::Outlier, Some(Association::Outlier)) => true,
+                (Association::Point(a), Some(Association::Point(b))) => a.abs_diff(*b) <= beams,
+                _ => false,
+            });
+        }
+    }
+    Ok((scored > 0).then(|| hits as f64 / scored as f64))
+}
+
 /// String edit distance between association sequences over the beams with a
 /// ground-truth association (see the module docs).
 pub fn association_edit_distance(

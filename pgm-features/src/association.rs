@@ -444,6 +444,66 @@ fn centroid(points: &[Point2<f64>]) -> Point2<f64> {
 fn segment_icp(pair: &ScanPair, params: &SegmentParams) -> Result<PointAssociations> {
     let nearest = &params.nearest;
     let icp = Icp::new(&pair.reference, nearest.icp)?;
+    let SegmentMotions { ego, motion_of, .. } = segment_motions_with(pair, params, &icp)?;
+    let (points, beams) = pair.current.points();
+    let increment = pair.current.angle_increment();
+    let mut associations = vec![None; pair.current.len()];
+    for (i, (&beam, s)) in beams.iter().zip(&points).enumerate() {
+        let gate = nearest
+            .gate
+            .min(params.association_gate + 2.0 * pair.current.ranges[beam] * increment);
+        let mut choice: Option<(f64, usize)> = None;
+        for m in [ego, motion_of[i]] {
+            let q = m.transform_point(s);
+            if !pair.reference.sees(&q, nearest.occlusion_margin) {
+                continue;
+            }
+            if let Some((r, d2)) = icp.nearest_reference(&q, gate) {
+                if choice.is_none_or(|(b, _)| d2 < b) {
+                    choice = Some((d2, r));
+                }
+            }
+        }
+        associations[beam] = Some(match choice {
+            Some((_, r)) => Association::Point(r),
+            None => Association::Outlier,
+        });
+    }
+    Ok(PointAssociations {
+        associations,
+        ego_motion: Some(ego),
+    })
+}
+
+/// The motion hypotheses of segment-wise ICP (steps 1-3 of [`SegmentIcp`]): the
+/// ego-motion, and for every valid point of the current scan (in beam order) the
+/// motion of its gap segment (the ego-motion unless the segment moved).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SegmentMotions {
+    /// The ego-motion (ICP from the prior).
+    pub ego: Pose2,
+    /// The motion of each valid current point's segment.
+    pub motion_of: Vec<Pose2>,
+    /// The gap segment of each valid current point (indices from 0, beam order).
+    pub segment_of: Vec<usize>,
+    /// Whether each segment was aligned on its own (it moved).
+    pub moved: Vec<bool>,
+}
+
+/// [`SegmentMotions`] of `pair` with the parameters of segment-wise ICP. Errors name
+/// the pair.
+pub fn segment_motions(pair: &ScanPair, params: &SegmentIcp) -> Result<SegmentMotions> {
+    let icp =
+        Icp::new(&pair.reference, params.params.nearest.icp).map_err(|e| e.in_pair(&pair.name))?;
+    segment_motions_with(pair, &params.params, &icp).map_err(|e| e.in_pair(&pair.name))
+}
+
+fn segment_motions_with(
+    pair: &ScanPair,
+    params: &SegmentParams,
+    icp: &Icp,
+) -> Result<SegmentMotions> {
+    let nearest = &params.nearest;
     let ego = icp
         .align(&pair.current, pair.odometry.unwrap_or_default())?
         .motion;
@@ -471,7 +531,7 @@ fn segment_icp(pair: &ScanPair, params: &SegmentParams) -> Result<PointAssociati
         if members.len() < params.min_points {
             continue;
         }
-        let (ego_cost, ego_inliers) = fit(&icp, members, &ego, tau);
+        let (ego_cost, ego_inliers) = fit(icp, members, &ego, tau);
         if ego_inliers as f64 >= params.static_fraction * members.len() as f64 {
             continue;
         }
@@ -506,7 +566,7 @@ fn segment_icp(pair: &ScanPair, params: &SegmentParams) -> Result<PointAssociati
             let Ok(result) = segment_icp.align(&sub, guess) else {
                 continue;
             };
-            let (cost, inliers) = fit(&icp, members, &result.motion, tau);
+            let (cost, inliers) = fit(icp, members, &result.motion, tau);
             if best.is_none_or(|(b, _, _)| cost < b) {
                 best = Some((cost, inliers, result.motion));
             }
@@ -534,31 +594,17 @@ fn segment_icp(pair: &ScanPair, params: &SegmentParams) -> Result<PointAssociati
             }
         }
     }
-    let increment = pair.current.angle_increment();
-    let mut associations = vec![None; pair.current.len()];
-    for (i, (&beam, s)) in beams.iter().zip(&points).enumerate() {
-        let gate = nearest
-            .gate
-            .min(params.association_gate + 2.0 * pair.current.ranges[beam] * increment);
-        let mut choice: Option<(f64, usize)> = None;
-        for m in [ego, motion_of[i]] {
-            let q = m.transform_point(s);
-            if !pair.reference.sees(&q, nearest.occlusion_margin) {
-                continue;
-            }
-            if let Some((r, d2)) = icp.nearest_reference(&q, gate) {
-                if choice.is_none_or(|(b, _)| d2 < b) {
-                    choice = Some((d2, r));
-                }
-            }
+    let count = segments.last().map_or(0, |&x| x + 1);
+    let mut moved = vec![false; count];
+    for (i, m) in motion_of.iter().enumerate() {
+        if *m != ego {
+            moved[segments[i]] = true;
         }
-        associations[beam] = Some(match choice {
-            Some((_, r)) => Association::Point(r),
-            None => Association::Outlier,
-        });
     }
-    Ok(PointAssociations {
-        associations,
-        ego_motion: Some(ego),
+    Ok(SegmentMotions {
+        ego,
+        motion_of,
+        segment_of: segments,
+        moved,
     })
 }

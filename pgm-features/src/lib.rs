@@ -16,7 +16,10 @@
 //!   ([`registration`]).
 //! - Correspondences: the [`association`] sources (ground truth, nearest neighbour
 //!   after ICP, segment-wise ICP) behind one trait that CRF-Matching also implements.
-//! - The papers' feature functions ([`clustering`]).
+//! - The papers' feature functions: CRF-Clustering's ([`clustering`]) and
+//!   CRF-Matching's shape, translation and outlier features ([`matching`]), with the
+//!   AdaBoost booster over decision stumps that turns them into CRF features
+//!   ([`boosting`]).
 //! - The interfaces evaluation runs methods through ([`methods`]: [`ScanMatcher`],
 //!   [`MotionClusterer`]).
 //!
@@ -33,13 +36,15 @@
 //! assert!(stats.solve().unwrap().motion.translation_error(&truth) < 1e-12);
 //! ```
 //!
-//! **Current state.** Geometry, pairs, registration, association sources and the
-//! CRF-Clustering features are complete; CRF-Matching's features come with that model.
+//! **Current state.** Geometry, pairs, registration, association sources, and the
+//! features of CRF-Clustering and CRF-Matching are complete.
 
 pub mod alignment;
 pub mod association;
+pub mod boosting;
 pub mod clustering;
 mod error;
+pub mod matching;
 pub mod methods;
 pub mod motion_nodes;
 pub mod pair;

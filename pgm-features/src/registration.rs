@@ -305,6 +305,22 @@ impl Icp {
             .map(|(item, d2)| (self.reference_beams[item], d2))
     }
 
+    /// The `k` reference returns nearest to `p` (reference frame) within
+    /// `max_distance`, nearest first, into `out` as (beam index, squared distance).
+    pub fn k_nearest_references(
+        &self,
+        p: &Point2<f64>,
+        k: usize,
+        max_distance: f64,
+        out: &mut Vec<(usize, f64)>,
+    ) {
+        self.tree
+            .k_nearest_within([p.x, p.y], k, max_distance * max_distance, out);
+        for x in out.iter_mut() {
+            x.0 = self.reference_beams[x.0];
+        }
+    }
+
     /// The nearest reference return strictly closer than `sqrt(bound)`: the grid for
     /// small bounds, the k-d tree otherwise (both exact).
     #[inline]
@@ -533,6 +549,75 @@ impl NearestTree {
         let mut best = (usize::MAX, bound);
         self.search(0, self.points.len(), q, &mut best);
         (best.0 != usize::MAX).then(|| (self.items[best.0] as usize, best.1))
+    }
+
+    /// The `k` nearest points to `q` strictly closer than `sqrt(bound)`, nearest first,
+    /// into `out` as (item, squared distance).
+    fn k_nearest_within(&self, q: [f64; 2], k: usize, bound: f64, out: &mut Vec<(usize, f64)>) {
+        out.clear();
+        if k == 0 {
+            return;
+        }
+        self.search_k(0, self.points.len(), q, k, bound, out);
+        for x in out.iter_mut() {
+            x.0 = self.items[x.0] as usize;
+        }
+    }
+
+    /// Keeps `best` sorted by distance, at most `k` long, all strictly closer than
+    /// `sqrt(bound)` (indices into the tree order).
+    fn search_k(
+        &self,
+        lo: usize,
+        hi: usize,
+        q: [f64; 2],
+        k: usize,
+        bound: f64,
+        best: &mut Vec<(usize, f64)>,
+    ) {
+        let limit = |best: &Vec<(usize, f64)>| {
+            if best.len() == k {
+                best[k - 1].1
+            } else {
+                bound
+            }
+        };
+        let offer = |best: &mut Vec<(usize, f64)>, item: usize, d: f64| {
+            if d < limit(best) {
+                let at = best.partition_point(|x| x.1 <= d);
+                best.insert(at, (item, d));
+                best.truncate(k);
+            }
+        };
+        if hi - lo <= LEAF_SIZE {
+            for i in lo..hi {
+                let p = self.points[i];
+                offer(
+                    best,
+                    i,
+                    (p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]),
+                );
+            }
+            return;
+        }
+        let mid = lo + (hi - lo) / 2;
+        let p = self.points[mid];
+        offer(
+            best,
+            mid,
+            (p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]),
+        );
+        let axis = self.axes[mid] as usize;
+        let diff = q[axis] - p[axis];
+        let (near, far) = if diff < 0.0 {
+            ((lo, mid), (mid + 1, hi))
+        } else {
+            ((mid + 1, hi), (lo, mid))
+        };
+        self.search_k(near.0, near.1, q, k, bound, best);
+        if diff * diff < limit(best) {
+            self.search_k(far.0, far.1, q, k, bound, best);
+        }
     }
 
     fn search(&self, lo: usize, hi: usize, q: [f64; 2], best: &mut (usize, f64)) {
@@ -775,6 +860,37 @@ mod tests {
                     tree.nearest_within(q, bound).map(|x| x.1),
                     (brute < bound).then_some(brute)
                 );
+            }
+        }
+    }
+
+    #[test]
+    fn k_nearest_matches_brute_force() {
+        let mut state = 99u64;
+        let mut next = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((state >> 11) as f64 / (1u64 << 53) as f64) * 20.0 - 10.0
+        };
+        let points: Vec<[f64; 2]> = (0..300).map(|_| [next(), next()]).collect();
+        let tree = NearestTree::new(&points);
+        let mut out = Vec::new();
+        for k in [1usize, 4, 9] {
+            for _ in 0..50 {
+                let q = [next(), next()];
+                let mut brute: Vec<(usize, f64)> = points
+                    .iter()
+                    .enumerate()
+                    .map(|(i, p)| (i, (p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2)))
+                    .filter(|x| x.1 < 25.0)
+                    .collect();
+                brute.sort_by(|a, b| a.1.total_cmp(&b.1));
+                brute.truncate(k);
+                tree.k_nearest_within(q, k, 25.0, &mut out);
+                let d: Vec<f64> = out.iter().map(|x| x.1).collect();
+                let e: Vec<f64> = brute.iter().map(|x| x.1).collect();
+                assert_eq!(d, e);
             }
         }
     }

@@ -183,6 +183,44 @@ impl Scan {
         closest.is_finite().then_some(closest)
     }
 
+    /// The range (m) this scan measured towards the bearing of `q` (its frame),
+    /// interpolated linearly in angle between the two beams that bracket the bearing
+    /// (the nearer one alone when the other has no return); `None` outside the field
+    /// of view or without a return on either bracketing beam. Unlike
+    /// [`Scan::nearest_return`] (the smallest of three ranges) it follows a surface
+    /// seen at a grazing angle, whose ranges change fast from beam to beam.
+    pub fn range_towards(&self, q: &Point2<f64>) -> Option<f64> {
+        let bearing = q.y.atan2(q.x);
+        let k = self.beam_near_bearing(bearing)?;
+        let m = self.len();
+        // The neighbour on the other side of the bearing (angles compared modulo 2π).
+        let offset = wrap(bearing - self.angles[k]);
+        let step = if m > 1 {
+            self.angles[m - 1] - self.angles[0]
+        } else {
+            0.0
+        };
+        let other = if (offset >= 0.0) == (step >= 0.0) {
+            (k + 1 < m).then_some(k + 1)
+        } else {
+            k.checked_sub(1)
+        };
+        match other {
+            Some(o) if self.valid[k] && self.valid[o] => {
+                let span = wrap(self.angles[o] - self.angles[k]);
+                let t = if span != 0.0 {
+                    (offset / span).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                Some(self.ranges[k] + t * (self.ranges[o] - self.ranges[k]))
+            }
+            _ if self.valid[k] => Some(self.ranges[k]),
+            Some(o) if self.valid[o] => Some(self.ranges[o]),
+            _ => None,
+        }
+    }
+
     /// Whether this scan can have seen the point `q` (its frame): inside the field of
     /// view, some return among the beams next to its bearing ([`Scan::nearest_return`]),
     /// and not more than `margin` (m) behind the nearest of them (an occluded surface
@@ -252,6 +290,11 @@ impl Scan {
         }
         Ok(())
     }
+}
+
+/// `a` wrapped into `(−π, π]`.
+fn wrap(a: f64) -> f64 {
+    crate::pose::wrap_angle(a)
 }
 
 /// The median of `|θ_{k+1} − θ_k|` over consecutive `angles` (rad), 0 for fewer than
@@ -363,6 +406,23 @@ mod tests {
         assert_eq!(a.nearest_return(&Point2::new(-1.0, 0.0)), None);
         assert!((a.angle_increment() - 0.02).abs() < 1e-12);
         assert!((b.angle_increment() - 0.02).abs() < 1e-12);
+    }
+
+    #[test]
+    fn range_towards_interpolates_in_any_order() {
+        let n = 11;
+        let inc: Vec<f64> = (0..n).map(|k| -0.5 + 0.1 * k as f64).collect();
+        let ranges: Vec<f64> = (0..n).map(|k| 4.0 + 0.2 * k as f64).collect();
+        let a = scan(inc.clone(), ranges.clone());
+        let b = scan(
+            inc.iter().rev().copied().collect(),
+            ranges.iter().rev().copied().collect(),
+        );
+        // Halfway between beams 5 (0.0 rad, 5.0 m) and 6 (0.1 rad, 5.2 m).
+        let q = Point2::new(0.05f64.cos(), 0.05f64.sin());
+        assert!((a.range_towards(&q).unwrap() - 5.1).abs() < 1e-9);
+        assert!((b.range_towards(&q).unwrap() - 5.1).abs() < 1e-9);
+        assert_eq!(a.range_towards(&Point2::new(-1.0, 0.0)), None);
     }
 
     #[test]

@@ -77,6 +77,10 @@ pub struct CrfArgs {
     /// bound of its range-dependent gate).
     #[arg(long, default_value_t = MethodOptions::default().nearest.gate)]
     pub gate: f64,
+    /// CRF-Matching associations: weights and boosters written by `pgm train
+    /// matching` (default: the shipped ones).
+    #[arg(long)]
+    pub matching_weights: Option<PathBuf>,
 }
 
 impl CrfArgs {
@@ -85,6 +89,11 @@ impl CrfArgs {
         let mut o = MethodOptions::default();
         if let Some(path) = &self.weights {
             o = o.with_crf_weights(path).map_err(CliError::from_display)?;
+        }
+        if let Some(path) = &self.matching_weights {
+            o = o
+                .with_matching_weights(path)
+                .map_err(CliError::from_display)?;
         }
         o.crf.max_clusters = self.max_clusters;
         o.crf.knn = self.knn;
@@ -103,9 +112,10 @@ impl CrfArgs {
     }
 }
 
-/// `pgm cluster`.
-#[derive(Args, Debug)]
-pub struct ClusterArgs {
+/// One scan pair, from a stored data set or two scans of a log (`pgm cluster`,
+/// `pgm match`).
+#[derive(Args, Debug, Clone)]
+pub struct OnePairArgs {
     /// Stored data set (directory, index.json or pair file).
     #[arg(long, conflicts_with_all = ["scans", "carmen"])]
     pub pairs: Option<PathBuf>,
@@ -129,6 +139,14 @@ pub struct ClusterArgs {
     /// Index of the current scan in the log (as `--reference`).
     #[arg(long)]
     pub current: Option<usize>,
+}
+
+/// `pgm cluster`.
+#[derive(Args, Debug)]
+pub struct ClusterArgs {
+    /// The pair.
+    #[command(flatten)]
+    pub source: OnePairArgs,
     /// Point associations (default: true when the pair has them, else icp).
     #[arg(long, value_parser = association_names())]
     pub associations: Option<String>,
@@ -140,8 +158,15 @@ pub struct ClusterArgs {
     pub svg: Option<PathBuf>,
 }
 
+impl OnePairArgs {
+    /// Loads the pair named by the arguments.
+    pub fn load(&self) -> Result<ScanPair, CliError> {
+        load_pair(self)
+    }
+}
+
 /// Loads the pair named by the arguments.
-fn load_pair(args: &ClusterArgs) -> Result<ScanPair, CliError> {
+fn load_pair(args: &OnePairArgs) -> Result<ScanPair, CliError> {
     if let Some(path) = &args.pairs {
         let pairs = pgm_datasets::read_pairs(path).map_err(CliError::from_display)?;
         let found = pairs
@@ -245,7 +270,7 @@ pub fn draw(
 
 /// Runs `pgm cluster`.
 pub fn run(args: ClusterArgs) -> CliResult {
-    let pair = load_pair(&args)?;
+    let pair = args.source.load()?;
     let options = args.crf.options()?;
     let clusterer = options
         .crf

@@ -52,6 +52,8 @@ pub enum EvalCommand {
     Matching(MatchingArgs),
     /// Motion clustering: homogeneity, completeness and V-measure against the labels.
     Clustering(super::eval_clustering::ClusteringEvalArgs),
+    /// Point association: accuracy, edit distance and outliers against the truth.
+    Association(super::matching::AssociationEvalArgs),
 }
 
 /// `pgm eval matching`.
@@ -90,6 +92,9 @@ pub struct MatchingArgs {
     /// ICP: fewest matched returns for a rigid fit (fewer: the prior is kept).
     #[arg(long, default_value_t = IcpParams::default().min_correspondences)]
     pub icp_min_correspondences: usize,
+    /// CRF-Matching: weights and boosters written by `pgm train matching`.
+    #[arg(long)]
+    pub matching_weights: Option<PathBuf>,
     /// Print one JSON object.
     #[arg(long)]
     pub json: bool,
@@ -100,6 +105,7 @@ pub fn run(args: EvalArgs) -> CliResult {
     match args.command {
         EvalCommand::Matching(a) => run_matching(a),
         EvalCommand::Clustering(a) => super::eval_clustering::run(a),
+        EvalCommand::Association(a) => super::matching::run_eval_association(a),
     }
 }
 
@@ -127,7 +133,7 @@ fn run_matching(args: MatchingArgs) -> CliResult {
     if pairs.iter().any(|p| p.odometry.is_none()) {
         eprintln!("note: pairs without an odometry prior start from the identity");
     }
-    let options = MethodOptions {
+    let mut options = MethodOptions {
         icp: IcpParams {
             initial_max_distance: args.icp_initial_distance,
             final_max_distance: args.icp_final_distance,
@@ -140,6 +146,11 @@ fn run_matching(args: MatchingArgs) -> CliResult {
         },
         ..MethodOptions::default()
     };
+    if let Some(path) = &args.matching_weights {
+        options = options
+            .with_matching_weights(path)
+            .map_err(CliError::from_display)?;
+    }
     let matcher = scan_matcher(&args.method, &options).map_err(CliError::from_display)?;
     let near = matches!(loaded.kind, SourceKind::Relations | SourceKind::Stored)
         .then_some(args.near_seconds);

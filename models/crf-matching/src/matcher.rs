@@ -1,0 +1,325 @@
+//! CRF-Matching of one scan pair, end to end.
+//!
+//! 1. **Motion hypotheses.** The ego-motion starts from the pair's odometry prior (the
+//!    identity without one), refined by ICP; segment-wise ICP
+//!    ([`pgm_features::association::segment_motions`]) proposes a motion for every gap
+//!    segment of the current scan that does not follow the ego-motion and that free
+//!    space shows moved. Each such segment is a motion group of its own (see
+//!    [`crate::model`]).
+//! 2. **Rounds.** Candidates are chosen under the current motions
+//!    ([`StateSpace`]); the chain CRF runs on the core's hybrid chain solver
+//!    ([`pgm_core::hybrid::chain`]), re-solving every group's motion (eq. 6) after
+//!    every sweep or every visit ([`ChainUpdate`]) from the current MAP associations,
+//!    with the motion-dependent features refreshed; then candidates are chosen again
+//!    under the new motions, until they no longer change
+//!    ([`MatchingParams::max_rounds`]).
+//! 3. **Output.** Every current return's MAP association (a reference beam or
+//!    outlier) with its max-marginal confidence, the ego-motion (group 0) and every
+//!    group's motion.
+
+use crate::model::{MatchingModel, MatchingProblem, StateSpace};
+use crate::weights::MatchingWeights;
+use crate::{Error, Result};
+use pgm_core::hybrid::chain::{ChainUpdate, HybridChainParams};
+use pgm_core::param::{InvalidParameter, ParamGuard};
+use pgm_features::association::{segment_motions, AssociationSource, SegmentIcp, SegmentParams};
+use pgm_features::methods::{EgoMotionEstimate, ScanMatcher};
+use pgm_features::{Association, PointAssociations, Pose2, ScanPair};
+use serde::Serialize;
+
+/// Parameters of CRF-Matching, unchecked; [`ParamGuard::check`] makes a [`Matcher`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct MatchingParams {
+    /// The states of a node (default: the 6 nearest candidates and the outlier state;
+    /// see the README for the measurement behind the default).
+    pub state_space: StateSpace,
+    /// Candidates lie within this many metres, plus three beam spacings, of the point
+    /// moved by its motion estimate (pruned state space; 1).
+    pub candidate_gate: f64,
+    /// Largest reference index step `|j' − j − 1|` between consecutive candidates for
+    /// which the pairwise geometric features are evaluated (8).
+    pub band: usize,
+    /// Largest number of sweeps of one round (30).
+    pub max_sweeps: usize,
+    /// Motions count as converged when no parameter changes by more than this
+    /// (1e-4: 0.1 mm, 0.1 mrad).
+    pub tolerance: f64,
+    /// When the motions are re-solved (every sweep, default, or every visit).
+    pub update: ChainUpdate,
+    /// Largest number of rounds (candidates chosen again under the new motions; 5).
+    /// A round ends the run when no motion moved by more than
+    /// [`ROUND_TOLERANCE`] since its candidates were chosen.
+    pub max_rounds: usize,
+    /// Whether moving segments get motion groups of their own (true; false: one
+    /// motion, the ego-motion, as the paper's CRF-Matching).
+    pub segment_motions: bool,
+    /// In the first round, the points of a moving segment also get this many
+    /// candidates found by shape within the segment search radius (6; 0: none).
+    pub shape_candidates: usize,
+    /// Segment-wise ICP for the ego-motion and the motion hypotheses.
+    pub segments: SegmentParams,
+    /// The learned weights and boosters (default: the shipped ones).
+    pub weights: MatchingWeights,
+}
+
+impl Default for MatchingParams {
+    fn default() -> Self {
+        Self {
+            state_space: StateSpace::Pruned(6),
+            candidate_gate: 1.0,
+            band: 8,
+            max_sweeps: 30,
+            tolerance: 1e-4,
+            update: ChainUpdate::EverySweep,
+            max_rounds: 5,
+            segment_motions: true,
+            shape_candidates: 6,
+            segments: SegmentParams::default(),
+            weights: MatchingWeights::default(),
+        }
+    }
+}
+
+impl ParamGuard for MatchingParams {
+    type Checked = Matcher;
+    type Error = Error;
+
+    fn check_ref(&self) -> Result<()> {
+        if let StateSpace::Pruned(k) = self.state_space {
+            if !(1..=64).contains(&k) {
+                return Err(InvalidParameter::new("candidates", k, "1..=64 candidates").into());
+            }
+        }
+        InvalidParameter::non_negative(
+            "candidate_gate",
+            self.candidate_gate,
+            "a number of metres >= 0",
+        )?;
+        if self.max_sweeps == 0 || self.max_rounds == 0 {
+            return Err(InvalidParameter::new(
+                "max_sweeps / max_rounds",
+                (self.max_sweeps, self.max_rounds),
+                "at least 1 each",
+            )
+            .into());
+        }
+        InvalidParameter::non_negative("tolerance", self.tolerance, "a number >= 0")?;
+        self.segments.check_ref()?;
+        self.weights.check_ref()
+    }
+
+    fn check(self) -> Result<Matcher> {
+        self.check_ref()?;
+        let segment_icp = self.segments.check()?;
+        Ok(Matcher {
+            params: self,
+            segment_icp,
+        })
+    }
+}
+
+/// A run of rounds stops when no group's motion moved by more than this since the
+/// round's candidates were chosen (m and rad; 1 cm, 5 mrad): candidates chosen under
+/// the new motions would hardly differ.
+pub const ROUND_TOLERANCE: (f64, f64) = (0.01, 0.005);
+
+/// CRF-Matching with checked parameters.
+#[derive(Clone, Debug)]
+pub struct Matcher {
+    params: MatchingParams,
+    segment_icp: SegmentIcp,
+}
+
+impl Default for Matcher {
+    fn default() -> Self {
+        MatchingParams::default().check_unwrap()
+    }
+}
+
+/// The result of CRF-Matching on one pair.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Matching {
+    /// Per beam of the current scan: the MAP association (a reference beam or
+    /// outlier), `None` for beams without a return.
+    pub associations: Vec<Option<Association>>,
+    /// Per beam of the current scan: the normalised max-marginal of the MAP state
+    /// (the association's confidence, in (0, 1]); `None` without a return.
+    pub confidence: Vec<Option<f64>>,
+    /// The ego-motion (the motion of group 0): maps current points onto the reference
+    /// scan.
+    pub motion: Pose2,
+    /// Every motion group's motion, group 0 first.
+    pub group_motions: Vec<Pose2>,
+    /// Sweeps over all rounds.
+    pub sweeps: usize,
+    /// Rounds run.
+    pub rounds: usize,
+    /// Whether the last round converged.
+    pub converged: bool,
+}
+
+impl Matcher {
+    /// The parameters.
+    pub fn params(&self) -> &MatchingParams {
+        &self.params
+    }
+
+    /// Matches the current scan of `pair` to its reference scan (see the module docs).
+    /// Errors name the pair.
+    pub fn match_pair(&self, pair: &ScanPair) -> Result<Matching> {
+        let p = &self.params;
+        let problem = MatchingProblem::new(pair, &p.weights)?;
+        let n = problem.len();
+        let beams = pair.current.len();
+        if n == 0 {
+            return Ok(Matching {
+                associations: vec![None; beams],
+                confidence: vec![None; beams],
+                motion: pair.odometry.unwrap_or_default(),
+                group_motions: vec![pair.odometry.unwrap_or_default()],
+                sweeps: 0,
+                rounds: 0,
+                converged: true,
+            });
+        }
+        // Motion groups: 0 for the ego-motion, one per moved segment.
+        let hypotheses = segment_motions(pair, &self.segment_icp)?;
+        let mut motions = vec![hypotheses.ego];
+        let mut group_of = vec![0usize; n];
+        if p.segment_motions {
+            let mut group_of_segment = vec![None; hypotheses.moved.len()];
+            for (i, group) in group_of.iter_mut().enumerate() {
+                let s = hypotheses.segment_of[i];
+                if hypotheses.moved[s] {
+                    let g = *group_of_segment[s].get_or_insert_with(|| {
+                        motions.push(hypotheses.motion_of[i]);
+                        motions.len() - 1
+                    });
+                    *group = g;
+                }
+            }
+        }
+        let solver = HybridChainParams::default()
+            .max_sweeps(p.max_sweeps)
+            .tolerance(p.tolerance)
+            .update(p.update)
+            .check()?;
+        // MAP reference index of every node (None: outlier) carried between rounds.
+        let mut chosen: Vec<Option<usize>> = vec![None; n];
+        let mut sweeps = 0;
+        let mut rounds = 0;
+        let (mut labels, mut max_marginals, mut converged);
+        let mut model;
+        loop {
+            rounds += 1;
+            let chosen_under = motions.clone();
+            // The first round also searches moving segments' partners by shape.
+            let shape = (rounds == 1 && p.shape_candidates > 0)
+                .then_some((p.segments.search_radius, p.shape_candidates));
+            let candidates =
+                problem.candidates(p.state_space, &group_of, &motions, p.candidate_gate, shape);
+            model = MatchingModel::new(
+                &problem,
+                candidates,
+                group_of.clone(),
+                motions.clone(),
+                &p.weights.weights,
+                p.band,
+            );
+            let initial: Vec<usize> = (0..n)
+                .map(|i| {
+                    let keep = chosen[i].and_then(|j| model.state_of(i, j));
+                    keep.unwrap_or_else(|| nearest_state(&problem, &model, i, &motions, &group_of))
+                })
+                .collect();
+            let result = solver.run(&mut model, &[initial])?;
+            sweeps += result.sweeps;
+            converged = result.converged;
+            labels = result.labels[0].clone();
+            max_marginals = (0..n)
+                .map(|i| result.max_marginal(0, i)[labels[i]])
+                .collect::<Vec<f64>>();
+            motions = model.motions().to_vec();
+            for (i, &l) in labels.iter().enumerate() {
+                chosen[i] = model.candidates()[i].get(l).copied();
+            }
+            let settled = chosen_under.iter().zip(&motions).all(|(a, b)| {
+                a.translation_error(b) <= ROUND_TOLERANCE.0
+                    && a.rotation_error(b) <= ROUND_TOLERANCE.1
+            });
+            if settled || rounds >= p.max_rounds || matches!(p.state_space, StateSpace::Full) {
+                break;
+            }
+        }
+        let mut associations = vec![None; beams];
+        let mut confidence = vec![None; beams];
+        for i in 0..n {
+            let beam = problem.current.beams[i];
+            associations[beam] = Some(match chosen[i] {
+                Some(j) => Association::Point(problem.reference.beams[j]),
+                None => Association::Outlier,
+            });
+            confidence[beam] = Some(max_marginals[i]);
+        }
+        Ok(Matching {
+            associations,
+            confidence,
+            motion: motions[0],
+            group_motions: motions,
+            sweeps,
+            rounds,
+            converged,
+        })
+    }
+}
+
+/// The state of node `i` whose candidate lies nearest to the point under its group's
+/// motion (the outlier state without candidates).
+fn nearest_state(
+    problem: &MatchingProblem,
+    model: &MatchingModel<'_>,
+    i: usize,
+    motions: &[Pose2],
+    group_of: &[usize],
+) -> usize {
+    let q = motions[group_of[i]].transform_point(&problem.current.points[i]);
+    model.candidates()[i]
+        .iter()
+        .enumerate()
+        .min_by(|a, b| {
+            let da = (problem.reference.points[*a.1] - q).norm_squared();
+            let db = (problem.reference.points[*b.1] - q).norm_squared();
+            da.total_cmp(&db)
+        })
+        .map_or(model.candidates()[i].len(), |(k, _)| k)
+}
+
+impl AssociationSource for Matcher {
+    fn name(&self) -> &str {
+        "crf-matching"
+    }
+
+    fn associate(&self, pair: &ScanPair) -> pgm_features::Result<PointAssociations> {
+        let m = self.match_pair(pair)?;
+        Ok(PointAssociations {
+            associations: m.associations,
+            ego_motion: Some(m.motion),
+        })
+    }
+}
+
+impl ScanMatcher for Matcher {
+    fn name(&self) -> &str {
+        "crf-matching"
+    }
+
+    fn estimate(&self, pair: &ScanPair) -> pgm_features::Result<EgoMotionEstimate> {
+        let m = self.match_pair(pair)?;
+        Ok(EgoMotionEstimate {
+            motion: m.motion,
+            converged: m.converged,
+            iterations: m.sweeps,
+            note: (!m.converged).then(|| "sweep limit".to_string()),
+        })
+    }
+}

@@ -1,0 +1,234 @@
+//! The model's named weights (the paper's 18), its two boosters, and the shipped
+//! defaults.
+//!
+//! | template | weights | feature (of states `a` at point `i`, `b` at point `i + 1`) |
+//! |---|---|---|
+//! | `data_boosting` | `score` | the data booster's margin `F_d(i, j)` on candidate states `j` |
+//! | `outlier_boosting` | `score`, `bias` | the outlier booster's margin `F_o(i)`, and 1, on the outlier state |
+//! | `registered_translation` | `squared`, `normalised` | `‖M s_i − g_j‖²` (m²) and the same over the association variance `σ_i²` |
+//! | `sequence` | `same`, `next`, `skip`, `back`, `near`, `far` | inlier → inlier transitions by the reference index step `j' − j`: 0, 1, 2, −1, another step within the band, outside the band |
+//! | `pairwise_outlier` | `leave`, `enter`, `stay` | inlier → outlier, outlier → inlier, outlier → outlier |
+//! | `pairwise_distance` | `squared`, `normalised` | `(‖g_j' − g_j‖ − ‖s_{i+1} − s_i‖)²` within the band, and over `σ_i² + σ_{i+1}²` |
+//! | `pairwise_translation` | `squared`, `normalised` | `‖(g_j' − g_j) − R(s_{i+1} − s_i)‖²` within the band, and over `σ_i² + σ_{i+1}²` |
+//!
+//! The default weights and boosters (`weights/default.json`, compiled in with
+//! `include_str!`) were learned from simulated pairs; the command that produced them
+//! is in the crate's README section of the workspace README.
+
+use crate::{Error, Result};
+use pgm_core::learning::{FeatureSet, Weights};
+use pgm_core::param::InvalidParameter;
+use pgm_features::boosting::Booster;
+use pgm_features::matching::{ASSOCIATION_FEATURES, OUTLIER_FEATURES};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+use std::sync::Arc;
+
+/// Name of the model in weight files.
+pub const MODEL_NAME: &str = "crf-matching";
+/// Version of the feature set (bump when features change meaning).
+pub const MODEL_VERSION: u32 = 1;
+/// The default weights and boosters as JSON (`weights/default.json`).
+pub const DEFAULT_WEIGHTS_JSON: &str = include_str!("../weights/default.json");
+
+/// Index of each weight in the weight vector of [`feature_set`].
+pub(crate) mod index {
+    pub const DATA_SCORE: usize = 0;
+    pub const OUTLIER_SCORE: usize = 1;
+    pub const OUTLIER_BIAS: usize = 2;
+    pub const REGISTERED_SQUARED: usize = 3;
+    pub const REGISTERED_NORMALISED: usize = 4;
+    pub const SEQUENCE_SAME: usize = 5;
+    pub const SEQUENCE_NEXT: usize = 6;
+    pub const SEQUENCE_SKIP: usize = 7;
+    pub const SEQUENCE_BACK: usize = 8;
+    pub const SEQUENCE_NEAR: usize = 9;
+    pub const SEQUENCE_FAR: usize = 10;
+    pub const OUTLIER_LEAVE: usize = 11;
+    pub const OUTLIER_ENTER: usize = 12;
+    pub const OUTLIER_STAY: usize = 13;
+    pub const DISTANCE_SQUARED: usize = 14;
+    pub const DISTANCE_NORMALISED: usize = 15;
+    pub const TRANSLATION_SQUARED: usize = 16;
+    pub const TRANSLATION_NORMALISED: usize = 17;
+}
+
+/// Number of weights.
+pub const WEIGHTS: usize = 18;
+
+/// The 18 named weights of CRF-Matching (see the module table).
+pub fn feature_set() -> Arc<FeatureSet> {
+    let mut f = FeatureSet::new(MODEL_NAME, MODEL_VERSION);
+    for (name, features) in [
+        ("data_boosting", &["score"][..]),
+        ("outlier_boosting", &["score", "bias"][..]),
+        ("registered_translation", &["squared", "normalised"][..]),
+        (
+            "sequence",
+            &["same", "next", "skip", "back", "near", "far"][..],
+        ),
+        ("pairwise_outlier", &["leave", "enter", "stay"][..]),
+        ("pairwise_distance", &["squared", "normalised"][..]),
+        ("pairwise_translation", &["squared", "normalised"][..]),
+    ] {
+        f.add_template(name, features)
+            .expect("fixed template names are valid");
+    }
+    Arc::new(f)
+}
+
+/// The learned parameters of CRF-Matching: the log-linear weights and the two
+/// boosters that make its local features.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MatchingWeights {
+    /// The 18 weights in [`feature_set`] order.
+    pub weights: Vec<f64>,
+    /// The data booster (reads [`ASSOCIATION_FEATURES`] values).
+    pub data: Booster,
+    /// The outlier booster (reads [`OUTLIER_FEATURES`] values).
+    pub outlier: Booster,
+}
+
+/// The on-disk form: the named weights (the core's weight format) and the boosters.
+#[derive(Serialize, Deserialize)]
+struct WeightFile {
+    model: String,
+    version: u32,
+    weights: serde_json::Value,
+    data_booster: Booster,
+    outlier_booster: Booster,
+}
+
+impl MatchingWeights {
+    /// Checks the sizes: 18 finite weights, boosters over the right feature counts
+    /// with finite stumps.
+    pub fn check_ref(&self) -> Result<()> {
+        if self.weights.len() != WEIGHTS || !self.weights.iter().all(|w| w.is_finite()) {
+            return Err(InvalidParameter::new(
+                "weights",
+                format!("{} weights", self.weights.len()),
+                "18 finite weights",
+            )
+            .into());
+        }
+        for (name, booster, features) in [
+            ("data booster", &self.data, ASSOCIATION_FEATURES),
+            ("outlier booster", &self.outlier, OUTLIER_FEATURES),
+        ] {
+            if booster.features != features
+                || booster
+                    .stumps
+                    .iter()
+                    .any(|s| s.feature >= features || !s.alpha.is_finite() || s.threshold.is_nan())
+            {
+                return Err(InvalidParameter::new(
+                    name,
+                    format!(
+                        "{} features, {} stumps",
+                        booster.features,
+                        booster.stumps.len()
+                    ),
+                    "a booster over the model's features with finite stumps",
+                )
+                .into());
+            }
+        }
+        Ok(())
+    }
+
+    /// The weights as named [`Weights`].
+    pub fn named(&self) -> Result<Weights> {
+        Ok(Weights::new(feature_set(), self.weights.clone())?)
+    }
+
+    /// Parses the JSON written by [`MatchingWeights::to_json`]; `origin` names the
+    /// source in errors.
+    pub fn from_json(json: &str, origin: &str) -> Result<Self> {
+        let file: WeightFile = serde_json::from_str(json).map_err(|e| Error::BadPair {
+            pair: origin.to_string(),
+            problem: format!("not a CRF-Matching weight file: {e}"),
+        })?;
+        let named = serde_json::json!({
+            "model": file.model,
+            "version": file.version,
+            "weights": file.weights,
+        });
+        let w = Weights::from_json(feature_set(), &named.to_string())?;
+        let weights = Self {
+            weights: w.values().to_vec(),
+            data: file.data_booster,
+            outlier: file.outlier_booster,
+        };
+        weights.check_ref()?;
+        Ok(weights)
+    }
+
+    /// The JSON form (named weights and the boosters' stumps).
+    pub fn to_json(&self) -> Result<String> {
+        let named: serde_json::Value =
+            serde_json::from_str(&self.named()?.to_json()).map_err(|e| Error::BadPair {
+                pair: "weights".into(),
+                problem: e.to_string(),
+            })?;
+        let file = WeightFile {
+            model: MODEL_NAME.into(),
+            version: MODEL_VERSION,
+            weights: named["weights"].clone(),
+            data_booster: self.data.clone(),
+            outlier_booster: self.outlier.clone(),
+        };
+        serde_json::to_string_pretty(&file).map_err(|e| Error::BadPair {
+            pair: "weights".into(),
+            problem: e.to_string(),
+        })
+    }
+
+    /// Loads weights written by `pgm train matching`.
+    pub fn load(path: impl AsRef<Path>) -> Result<Self> {
+        let path = path.as_ref();
+        let text = std::fs::read_to_string(path).map_err(|e| Error::BadPair {
+            pair: path.display().to_string(),
+            problem: e.to_string(),
+        })?;
+        Self::from_json(&text, &path.display().to_string())
+    }
+
+    /// Writes the weights atomically (a temporary sibling, then a rename).
+    pub fn save(&self, path: impl AsRef<Path>) -> Result<()> {
+        let path = path.as_ref();
+        let json = self.to_json()?;
+        let tmp = path.with_extension("json.tmp");
+        std::fs::write(&tmp, json)
+            .and_then(|()| std::fs::rename(&tmp, path))
+            .map_err(|e| Error::BadPair {
+                pair: path.display().to_string(),
+                problem: e.to_string(),
+            })
+    }
+
+    /// All-zero weights and boosters without stumps (scores 0): the starting point of
+    /// training, not a usable model.
+    pub fn untrained() -> Self {
+        let empty = |features| Booster {
+            features,
+            stumps: Vec::new(),
+        };
+        Self {
+            weights: vec![0.0; WEIGHTS],
+            data: empty(ASSOCIATION_FEATURES),
+            outlier: empty(OUTLIER_FEATURES),
+        }
+    }
+
+    /// The shipped default weights.
+    pub fn default_weights() -> Self {
+        Self::from_json(DEFAULT_WEIGHTS_JSON, "the shipped default weights")
+            .expect("the shipped default weights are valid (checked by a test)")
+    }
+}
+
+impl Default for MatchingWeights {
+    fn default() -> Self {
+        Self::default_weights()
+    }
+}
