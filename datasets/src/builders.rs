@@ -372,9 +372,23 @@ pub fn leigh_pairs(
     } else {
         None
     };
+    if let (Some(first), Some(last)) = (scans.scans.first(), scans.scans.last()) {
+        let span = last.index.saturating_sub(first.index);
+        if options.k > span {
+            return Err(Error::Mismatch {
+                what: format!(
+                    "k = {}: no two scans of the log are that far apart (scan indices {}..={}, \
+                     lines {} and {})",
+                    options.k, first.index, last.index, first.line, last.line
+                ),
+            });
+        }
+    }
     let mut pairs = Vec::new();
     for (&i, people_i) in &by_scan {
-        let j = i + options.k;
+        let Some(j) = i.checked_add(options.k) else {
+            continue;
+        };
         let Some(people_j) = by_scan.get(&j) else {
             continue;
         };

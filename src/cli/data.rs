@@ -63,6 +63,40 @@ pub struct SourceArgs {
     /// leigh-gtm1 odometry per scan (`ODOM idx stamp x y theta`).
     #[arg(long, requires = "scans")]
     pub odometry: Option<PathBuf>,
+    /// CARMEN FLASER lines: field of view of the laser in degrees (overrides the log's
+    /// PARAM lines and CARMEN's rule for the beam count).
+    #[arg(long)]
+    pub laser_fov: Option<f64>,
+    /// CARMEN FLASER lines: angle between beams in degrees (overrides the log's PARAM
+    /// lines and CARMEN's rule for the beam count).
+    #[arg(long)]
+    pub laser_resolution: Option<f64>,
+    /// CARMEN FLASER lines: angle of the first beam in degrees (default -90, CARMEN's).
+    #[arg(long, allow_negative_numbers = true)]
+    pub laser_start: Option<f64>,
+}
+
+impl SourceArgs {
+    /// The CARMEN reader options these arguments ask for.
+    pub fn carmen_options(&self) -> carmen::CarmenOptions {
+        carmen::CarmenOptions {
+            front_laser_fov: self.laser_fov,
+            front_laser_resolution: self.laser_resolution,
+            front_laser_start: self.laser_start,
+            ..Default::default()
+        }
+    }
+}
+
+/// Reads a CARMEN log with `options` and notes its skipped lines and where the FLASER
+/// beam angles came from.
+pub fn read_carmen_log(
+    path: &Path,
+    options: carmen::CarmenOptions,
+) -> Result<carmen::CarmenLog, CliError> {
+    let log = carmen::read_carmen_with(path, options).map_err(CliError::from_display)?;
+    note_skipped(path, &log.skipped);
+    Ok(log)
 }
 
 /// Options of the leigh-gtm1 pair builder.
@@ -191,8 +225,7 @@ pub fn load_pairs(
         ));
     }
     if let (Some(log_path), Some(rel_path)) = (&source.carmen, &source.relations) {
-        let log = carmen::read_carmen(log_path).map_err(CliError::from_display)?;
-        note_skipped(log_path, &log.skipped);
+        let log = read_carmen_log(log_path, source.carmen_options())?;
         let rels = relations::read_relations(rel_path).map_err(CliError::from_display)?;
         let options = RelationPairOptions {
             name: stem(log_path),
@@ -213,8 +246,7 @@ pub fn load_pairs(
         return Ok((SourceKind::Relations, built.pairs));
     }
     if let Some(log_path) = &source.log {
-        let log = carmen::read_carmen(log_path).map_err(CliError::from_display)?;
-        note_skipped(log_path, &log.skipped);
+        let log = read_carmen_log(log_path, source.carmen_options())?;
         let built = consecutive_pairs(&log, &stem(log_path));
         if built.odometry_was_ground_truth {
             eprintln!(
@@ -237,7 +269,8 @@ pub fn load_pairs(
         annotated_sector: leigh_args.annotated_sector,
         name: "leigh-gtm1".into(),
     };
-    let pairs = leigh_pairs(&log, &annotations, &options).map_err(CliError::from_display)?;
+    let pairs = leigh_pairs(&log, &annotations, &options)
+        .map_err(|e| CliError(format!("{}: {e}", scans.display())))?;
     Ok((SourceKind::Leigh, pairs))
 }
 
@@ -273,7 +306,8 @@ fn run_summary(args: SummaryArgs) -> CliResult {
             annotated_sector: args.leigh.annotated_sector,
             name: "leigh-gtm1".into(),
         };
-        let pairs = leigh_pairs(&log, &annotations, &options).map_err(CliError::from_display)?;
+        let pairs = leigh_pairs(&log, &annotations, &options)
+            .map_err(|e| CliError(format!("{}: {e}", args.scans.display())))?;
         rows.push(summarize_leigh_pairs(k, &pairs));
     }
     if args.json {
