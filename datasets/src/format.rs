@@ -19,11 +19,28 @@
 //! scan invariants, label and association array lengths, association indices in
 //! range); errors name the file and the field.
 //!
-//! [`write_pairs`] writes every file to a temporary name in the target directory,
-//! flushes it to disk and renames it into place, pair files first and the index last;
-//! a crash or a full disk leaves either the previous index (and its files) or the new
-//! one, never a truncated file under a final name. Pair files of an earlier write that
-//! the new index does not list are removed after the index is in place.
+//! [`write_pairs`] never leaves a mix of two data sets, never deletes a file it did not
+//! write, and writes nothing when it fails before the switch:
+//!
+//! - every pair is validated and serialised before anything touches the disk;
+//! - a directory that does not exist (or is empty) is written as a temporary sibling
+//!   directory (`.NAME.pgm-tmp-…`), flushed, and renamed into place: the directory
+//!   then either does not exist or holds the whole data set;
+//! - a directory that holds a data set (an index with this format's header) is
+//!   replaced through its index: the new pair files are written under names the old
+//!   index does not use (`pair-NNNNN.json` or `pair-gG-NNNNN.json`), each flushed and
+//!   renamed into place, then the new `index.json` replaces the old one in one rename
+//!   (the switch); only then are the old index's pair files removed. A reader sees the
+//!   old data set or the new one at every instant, and a run killed before the switch
+//!   leaves the old data set whole (plus unlisted new files, which no reader opens);
+//! - any other non-empty directory is refused: its files are not ours to replace;
+//! - files in the directory that no index lists are never removed, except those a
+//!   replacement killed before its switch wrote: it lists them first in a journal
+//!   ([`JOURNAL_FILE`]), and the next replacement removes them.
+//!
+//! A directory cannot be swapped for another in one step (rename refuses a non-empty
+//! target, and the exchanging rename of Linux needs an unsafe system call, which the
+//! workspace forbids), hence the index switch for replacements.
 
 use crate::error::{Error, Result};
 use crate::pair::ScanPair;
@@ -177,56 +194,343 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
     Ok(())
 }
 
-/// File name of pair number `k` in a data-set directory.
+/// A file written under a temporary name beside its destination and renamed into place
+/// by [`StagedFile::commit`]; dropped uncommitted, it is removed. Lets a command that
+/// writes several outputs write none of them when one fails.
+#[derive(Debug)]
+pub struct StagedFile {
+    tmp: PathBuf,
+    path: PathBuf,
+    committed: bool,
+}
+
+impl StagedFile {
+    /// Writes `bytes` (flushed to disk) to a temporary sibling of `path`.
+    pub fn stage(path: impl AsRef<Path>, bytes: &[u8]) -> Result<Self> {
+        let path = path.as_ref().to_path_buf();
+        let dir = match path.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        let name = path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "output".into());
+        let tmp = dir.join(format!(".{name}.tmp-{}", std::process::id()));
+        let staged = Self {
+            tmp,
+            path,
+            committed: false,
+        };
+        write_flushed(&staged.tmp, bytes).map_err(|e| match e {
+            Error::Io { source, .. } => Error::io(&staged.path, source),
+            other => other,
+        })?;
+        Ok(staged)
+    }
+
+    /// Renames the file into place.
+    pub fn commit(mut self) -> Result<()> {
+        std::fs::rename(&self.tmp, &self.path).map_err(|e| Error::io(&self.path, e))?;
+        self.committed = true;
+        Ok(())
+    }
+}
+
+impl Drop for StagedFile {
+    fn drop(&mut self) {
+        if !self.committed {
+            let _ = std::fs::remove_file(&self.tmp);
+        }
+    }
+}
+
+/// File name of pair number `k` in a data-set directory written fresh.
 pub fn pair_file_name(k: usize) -> String {
     format!("pair-{k:05}.json")
 }
 
-/// Writes a data set into directory `dir` (created if missing; see the module docs).
-/// Every pair is validated first; nothing is written if one is invalid.
+/// File name of pair number `k` in generation `g` (0 is [`pair_file_name`]): a data set
+/// that replaces another uses a generation whose names do not exist yet.
+pub fn generation_file_name(g: usize, k: usize) -> String {
+    if g == 0 {
+        pair_file_name(k)
+    } else {
+        format!("pair-g{g}-{k:05}.json")
+    }
+}
+
+/// What a `--out` directory holds before a write.
+enum Target {
+    /// Nothing (missing or empty).
+    Fresh,
+    /// A data set with this index.
+    DataSet(Index),
+}
+
+/// Classifies `dir`; a non-empty directory without a data set is an error.
+fn classify(dir: &Path) -> Result<Target> {
+    let meta = match std::fs::metadata(dir) {
+        Ok(m) => m,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Target::Fresh),
+        Err(e) => return Err(Error::io(dir, e)),
+    };
+    if !meta.is_dir() {
+        return Err(Error::Invalid {
+            path: dir.to_path_buf(),
+            field: "output".into(),
+            problem: "exists and is not a directory; a data set is a directory".into(),
+        });
+    }
+    let mut entries = std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))?;
+    let Some(first) = entries.next() else {
+        return Ok(Target::Fresh);
+    };
+    let first = first
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let index_path = dir.join(INDEX_FILE);
+    let index = std::fs::read_to_string(&index_path)
+        .ok()
+        .and_then(|text| serde_json::from_str::<Index>(&text).ok())
+        .filter(|index| index.format == FORMAT_NAME);
+    match index {
+        Some(index) => Ok(Target::DataSet(index)),
+        None => Err(Error::Invalid {
+            path: dir.to_path_buf(),
+            field: "output".into(),
+            problem: format!(
+                "the directory is not empty and holds no pgm data set (no readable {INDEX_FILE} \
+                 with format `{FORMAT_NAME}`; it holds `{first}`, …); refusing to write into it: \
+                 choose a new or empty directory"
+            ),
+        }),
+    }
+}
+
+/// Writes `bytes` to `path` (a new file), flushed to disk.
+fn write_flushed(path: &Path, bytes: &[u8]) -> Result<()> {
+    let mut f = std::fs::File::create(path).map_err(|e| Error::io(path, e))?;
+    f.write_all(bytes).map_err(|e| Error::io(path, e))?;
+    f.sync_all().map_err(|e| Error::io(path, e))
+}
+
+/// Flushes a directory's entries (renames) to disk; a no-op where directories cannot
+/// be opened as files.
+fn sync_dir(dir: &Path) {
+    if let Ok(f) = std::fs::File::open(dir) {
+        let _ = f.sync_all();
+    }
+}
+
+/// Writes a data set into directory `dir` (see the module docs: fresh directories are
+/// written as a temporary sibling and renamed into place, existing data sets are
+/// replaced through their index, other non-empty directories are refused). Every pair
+/// is validated and serialised first; nothing is written if one is invalid.
 pub fn write_pairs(dir: impl AsRef<Path>, pairs: &[ScanPair]) -> Result<()> {
     let dir = dir.as_ref();
+    let mut contents = Vec::with_capacity(pairs.len());
     for (k, p) in pairs.iter().enumerate() {
+        let path = dir.join(pair_file_name(k));
         p.validate().map_err(|v| Error::Invalid {
-            path: dir.join(pair_file_name(k)),
+            path: path.clone(),
             field: v.field,
             problem: v.problem,
         })?;
+        contents.push(serde_json::to_vec(p).map_err(|source| Error::Json { path, source })?);
     }
-    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    match classify(dir)? {
+        Target::Fresh => write_fresh(dir, pairs, &contents),
+        Target::DataSet(old) => replace_data_set(dir, &old, pairs, &contents),
+    }
+}
+
+fn index_bytes(path: &Path, index: &Index) -> Result<Vec<u8>> {
+    serde_json::to_vec_pretty(index).map_err(|source| Error::Json {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+/// A missing or empty `dir`: write a temporary sibling directory, rename it into place.
+fn write_fresh(dir: &Path, pairs: &[ScanPair], contents: &[Vec<u8>]) -> Result<()> {
+    let parent = match dir.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    std::fs::create_dir_all(&parent).map_err(|e| Error::io(&parent, e))?;
+    let name = dir
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "pairs".into());
+    let stamp = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_nanos());
+    let tmp = parent.join(format!(".{name}.pgm-tmp-{}-{stamp}", std::process::id()));
+    std::fs::create_dir(&tmp).map_err(|e| Error::io(&tmp, e))?;
+    let written = (|| {
+        let mut index = Index {
+            format: FORMAT_NAME.into(),
+            version: FORMAT_VERSION,
+            pairs: Vec::with_capacity(pairs.len()),
+        };
+        for (k, (p, bytes)) in pairs.iter().zip(contents).enumerate() {
+            let file = pair_file_name(k);
+            write_flushed(&tmp.join(&file), bytes)?;
+            index.pairs.push(IndexEntry {
+                name: p.name.clone(),
+                file,
+            });
+        }
+        let index_path = tmp.join(INDEX_FILE);
+        write_flushed(&index_path, &index_bytes(&index_path, &index)?)?;
+        sync_dir(&tmp);
+        // Renaming onto an empty directory replaces it (POSIX); elsewhere remove it first.
+        if std::fs::rename(&tmp, dir).is_err() {
+            let _ = std::fs::remove_dir(dir);
+            std::fs::rename(&tmp, dir).map_err(|e| Error::io(dir, e))?;
+        }
+        sync_dir(&parent);
+        Ok(())
+    })();
+    if written.is_err() {
+        // Only what this call created: the temporary directory and its files.
+        if let Ok(entries) = std::fs::read_dir(&tmp) {
+            for entry in entries.flatten() {
+                let _ = std::fs::remove_file(entry.path());
+            }
+        }
+        let _ = std::fs::remove_dir(&tmp);
+    }
+    written
+}
+
+/// `dir` holds the data set `old`: new pair files under unused names, then the index
+/// switch, then the old pair files go.
+fn replace_data_set(
+    dir: &Path,
+    old: &Index,
+    pairs: &[ScanPair],
+    contents: &[Vec<u8>],
+) -> Result<()> {
+    let journal = dir.join(JOURNAL_FILE);
+    clear_interrupted_write(dir, &journal, old)?;
+    let generation = (0..)
+        .find(|&g| {
+            (0..pairs.len()).all(|k| {
+                let name = generation_file_name(g, k);
+                !dir.join(&name).exists() && old.pairs.iter().all(|e| e.file != name)
+            })
+        })
+        .unwrap_or(0);
     let mut index = Index {
         format: FORMAT_NAME.into(),
         version: FORMAT_VERSION,
         pairs: Vec::with_capacity(pairs.len()),
     };
-    for (k, p) in pairs.iter().enumerate() {
-        let file = pair_file_name(k);
-        let path = dir.join(&file);
-        let bytes = serde_json::to_vec(p).map_err(|source| Error::Json {
-            path: path.clone(),
-            source,
-        })?;
-        write_atomically(&path, &bytes)?;
-        index.pairs.push(IndexEntry {
-            name: p.name.clone(),
-            file,
-        });
-    }
-    let index_path = dir.join(INDEX_FILE);
-    let bytes = serde_json::to_vec_pretty(&index).map_err(|source| Error::Json {
-        path: index_path.clone(),
+    let names: Vec<String> = (0..pairs.len())
+        .map(|k| generation_file_name(generation, k))
+        .collect();
+    let journal_bytes = serde_json::to_vec(&Journal {
+        files: names.clone(),
+    })
+    .map_err(|source| Error::Json {
+        path: journal.clone(),
         source,
     })?;
-    write_atomically(&index_path, &bytes)?;
-    // Remove pair files of an earlier, larger data set.
+    write_atomically(&journal, &journal_bytes)?;
+    let mut created = Vec::new();
+    let switched = (|| {
+        for (k, (p, bytes)) in pairs.iter().zip(contents).enumerate() {
+            let file = generation_file_name(generation, k);
+            let path = dir.join(&file);
+            write_atomically(&path, bytes)?;
+            created.push(path);
+            index.pairs.push(IndexEntry {
+                name: p.name.clone(),
+                file,
+            });
+        }
+        sync_dir(dir);
+        let index_path = dir.join(INDEX_FILE);
+        write_atomically(&index_path, &index_bytes(&index_path, &index)?)?;
+        sync_dir(dir);
+        Ok(())
+    })();
+    if let Err(e) = switched {
+        for path in &created {
+            let _ = std::fs::remove_file(path);
+        }
+        let _ = std::fs::remove_file(&journal);
+        return Err(e);
+    }
+    // The old data set's own pair files, now unlisted (never anything else).
     let listed: std::collections::HashSet<&str> =
         index.pairs.iter().map(|e| e.file.as_str()).collect();
-    let entries = std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))?;
-    for entry in entries.flatten() {
-        let name = entry.file_name().to_string_lossy().into_owned();
-        if name.starts_with("pair-") && name.ends_with(".json") && !listed.contains(name.as_str()) {
-            std::fs::remove_file(entry.path()).map_err(|e| Error::io(entry.path(), e))?;
+    for entry in &old.pairs {
+        let name = entry.file.as_str();
+        let ours = !name.contains(['/', '\\'])
+            && name.starts_with("pair-")
+            && name.ends_with(".json")
+            && !listed.contains(name);
+        if ours {
+            let path = dir.join(name);
+            match std::fs::remove_file(&path) {
+                Ok(()) => {}
+                Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+                Err(e) => return Err(Error::io(path, e)),
+            }
         }
     }
+    std::fs::remove_file(&journal).map_err(|e| Error::io(&journal, e))?;
+    sync_dir(dir);
     Ok(())
+}
+
+/// File in a data-set directory that lists the pair files a replacement is about to
+/// write, removed once the replacement is complete. A journal left behind by a killed
+/// run names files that run wrote; the next write removes those the index does not
+/// list.
+pub const JOURNAL_FILE: &str = ".pgm-write-journal.json";
+
+#[derive(Serialize, Deserialize)]
+struct Journal {
+    files: Vec<String>,
+}
+
+/// Removes the unlisted files a killed replacement wrote (as its journal says).
+fn clear_interrupted_write(dir: &Path, journal: &Path, current: &Index) -> Result<()> {
+    let Ok(text) = std::fs::read_to_string(journal) else {
+        return Ok(());
+    };
+    if let Ok(j) = serde_json::from_str::<Journal>(&text) {
+        // Temporary files of the listed files and of the index ([`write_atomically`]).
+        let prefixes: Vec<String> = j
+            .files
+            .iter()
+            .map(String::as_str)
+            .chain([INDEX_FILE])
+            .map(|name| format!(".{name}.tmp-"))
+            .collect();
+        if let Ok(entries) = std::fs::read_dir(dir) {
+            for entry in entries.flatten() {
+                let name = entry.file_name().to_string_lossy().into_owned();
+                if prefixes.iter().any(|p| name.starts_with(p.as_str())) {
+                    let _ = std::fs::remove_file(entry.path());
+                }
+            }
+        }
+        for name in &j.files {
+            let simple = !name.contains(['/', '\\']) && name.starts_with("pair-");
+            if simple && current.pairs.iter().all(|e| &e.file != name) {
+                let path = dir.join(name);
+                match std::fs::remove_file(&path) {
+                    Ok(()) => {}
+                    Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+                    Err(e) => return Err(Error::io(path, e)),
+                }
+            }
+        }
+    }
+    std::fs::remove_file(journal).map_err(|e| Error::io(journal, e))
 }

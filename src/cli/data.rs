@@ -131,7 +131,8 @@ pub struct PairsArgs {
     /// leigh-gtm1: scan distance of the pairs.
     #[arg(long, default_value_t = 5)]
     pub k: usize,
-    /// Output directory (created; an existing data set there is replaced).
+    /// Output directory: created, or an empty directory, or one holding a data set,
+    /// which is replaced (datasets/FORMAT.md; other files are never removed).
     #[arg(long)]
     pub out: PathBuf,
 }
