@@ -74,6 +74,20 @@ pub enum Error {
         /// What is wrong with it.
         problem: String,
     },
+    /// A scan of a log cannot be used for what it was asked for (no such scan, or no
+    /// valid return to work with).
+    #[error("{}:{line}: scan {scan}: {problem}", path.display())]
+    Scan {
+        /// The log.
+        path: PathBuf,
+        /// 1-based line of the scan (0 when the scan does not exist).
+        line: usize,
+        /// The scan's index as the caller gave it (laser line counted from 0 in a
+        /// CARMEN log, the `idx` field in a leigh-gtm1 log).
+        scan: usize,
+        /// What is wrong.
+        problem: String,
+    },
     /// Two inputs that must agree do not (for example odometry and scans, or the
     /// arguments of a metric).
     #[error("{what}")]

@@ -732,3 +732,119 @@ pub fn mar_result(marginals: &[Vec<f64>]) -> String {
     s.push('\n');
     s
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn model(text: &str) -> Result<UaiModel> {
+        UaiModel::parse_str("m.uai", text)
+    }
+
+    #[test]
+    fn joint_state_products_that_overflow_are_parse_errors() {
+        // 64 binary variables in one scope: 2^64 wraps to 0, which must not match a
+        // table of size 0.
+        let n = 64;
+        let cards = vec!["2"; n].join(" ");
+        let scope: Vec<String> = (0..n).map(|v| v.to_string()).collect();
+        let text = format!("MARKOV\n{n}\n{cards}\n1\n{n} {}\n0\n", scope.join(" "));
+        let err = model(&text).unwrap_err().to_string();
+        assert!(
+            err.contains("m.uai:6:") && err.contains("overflows"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn declared_table_sizes_are_not_allocated_before_the_data_is_there() {
+        // 36 binary variables: the table would need 2^36 entries (512 GiB of f64).
+        let n = 36;
+        let cards = vec!["2"; n].join(" ");
+        let scope: Vec<String> = (0..n).map(|v| v.to_string()).collect();
+        let text = format!(
+            "MARKOV\n{n}\n{cards}\n1\n{n} {}\n{}\n0.5 0.5\n",
+            scope.join(" "),
+            1u64 << 36
+        );
+        let err = model(&text).unwrap_err().to_string();
+        assert!(
+            err.contains("unexpected end of file") && err.contains("68719476736"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn table_factor_refuses_a_shape_whose_product_overflows() {
+        let scope: Vec<VariableId> = (0..64).map(VariableId).collect();
+        let err = TableFactor::new(scope, vec![2; 64], vec![]).unwrap_err();
+        assert!(err.to_string().contains("fits in usize"), "{err}");
+    }
+
+    #[test]
+    fn evidence_layouts_are_told_apart() {
+        let cards = [2, 2, 2];
+        let read = |text: &str| Evidence::parse_samples_str("e.evid", text, &cards);
+        // UAI 2010: two samples, the first observes x0 = 1 (B09).
+        let two = read("2\n1 0 1\n0\n").unwrap();
+        assert_eq!(two.format, EvidenceFormat::Uai2010);
+        assert_eq!(two.samples, vec![Evidence(vec![(0, 1)]), Evidence(vec![])]);
+        assert_eq!(
+            Evidence::parse_str("e.evid", "2\n1 0 1\n0\n", &cards).unwrap(),
+            Evidence(vec![(0, 1)])
+        );
+        // UAI 2014 on one line, even when its tokens would also read as 2010.
+        let one = read("2 0 1 1 0\n").unwrap();
+        assert_eq!(one.format, EvidenceFormat::Uai2014);
+        assert_eq!(one.samples, vec![Evidence(vec![(0, 1), (1, 0)])]);
+        // UAI 2014 spread over lines without one sample per line.
+        let spread = read("2\n0 1\n1 0\n").unwrap();
+        assert_eq!(spread.format, EvidenceFormat::Uai2014);
+        assert_eq!(spread.samples, vec![Evidence(vec![(0, 1), (1, 0)])]);
+        // UAI 2010 with one sample on one line (only 2010 parses).
+        let single = read("1 2 0 1 2 1\n").unwrap();
+        assert_eq!(single.format, EvidenceFormat::Uai2010);
+        assert_eq!(single.samples, vec![Evidence(vec![(0, 1), (2, 1)])]);
+        // Empty: no evidence.
+        assert_eq!(read("").unwrap().samples, vec![Evidence(vec![])]);
+        // Neither layout: an error naming the file and line.
+        let err = read("3 0 1\n").unwrap_err().to_string();
+        assert!(err.starts_with("e.evid:1:"), "{err}");
+    }
+
+    fn tiny(table: &str) -> UaiModel {
+        model(&format!("MARKOV\n1\n2\n1\n1 0\n2\n{table}\n")).unwrap()
+    }
+
+    #[test]
+    fn models_and_evidence_without_positive_assignment_are_refused_with_the_reason() {
+        // B04: the only table is zero.
+        let err = tiny("0 0")
+            .check_positive(&Evidence::default())
+            .unwrap_err();
+        assert_eq!(err.evidence, None);
+        assert!(err.to_string().contains("Z = 0"), "{err}");
+        // B10: the evidence observes a state of probability 0.
+        let m = tiny("1 0");
+        assert_eq!(m.check_positive(&Evidence::default()), Ok(()));
+        let err = m.check_positive(&Evidence(vec![(0, 1)])).unwrap_err();
+        assert_eq!(err.evidence, Some(vec![(0, 1)]));
+        assert!(err.to_string().contains("P(evidence) = 0"), "{err}");
+        assert_eq!(m.check_positive(&Evidence(vec![(0, 0)])), Ok(()));
+        // ev-contradict: an equality chain with its ends observed apart.
+        let chain = model("MARKOV\n3\n2 2 2\n2\n2 0 1\n2 1 2\n4\n1 0 0 1\n4\n1 0 0 1\n").unwrap();
+        assert_eq!(
+            chain.check_positive(&Evidence(vec![(0, 1), (2, 1)])),
+            Ok(())
+        );
+        let err = chain
+            .check_positive(&Evidence(vec![(0, 0), (2, 1)]))
+            .unwrap_err();
+        assert!(err.to_string().contains("x0 = 0, x2 = 1"), "{err}");
+        // A constant function of value 0.
+        let constant = model("MARKOV\n1\n2\n2\n0\n1 0\n1\n0\n2\n1 1\n").unwrap();
+        let err = constant.check_positive(&Evidence::default()).unwrap_err();
+        assert_eq!(err.variable, None);
+        assert!(err.to_string().contains("constant 0"), "{err}");
+    }
+}
