@@ -225,7 +225,7 @@ fn malformed_carmen_lines_exit_2_naming_file_line_and_field() {
     ranges[3] = f64::NAN;
     ranges[4] = f64::INFINITY;
     let nan = flaser_line(&ranges, (0.0, 0.0, 0.0), 1.0).replace("NaN", "nan");
-    let log = write(&dir, "nan.clf", &format!("{nan}\n{good}\n"));
+    let log = write(&dir, "nan.clf", &format!("{good}\n{nan}\n"));
     let (out, err, ok, _) = pgm(&[
         "cluster",
         "--carmen",
