@@ -34,9 +34,10 @@
 //!   old data set or the new one at every instant, and a run killed before the switch
 //!   leaves the old data set whole (plus unlisted new files, which no reader opens);
 //! - any other non-empty directory is refused: its files are not ours to replace;
-//! - files in the directory that no index lists are never removed, except those a
-//!   replacement killed before its switch wrote: it lists them first in a journal
-//!   ([`JOURNAL_FILE`]), and the next replacement removes them.
+//! - files in the directory that no index lists are never removed, except the pair
+//!   files of a replacement that was killed: it lists the files it writes and those it
+//!   will remove in a journal ([`JOURNAL_FILE`]) before touching any, and the next
+//!   replacement removes the listed files the index in place does not list.
 //!
 //! A directory cannot be swapped for another in one step (rename refuses a non-empty
 //! target, and the exchanging rename of Linux needs an unsafe system call, which the
@@ -428,11 +429,20 @@ fn replace_data_set(
         version: FORMAT_VERSION,
         pairs: Vec::with_capacity(pairs.len()),
     };
-    let names: Vec<String> = (0..pairs.len())
+    // The journal lists every file this replacement writes or will remove: after a kill
+    // at any point, the files it lists that the index in place does not list are the
+    // losing side (the new files before the switch, the old ones after it).
+    let mut journal_files: Vec<String> = (0..pairs.len())
         .map(|k| generation_file_name(generation, k))
         .collect();
+    journal_files.extend(
+        old.pairs
+            .iter()
+            .filter(|e| is_pair_file_name(&e.file))
+            .map(|e| e.file.clone()),
+    );
     let journal_bytes = serde_json::to_vec(&Journal {
-        files: names.clone(),
+        files: journal_files,
     })
     .map_err(|source| Error::Json {
         path: journal.clone(),
@@ -469,11 +479,7 @@ fn replace_data_set(
         index.pairs.iter().map(|e| e.file.as_str()).collect();
     for entry in &old.pairs {
         let name = entry.file.as_str();
-        let ours = !name.contains(['/', '\\'])
-            && name.starts_with("pair-")
-            && name.ends_with(".json")
-            && !listed.contains(name);
-        if ours {
+        if is_pair_file_name(name) && !listed.contains(name) {
             let path = dir.join(name);
             match std::fs::remove_file(&path) {
                 Ok(()) => {}
@@ -488,9 +494,9 @@ fn replace_data_set(
 }
 
 /// File in a data-set directory that lists the pair files a replacement is about to
-/// write, removed once the replacement is complete. A journal left behind by a killed
-/// run names files that run wrote; the next write removes those the index does not
-/// list.
+/// write and those it will remove, itself removed once the replacement is complete. A
+/// journal left behind by a killed run names files of the two data sets it was
+/// switching between; the next write removes those the index in place does not list.
 pub const JOURNAL_FILE: &str = ".pgm-write-journal.json";
 
 #[derive(Serialize, Deserialize)]
@@ -498,8 +504,27 @@ struct Journal {
     files: Vec<String>,
 }
 
-/// Removes the unlisted files a killed replacement wrote (as its journal says).
+/// A plain pair-file name in the data-set directory (`pair-….json`, no path).
+fn is_pair_file_name(name: &str) -> bool {
+    !name.contains(['/', '\\']) && name.starts_with("pair-") && name.ends_with(".json")
+}
+
+/// Removes what a killed replacement left (as its journal says): the listed files the
+/// index in place does not list, and temporary files.
 fn clear_interrupted_write(dir: &Path, journal: &Path, current: &Index) -> Result<()> {
+    // A journal that never reached its name (killed while writing it).
+    let journal_tmp = format!(".{JOURNAL_FILE}.tmp-");
+    if let Ok(entries) = std::fs::read_dir(dir) {
+        for entry in entries.flatten() {
+            if entry
+                .file_name()
+                .to_string_lossy()
+                .starts_with(&journal_tmp)
+            {
+                let _ = std::fs::remove_file(entry.path());
+            }
+        }
+    }
     let Ok(text) = std::fs::read_to_string(journal) else {
         return Ok(());
     };
@@ -521,8 +546,7 @@ fn clear_interrupted_write(dir: &Path, journal: &Path, current: &Index) -> Resul
             }
         }
         for name in &j.files {
-            let simple = !name.contains(['/', '\\']) && name.starts_with("pair-");
-            if simple && current.pairs.iter().all(|e| &e.file != name) {
+            if is_pair_file_name(name) && current.pairs.iter().all(|e| &e.file != name) {
                 let path = dir.join(name);
                 match std::fs::remove_file(&path) {
                     Ok(()) => {}
