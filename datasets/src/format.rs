@@ -91,6 +91,71 @@ pub fn read_pair(path: impl AsRef<Path>) -> Result<ScanPair> {
     pair_from_value(path, value)
 }
 
+/// Parses and validates the text of one pair file; `path` is only used in errors.
+pub fn parse_pair(path: &Path, text: &str) -> Result<ScanPair> {
+    let value = serde_json::from_str(text).map_err(|source| Error::Json {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    pair_from_value(path, value)
+}
+
+/// Parses and checks the text of an index file (header, version, member paths that
+/// stay inside the data-set directory); `path` is only used in errors.
+pub fn parse_index(path: &Path, text: &str) -> Result<Index> {
+    let value = serde_json::from_str(text).map_err(|source| Error::Json {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    index_from_value(path, value)
+}
+
+fn index_from_value(index_path: &Path, value: serde_json::Value) -> Result<Index> {
+    let index: Index = serde_json::from_value(value).map_err(|source| Error::Json {
+        path: index_path.to_path_buf(),
+        source,
+    })?;
+    if index.format != FORMAT_NAME {
+        return Err(Error::Invalid {
+            path: index_path.to_path_buf(),
+            field: "format".into(),
+            problem: format!("`{}`, expected `{FORMAT_NAME}`", index.format),
+        });
+    }
+    if index.version != FORMAT_VERSION {
+        return Err(Error::Invalid {
+            path: index_path.to_path_buf(),
+            field: "version".into(),
+            problem: format!(
+                "{}, this reader understands {FORMAT_VERSION}",
+                index.version
+            ),
+        });
+    }
+    for (k, entry) in index.pairs.iter().enumerate() {
+        let file = Path::new(&entry.file);
+        let inside = !entry.file.is_empty()
+            && !file.is_absolute()
+            && file.components().all(|c| {
+                matches!(
+                    c,
+                    std::path::Component::Normal(_) | std::path::Component::CurDir
+                )
+            });
+        if !inside {
+            return Err(Error::Invalid {
+                path: index_path.to_path_buf(),
+                field: format!("pairs[{k}].file"),
+                problem: format!(
+                    "`{}` must be a path inside the data-set directory",
+                    entry.file
+                ),
+            });
+        }
+    }
+    Ok(index)
+}
+
 fn pair_from_value(path: &Path, value: serde_json::Value) -> Result<ScanPair> {
     let pair: ScanPair = serde_json::from_value(value).map_err(|source| Error::Json {
         path: path.to_path_buf(),
@@ -118,48 +183,14 @@ pub fn read_pairs(path: impl AsRef<Path>) -> Result<Vec<ScanPair>> {
     if !is_index {
         return Ok(vec![pair_from_value(&index_path, value)?]);
     }
-    let index: Index = serde_json::from_value(value).map_err(|source| Error::Json {
-        path: index_path.clone(),
-        source,
-    })?;
-    if index.format != FORMAT_NAME {
-        return Err(Error::Invalid {
-            path: index_path,
-            field: "format".into(),
-            problem: format!("`{}`, expected `{FORMAT_NAME}`", index.format),
-        });
-    }
-    if index.version != FORMAT_VERSION {
-        return Err(Error::Invalid {
-            path: index_path,
-            field: "version".into(),
-            problem: format!(
-                "{}, this reader understands {FORMAT_VERSION}",
-                index.version
-            ),
-        });
-    }
+    let index = index_from_value(&index_path, value)?;
     let base = index_path
         .parent()
         .map(Path::to_path_buf)
         .unwrap_or_default();
     let mut pairs = Vec::with_capacity(index.pairs.len());
-    for (k, entry) in index.pairs.iter().enumerate() {
+    for entry in &index.pairs {
         let file = Path::new(&entry.file);
-        if file.is_absolute()
-            || file
-                .components()
-                .any(|c| c == std::path::Component::ParentDir)
-        {
-            return Err(Error::Invalid {
-                path: index_path.clone(),
-                field: format!("pairs[{k}].file"),
-                problem: format!(
-                    "`{}` must be a path inside the data-set directory",
-                    entry.file
-                ),
-            });
-        }
         let pair = read_pair(base.join(file))?;
         if pair.name != entry.name {
             return Err(Error::Invalid {
