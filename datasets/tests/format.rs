@@ -307,3 +307,23 @@ fn bad_index_is_reported() {
     std::fs::remove_dir_all(&dir).unwrap();
     assert!(matches!(read_pairs(&dir).unwrap_err(), Error::Io { .. }));
 }
+
+#[test]
+fn numbers_read_from_a_file_round_trip_exactly() {
+    // Found by the pair_json fuzz target: without serde_json's `float_roundtrip` a
+    // literal such as 9.557496377594046 read as a neighbouring f64, and the
+    // shortest-representation writer then gave a file that read back differently.
+    let literal = "9.557496377594046";
+    let exact: f64 = literal.parse().unwrap();
+    let mut value = serde_json::to_value(pair("x")).unwrap();
+    value["reference"]["ranges"][0] = serde_json::Value::Null;
+    let text = serde_json::to_string(&value)
+        .unwrap()
+        .replacen("\"ranges\":[null", &format!("\"ranges\":[{literal}"), 1);
+    let read = pgm_datasets::format::parse_pair(std::path::Path::new("p.json"), &text).unwrap();
+    assert_eq!(read.reference.ranges[0].to_bits(), exact.to_bits());
+    let dir = temp_dir("float-roundtrip");
+    write_pairs(&dir, std::slice::from_ref(&read)).unwrap();
+    assert_eq!(read_pairs(&dir).unwrap(), vec![read]);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
