@@ -15,7 +15,12 @@
 //!   odometry from the scans and gives no odometry prior, so no method can read the
 //!   ground truth through it ([`ConsecutivePairs::odometry_was_ground_truth`]).
 //! - [`leigh_pairs`] (leigh-gtm1): pairs of scans `k` indices apart, labels from the
-//!   annotated people (rule below).
+//!   annotated people (rule below). A `k` larger than the span of the log's scan
+//!   indices is an error (`i + k` is never allowed to wrap).
+//! - [`carmen_scan_pair`], [`leigh_scan_pair`]: two chosen scans of a log, without
+//!   ground truth, to run a model on (`pgm cluster`); a scan that does not exist or has
+//!   no valid return is an [`Error::Scan`] naming the file, its line and its index, so a
+//!   model never meets it anonymously.
 //!
 //! In every builder the odometry prior is the motion of the laser between the scans
 //! as the odometry sees it, `inverse(odo_i ∘ L) ∘ (odo_j ∘ L)`, in the reference
