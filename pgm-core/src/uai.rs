@@ -173,7 +173,8 @@ impl UaiModel {
         };
         const LIMIT: usize = 1 << 40;
         let n = tk.integer("the number of variables", 0, LIMIT)?;
-        let mut cardinalities = Vec::with_capacity(n.min(1 << 20));
+        let mut cardinalities = Vec::with_capacity(n.min(tk.tokens.len()));
+        let first_cardinality = tk.next;
         for i in 0..n {
             cardinalities.push(tk.integer(
                 &format!("the cardinality of variable {i}"),
@@ -262,6 +263,28 @@ impl UaiModel {
             tables.push(table);
         }
         tk.expect_end()?;
+        // A variable in some scope has at most as many states as that table has entries;
+        // the states of a variable in no scope are backed by nothing in the file, so
+        // together they may not outnumber the file's tokens (else results and beliefs
+        // would be sized by a bare number).
+        let mut unbacked: usize = 0;
+        for (v, &k) in cardinalities.iter().enumerate() {
+            if in_scope[v] == usize::MAX {
+                unbacked = unbacked.saturating_add(k);
+                if unbacked > tk.tokens.len() {
+                    let line = tk.tokens[first_cardinality + v].1;
+                    return Err(tk.error(
+                        line,
+                        format!(
+                            "variable {v} has {k} states but appears in no function: nothing \
+                             in the file backs them (variables in no function may have at \
+                             most {} states together, the number of tokens in the file)",
+                            tk.tokens.len()
+                        ),
+                    ));
+                }
+            }
+        }
         Ok(Self {
             kind,
             cardinalities,
@@ -772,6 +795,19 @@ mod tests {
             err.contains("unexpected end of file") && err.contains("68719476736"),
             "{err}"
         );
+    }
+
+    #[test]
+    fn states_of_a_variable_in_no_function_are_bounded_by_the_file() {
+        // Found by fuzzing: 77777777773 states for a variable no table mentions made
+        // the zero propagation (and BP's beliefs) allocate 78 GB.
+        let err = model("MARKOV\n2\n2 77777777773\n1\n0\n1 0\n").unwrap_err();
+        let err = err.to_string();
+        assert!(
+            err.contains("m.uai:3:") && err.contains("variable 1"),
+            "{err}"
+        );
+        assert!(model("MARKOV\n2\n2 3\n1\n1 0\n2 1 1\n").is_ok());
     }
 
     #[test]
