@@ -37,13 +37,13 @@
 //! Ranges: `nan` and `inf` are beams without a return (stored as range 0, invalid),
 //! as [`Scan`] documents; a negative range is an error.
 //!
-//! A malformed line of an understood type is an [`Error`](crate::Error) naming the
+//! A malformed line of an understood type is an [`Error`] naming the
 //! file, the 1-based line, the field and its text: a field count that disagrees with
 //! the declared number of beams (a declared count is never trusted beyond the line
 //! that holds it), a scan with no beam, a non-numeric or non-finite pose or time, a
 //! negative range, an angular resolution of 0 or a field of view beyond a full turn,
 //! and values that parse but mean nothing (a position, range or time beyond
-//! [`limits`](crate::error::limits), such as a pose of 1e300).
+//! [`limits`], such as a pose of 1e300).
 //!
 //! # CARMEN's rule for the beam count
 //!

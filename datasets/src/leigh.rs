@@ -19,8 +19,8 @@
 //! are skipped and counted. Scan indices must be unique, and so must
 //! `(scan_idx, person_id)`. Values that parse but mean nothing are errors naming file,
 //! line and field: positions, ranges and time stamps beyond
-//! [`limits`](crate::error::limits), person centres farther than any laser reaches
-//! ([`limits::MAX_RANGE`](crate::error::limits::MAX_RANGE)).
+//! [`limits`], person centres farther than any laser reaches
+//! ([`limits::MAX_RANGE`]).
 
 use crate::error::{limits, Error, Result};
 use crate::text::{read_text, Fields};
