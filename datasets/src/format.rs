@@ -17,7 +17,8 @@
 //! with the `"format": "pgm-scan-pairs"` header, pair files resolved relative to it),
 //! or a single pair file. Every pair read is validated ([`ScanPair::validate`]:
 //! scan invariants, label and association array lengths, association indices in
-//! range); errors name the file and the field.
+//! range; and [`check_limits`]: no value beyond the readers' plausibility
+//! [`limits`]); errors name the file and the field.
 //!
 //! [`write_pairs`] never leaves a mix of two data sets, never deletes a file it did not
 //! write, and writes nothing when it fails before the switch:
@@ -43,8 +44,9 @@
 //! target, and the exchanging rename of Linux needs an unsafe system call, which the
 //! workspace forbids), hence the index switch for replacements.
 
-use crate::error::{Error, Result};
-use crate::pair::ScanPair;
+use crate::error::{limits, Error, Result};
+use crate::pair::{PairViolation, ScanPair};
+use pgm_features::Pose2;
 use serde::{Deserialize, Serialize};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -161,12 +163,82 @@ fn pair_from_value(path: &Path, value: serde_json::Value) -> Result<ScanPair> {
         path: path.to_path_buf(),
         source,
     })?;
-    pair.validate().map_err(|v| Error::Invalid {
-        path: path.to_path_buf(),
-        field: v.field,
-        problem: v.problem,
-    })?;
+    pair.validate()
+        .and_then(|()| check_limits(&pair))
+        .map_err(|v| Error::Invalid {
+            path: path.to_path_buf(),
+            field: v.field,
+            problem: v.problem,
+        })?;
     Ok(pair)
+}
+
+/// The plausibility limits of the log readers ([`limits`]) on a stored pair: values
+/// that are finite (so [`ScanPair::validate`] accepts them) but mean nothing, such as
+/// an odometry of 1e300 m, a maximum range of 1e300 m or a beam angle of 1e300 rad.
+pub fn check_limits(pair: &ScanPair) -> std::result::Result<(), PairViolation> {
+    let violation = |field: String, problem: String| PairViolation { field, problem };
+    let pose = |field: &str, pose: &Pose2| {
+        let t = pose.translation();
+        if t.x.abs() > limits::MAX_POSITION || t.y.abs() > limits::MAX_POSITION {
+            return Err(violation(
+                field.to_string(),
+                format!(
+                    "translation ({}, {}) beyond {:e} m means nothing here",
+                    t.x,
+                    t.y,
+                    limits::MAX_POSITION
+                ),
+            ));
+        }
+        Ok(())
+    };
+    for (name, scan) in [("reference", &pair.reference), ("current", &pair.current)] {
+        if scan.max_range > limits::MAX_RANGE {
+            return Err(violation(
+                format!("{name}.max_range"),
+                format!("{} m is beyond any laser's reach", scan.max_range),
+            ));
+        }
+        if scan.timestamp.abs() > limits::MAX_TIMESTAMP {
+            return Err(violation(
+                format!("{name}.timestamp"),
+                format!("{} s is not a time stamp in seconds", scan.timestamp),
+            ));
+        }
+        if let Some(k) = scan
+            .angles
+            .iter()
+            .position(|a| a.abs() > 2.0 * limits::MAX_SPAN)
+        {
+            return Err(violation(
+                format!("{name}.angles[{k}]"),
+                format!("{} rad is beyond two full turns", scan.angles[k]),
+            ));
+        }
+        if let Some(k) = scan.ranges.iter().position(|r| r.abs() > limits::MAX_RANGE) {
+            return Err(violation(
+                format!("{name}.ranges[{k}]"),
+                format!("{} m is beyond any laser's reach", scan.ranges[k]),
+            ));
+        }
+        if let Some(o) = &scan.odometry {
+            pose(&format!("{name}.odometry"), o)?;
+        }
+        pose(&format!("{name}.laser_offset"), &scan.laser_offset)?;
+    }
+    if let Some(o) = &pair.odometry {
+        pose("odometry", o)?;
+    }
+    if let Some(truth) = &pair.truth {
+        if let Some(e) = &truth.ego_motion {
+            pose("truth.ego_motion", e)?;
+        }
+        for (k, m) in truth.motions.iter().enumerate() {
+            pose(&format!("truth.motions[{k}].motion"), &m.motion)?;
+        }
+    }
+    Ok(())
 }
 
 /// Reads a data set: a directory, an index file or a single pair file (see the
@@ -364,11 +436,13 @@ pub fn write_pairs(dir: impl AsRef<Path>, pairs: &[ScanPair]) -> Result<()> {
     let mut contents = Vec::with_capacity(pairs.len());
     for (k, p) in pairs.iter().enumerate() {
         let path = dir.join(pair_file_name(k));
-        p.validate().map_err(|v| Error::Invalid {
-            path: path.clone(),
-            field: v.field,
-            problem: v.problem,
-        })?;
+        p.validate()
+            .and_then(|()| check_limits(p))
+            .map_err(|v| Error::Invalid {
+                path: path.clone(),
+                field: v.field,
+                problem: v.problem,
+            })?;
         contents.push(serde_json::to_vec(p).map_err(|source| Error::Json { path, source })?);
     }
     match classify(dir)? {

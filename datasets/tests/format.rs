@@ -317,13 +317,44 @@ fn numbers_read_from_a_file_round_trip_exactly() {
     let exact: f64 = literal.parse().unwrap();
     let mut value = serde_json::to_value(pair("x")).unwrap();
     value["reference"]["ranges"][0] = serde_json::Value::Null;
-    let text = serde_json::to_string(&value)
-        .unwrap()
-        .replacen("\"ranges\":[null", &format!("\"ranges\":[{literal}"), 1);
+    let text = serde_json::to_string(&value).unwrap().replacen(
+        "\"ranges\":[null",
+        &format!("\"ranges\":[{literal}"),
+        1,
+    );
     let read = pgm_datasets::format::parse_pair(std::path::Path::new("p.json"), &text).unwrap();
     assert_eq!(read.reference.ranges[0].to_bits(), exact.to_bits());
     let dir = temp_dir("float-roundtrip");
     write_pairs(&dir, std::slice::from_ref(&read)).unwrap();
     assert_eq!(read_pairs(&dir).unwrap(), vec![read]);
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn values_that_mean_nothing_are_refused_on_read_and_write() {
+    // Kind 7 of issue 16 in stored pairs: finite, so `validate` accepts them.
+    let err = write_and_corrupt("huge-odometry", |v| v["odometry"]["x"] = 1e300.into());
+    assert!(
+        matches!(err, Error::Invalid { ref field, .. } if field == "odometry"),
+        "{err}"
+    );
+    let err = write_and_corrupt("huge-range", |v| {
+        v["current"]["max_range"] = 1e300.into();
+    });
+    assert!(
+        matches!(err, Error::Invalid { ref field, .. } if field == "current.max_range"),
+        "{err}"
+    );
+    let err = write_and_corrupt("huge-angle", |v| {
+        v["reference"]["angles"][2] = 1e300.into();
+    });
+    assert!(
+        matches!(err, Error::Invalid { ref field, .. } if field == "reference.angles[2]"),
+        "{err}"
+    );
+    let mut p = pair("x");
+    p.truth.as_mut().unwrap().motions[0].motion = Pose2::new(1e300, 0.0, 0.0);
+    let dir = temp_dir("huge-write");
+    assert!(write_pairs(&dir, &[p]).is_err());
+    assert!(!dir.exists());
 }
