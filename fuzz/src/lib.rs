@@ -170,7 +170,10 @@ pub fn pair_json(data: &[u8]) {
             && same_pose(&a.laser_offset, &b.laser_offset)
     };
     assert_eq!(again.name, pair.name);
-    assert!(same_scan(&again.reference, &pair.reference), "reference scan");
+    assert!(
+        same_scan(&again.reference, &pair.reference),
+        "reference scan"
+    );
     assert!(same_scan(&again.current, &pair.current), "current scan");
     assert_eq!(again.odometry.is_some(), pair.odometry.is_some());
     if let (Some(a), Some(b)) = (again.odometry, pair.odometry) {
@@ -219,7 +222,10 @@ pub fn weights_json(data: &[u8]) {
     let Ok(w) = pgm_core::Weights::from_json(feature_set(), text) else {
         return;
     };
-    assert!(w.values().iter().all(|v| v.is_finite()), "weights read are finite");
+    assert!(
+        w.values().iter().all(|v| v.is_finite()),
+        "weights read are finite"
+    );
     let weights = ClusteringWeights::from_weights(&w);
     let _ = ClusteringParams {
         weights,

@@ -183,7 +183,7 @@ impl UaiModel {
             )?);
         }
         let num_functions = tk.integer("the number of functions", 0, LIMIT)?;
-        let mut scopes = Vec::with_capacity(num_functions.min(1 << 20));
+        let mut scopes = Vec::with_capacity(num_functions.min(tk.tokens.len()));
         // in_scope[v] = the last function whose scope lists v (repeats in O(1)).
         let mut in_scope = vec![usize::MAX; n];
         for f in 0..num_functions {
@@ -213,7 +213,7 @@ impl UaiModel {
             }
             scopes.push(scope);
         }
-        let mut tables = Vec::with_capacity(num_functions.min(1 << 20));
+        let mut tables = Vec::with_capacity(num_functions.min(tk.tokens.len()));
         for (f, scope) in scopes.iter().enumerate() {
             let before = tk.next;
             let size = tk.integer(&format!("the table size of function {f}"), 0, LIMIT)?;
