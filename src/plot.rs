@@ -335,9 +335,10 @@ impl<'a> PairPicture<'a> {
     pub fn write_svg(&self, path: impl AsRef<Path>) -> Result<(), PlotError> {
         let path = path.as_ref();
         let svg = self.to_svg_string()?;
-        std::fs::write(path, svg).map_err(|source| PlotError::Io {
+        // Written beside the target and renamed into place: never half a picture.
+        pgm_datasets::format::write_atomically(path, svg.as_bytes()).map_err(|e| PlotError::Io {
             path: path.to_path_buf(),
-            source,
+            source: std::io::Error::other(e.to_string()),
         })
     }
 }

@@ -198,7 +198,7 @@ fn cluster_reads_a_carmen_log() {
         "2",
     ]);
     assert!(
-        !ok && err.contains("no laser scan 2") && err.contains("2 FLASER"),
+        !ok && err.contains("scan 2: no such laser scan") && err.contains("2 FLASER"),
         "{err}"
     );
 }

@@ -183,3 +183,123 @@ fn malformed_input_names_file_line_and_expectation() {
     let (_, err, ok) = pgm(&["map", model.to_str().unwrap(), "--damping", "1.5"]);
     assert!(!ok && err.contains("damping"), "{err}");
 }
+
+/// Writes `text` to `dir/name` and returns the path as a string.
+fn file(dir: &Path, name: &str, text: &str) -> String {
+    let path = dir.join(name);
+    std::fs::write(&path, text).unwrap();
+    path.to_str().unwrap().to_string()
+}
+
+#[test]
+fn models_and_evidence_without_positive_assignment_exit_2_with_the_reason() {
+    let dir = temp_dir("infeasible");
+    // B04: one binary variable whose only table is zero (Z = 0).
+    let zero = file(&dir, "zero.uai", "MARKOV\n1\n2\n1\n1 0\n\n2\n0 0\n");
+    for task in ["map", "marginals"] {
+        let (out, err, ok) = pgm(&[task, &zero]);
+        assert!(!ok && out.is_empty(), "{task}: {out}");
+        assert!(err.contains("zero.uai") && err.contains("Z = 0"), "{err}");
+    }
+    // B10: the evidence observes a state of probability 0.
+    let skew = file(&dir, "skew.uai", "MARKOV\n1\n2\n1\n1 0\n\n2\n1 0\n");
+    let bad = file(&dir, "bad.evid", "1 0 1\n");
+    for task in ["map", "marginals"] {
+        let (out, err, ok) = pgm(&[task, &skew, "--evidence", &bad]);
+        assert!(!ok && out.is_empty(), "{task}: {out}");
+        assert!(
+            err.contains("P(evidence) = 0") && err.contains("x0 = 1"),
+            "{err}"
+        );
+    }
+    // ev-contradict: x0 = x1 = x2, evidence x0 = 0 and x2 = 1.
+    let chain = file(
+        &dir,
+        "chain.uai",
+        "MARKOV\n3\n2 2 2\n2\n2 0 1\n2 1 2\n\n4\n1 0 0 1\n\n4\n1 0 0 1\n",
+    );
+    let apart = file(&dir, "apart.evid", "2 0 0 2 1\n");
+    for task in ["map", "marginals"] {
+        let (out, err, ok) = pgm(&[task, &chain, "--evidence", &apart]);
+        assert!(!ok && out.is_empty(), "{task}: {out}");
+        assert!(err.contains("x0 = 0, x2 = 1"), "{err}");
+    }
+    // Consistent evidence: observed variables are reported at their observed value,
+    // with marginals that are exactly their observed state.
+    let together = file(&dir, "together.evid", "2 0 1 2 1\n");
+    let (out, err, ok) = pgm(&["map", &chain, "--evidence", &together]);
+    assert!(ok, "{err}");
+    assert_eq!(out, "MPE\n3 1 1 1\n");
+    let (out, err, ok) = pgm(&["marginals", &chain, "--evidence", &together]);
+    assert!(ok, "{err}");
+    assert_eq!(out, "MAR\n3 2 0 1 2 0 1 2 0 1\n");
+}
+
+#[test]
+fn uai_2010_evidence_with_several_samples_uses_the_first_or_the_chosen_one() {
+    let dir = temp_dir("samples");
+    // B09: x0 prefers 1 only when observed; x1, x2 follow x0 through equal-preferring
+    // tables.
+    let model = file(
+        &dir,
+        "m.uai",
+        "MARKOV\n3\n2 2 2\n3\n1 0\n2 0 1\n2 1 2\n\n2\n4 1\n\n4\n3 1 1 3\n\n4\n2 1 1 2\n",
+    );
+    let evid = file(&dir, "m.evid", "2\n1 0 1\n0\n");
+    let (out, err, ok) = pgm(&["map", &model, "--evidence", &evid]);
+    assert!(ok, "{err}");
+    assert_eq!(out, "MPE\n3 1 1 1\n");
+    assert!(
+        err.contains("holds 2 evidence samples") && err.contains("--sample"),
+        "{err}"
+    );
+    let (out, err, ok) = pgm(&["map", &model, "--evidence", &evid, "--sample", "1"]);
+    assert!(ok, "{err}");
+    assert_eq!(out, "MPE\n3 0 0 0\n");
+    assert!(!err.contains("note"), "{err}");
+    let (out, err, ok) = pgm(&["map", &model, "--evidence", &evid, "--sample", "2"]);
+    assert!(!ok && out.is_empty());
+    assert!(
+        err.contains("--sample 2") && err.contains("2 evidence samples"),
+        "{err}"
+    );
+}
+
+#[test]
+fn sizes_in_a_model_file_are_checked_before_they_are_used() {
+    let dir = temp_dir("sizes");
+    // uai-prodoverflow: 64 binary variables, the product wraps to the table size 0.
+    let scope: Vec<String> = (0..64).map(|v| v.to_string()).collect();
+    let wrap = file(
+        &dir,
+        "wrap.uai",
+        &format!(
+            "MARKOV\n64\n{}\n1\n64 {}\n\n0\n",
+            vec!["2"; 64].join(" "),
+            scope.join(" ")
+        ),
+    );
+    let (out, err, ok) = pgm(&["map", &wrap]);
+    assert!(!ok && out.is_empty());
+    assert!(
+        err.contains("wrap.uai:7:") && err.contains("overflows"),
+        "{err}"
+    );
+    // uai-bigtable-prealloc: a 2^36-entry table declared, two entries given.
+    let scope: Vec<String> = (0..36).map(|v| v.to_string()).collect();
+    let big = file(
+        &dir,
+        "big.uai",
+        &format!(
+            "MARKOV\n36\n{}\n1\n36 {}\n\n68719476736\n1 1\n",
+            vec!["2"; 36].join(" "),
+            scope.join(" ")
+        ),
+    );
+    let (out, err, ok) = pgm(&["map", &big]);
+    assert!(!ok && out.is_empty());
+    assert!(
+        err.contains("big.uai:") && err.contains("unexpected end of file"),
+        "{err}"
+    );
+}

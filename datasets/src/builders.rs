@@ -15,7 +15,12 @@
 //!   odometry from the scans and gives no odometry prior, so no method can read the
 //!   ground truth through it ([`ConsecutivePairs::odometry_was_ground_truth`]).
 //! - [`leigh_pairs`] (leigh-gtm1): pairs of scans `k` indices apart, labels from the
-//!   annotated people (rule below).
+//!   annotated people (rule below). A `k` larger than the span of the log's scan
+//!   indices is an error (`i + k` is never allowed to wrap).
+//! - [`carmen_scan_pair`], [`leigh_scan_pair`]: two chosen scans of a log, without
+//!   ground truth, to run a model on (`pgm cluster`); a scan that does not exist or has
+//!   no valid return is an [`Error::Scan`] naming the file, its line and its index, so a
+//!   model never meets it anonymously.
 //!
 //! In every builder the odometry prior is the motion of the laser between the scans
 //! as the odometry sees it, `inverse(odo_i ∘ L) ∘ (odo_j ∘ L)`, in the reference
@@ -70,6 +75,7 @@ use crate::relations::Relation;
 use nalgebra::Point2;
 use pgm_features::{Pose2, Scan};
 use std::collections::BTreeMap;
+use std::path::Path;
 
 /// Label 0 for every valid return, `None` for beams without a return.
 pub fn background_labels(scan: &Scan) -> Vec<Option<u32>> {
@@ -105,6 +111,82 @@ fn static_pair(name: String, reference: Scan, current: Scan, ego_motion: Pose2) 
         current,
         truth: Some(truth),
     }
+}
+
+/// Checks that scan `index` of the log at `path` (on `line`) has a valid return.
+fn require_returns(path: &Path, line: usize, index: usize, scan: &Scan) -> Result<()> {
+    if scan.valid_count() == 0 {
+        return Err(Error::Scan {
+            path: path.to_path_buf(),
+            line,
+            scan: index,
+            problem: format!(
+                "no valid return among its {} beams (all without a return or beyond the \
+                 maximum range {} m)",
+                scan.len(),
+                scan.max_range
+            ),
+        });
+    }
+    Ok(())
+}
+
+/// The pair of scans `i` (reference) and `j` (current) of a log, without ground truth,
+/// named `<name>:<i>-<j>`, with the odometry prior of the two scans.
+fn log_pair(name: &str, i: usize, j: usize, a: &Scan, b: &Scan) -> ScanPair {
+    ScanPair {
+        name: format!("{name}:{i}-{j}"),
+        odometry: odometry_prior(a, b),
+        reference: a.clone(),
+        current: b.clone(),
+        truth: None,
+    }
+}
+
+/// The pair of laser scans `i` (reference) and `j` (current) of a CARMEN log read from
+/// `path` (FLASER / ROBOTLASER1 lines counted from 0), for running a model on: no
+/// ground truth, the odometry prior from the poses on the two lines, named
+/// `<file stem>:<i>-<j>`. A missing scan or one without any valid return is an
+/// [`Error::Scan`] naming the file, the line and the scan index.
+pub fn carmen_scan_pair(path: &Path, log: &CarmenLog, i: usize, j: usize) -> Result<ScanPair> {
+    let get = |k: usize| {
+        let s = log.scans.get(k).ok_or_else(|| Error::Scan {
+            path: path.to_path_buf(),
+            line: 0,
+            scan: k,
+            problem: format!(
+                "no such laser scan (the log has {} FLASER / ROBOTLASER1 lines, counted from 0)",
+                log.scans.len()
+            ),
+        })?;
+        require_returns(path, s.line, k, &s.scan)?;
+        Ok::<_, Error>(&s.scan)
+    };
+    let (a, b) = (get(i)?, get(j)?);
+    Ok(log_pair(&file_stem(path), i, j, a, b))
+}
+
+/// The pair of scans with indices `i` (reference) and `j` (current) of a leigh-gtm1
+/// style scan log read from `path`, as [`carmen_scan_pair`] (odometry prior when the
+/// scans carry odometry).
+pub fn leigh_scan_pair(path: &Path, scans: &LeighScans, i: usize, j: usize) -> Result<ScanPair> {
+    let get = |k: usize| {
+        let s = scans.get(k).ok_or_else(|| Error::Scan {
+            path: path.to_path_buf(),
+            line: 0,
+            scan: k,
+            problem: "no scan with this index in the log".into(),
+        })?;
+        require_returns(path, s.line, k, &s.scan)?;
+        Ok::<_, Error>(&s.scan)
+    };
+    let (a, b) = (get(i)?, get(j)?);
+    Ok(log_pair(&file_stem(path), i, j, a, b))
+}
+
+fn file_stem(path: &Path) -> String {
+    path.file_stem()
+        .map_or_else(|| "log".into(), |s| s.to_string_lossy().into_owned())
 }
 
 /// Options of [`relation_pairs`].
@@ -372,9 +454,23 @@ pub fn leigh_pairs(
     } else {
         None
     };
+    if let (Some(first), Some(last)) = (scans.scans.first(), scans.scans.last()) {
+        let span = last.index.saturating_sub(first.index);
+        if options.k > span {
+            return Err(Error::Mismatch {
+                what: format!(
+                    "k = {}: no two scans of the log are that far apart (scan indices {}..={}, \
+                     lines {} and {})",
+                    options.k, first.index, last.index, first.line, last.line
+                ),
+            });
+        }
+    }
     let mut pairs = Vec::new();
     for (&i, people_i) in &by_scan {
-        let j = i + options.k;
+        let Some(j) = i.checked_add(options.k) else {
+            continue;
+        };
         let Some(people_j) = by_scan.get(&j) else {
             continue;
         };

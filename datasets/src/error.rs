@@ -74,6 +74,20 @@ pub enum Error {
         /// What is wrong with it.
         problem: String,
     },
+    /// A scan of a log cannot be used for what it was asked for (no such scan, or no
+    /// valid return to work with).
+    #[error("{}:{line}: scan {scan}: {problem}", path.display())]
+    Scan {
+        /// The log.
+        path: PathBuf,
+        /// 1-based line of the scan (0 when the scan does not exist).
+        line: usize,
+        /// The scan's index as the caller gave it (laser line counted from 0 in a
+        /// CARMEN log, the `idx` field in a leigh-gtm1 log).
+        scan: usize,
+        /// What is wrong.
+        problem: String,
+    },
     /// Two inputs that must agree do not (for example odometry and scans, or the
     /// arguments of a metric).
     #[error("{what}")]
@@ -112,4 +126,26 @@ impl Error {
             source,
         }
     }
+}
+
+/// Plausibility limits of the log readers: a value that parses as a finite number but
+/// lies beyond these means nothing for a 2D laser log (a typo, a unit mistake, a
+/// corrupted file) and would only turn into `inf` or NaN further on, so the readers
+/// refuse it with an [`Error::Field`] naming file, line and field.
+pub mod limits {
+    /// Largest magnitude of a position coordinate (m): poses, laser offsets, person
+    /// centres and relation translations. 1e8 m is far beyond any map on Earth (UTM
+    /// northings stay below 1e7 m) while keeping about 1e-8 m of resolution.
+    pub const MAX_POSITION: f64 = 1e8;
+    /// Largest range or maximum range of a laser (m). No 2D laser measures 100 km.
+    pub const MAX_RANGE: f64 = 1e5;
+    /// Largest magnitude of a heading (rad). Unwrapped odometry headings are accepted
+    /// up to a million radians (sines and cosines keep about 1e-10 rad there).
+    pub const MAX_HEADING: f64 = 1e6;
+    /// Largest magnitude of a time stamp (s). Time stamps are seconds (1e11 s is the
+    /// year 5138): a log in nanoseconds is refused rather than read as centuries.
+    pub const MAX_TIMESTAMP: f64 = 1e11;
+    /// Largest span of a scan's beam angles (rad), a full turn (with a margin for
+    /// rounding in the log): more would put two beams on one ray.
+    pub const MAX_SPAN: f64 = std::f64::consts::TAU + 1e-6;
 }

@@ -17,16 +17,36 @@
 //! with the `"format": "pgm-scan-pairs"` header, pair files resolved relative to it),
 //! or a single pair file. Every pair read is validated ([`ScanPair::validate`]:
 //! scan invariants, label and association array lengths, association indices in
-//! range); errors name the file and the field.
+//! range; and [`check_limits`]: no value beyond the readers' plausibility
+//! [`limits`]); errors name the file and the field.
 //!
-//! [`write_pairs`] writes every file to a temporary name in the target directory,
-//! flushes it to disk and renames it into place, pair files first and the index last;
-//! a crash or a full disk leaves either the previous index (and its files) or the new
-//! one, never a truncated file under a final name. Pair files of an earlier write that
-//! the new index does not list are removed after the index is in place.
+//! [`write_pairs`] never leaves a mix of two data sets, never deletes a file it did not
+//! write, and writes nothing when it fails before the switch:
+//!
+//! - every pair is validated and serialised before anything touches the disk;
+//! - a directory that does not exist (or is empty) is written as a temporary sibling
+//!   directory (`.NAME.pgm-tmp-…`), flushed, and renamed into place: the directory
+//!   then either does not exist or holds the whole data set;
+//! - a directory that holds a data set (an index with this format's header) is
+//!   replaced through its index: the new pair files are written under names the old
+//!   index does not use (`pair-NNNNN.json` or `pair-gG-NNNNN.json`), each flushed and
+//!   renamed into place, then the new `index.json` replaces the old one in one rename
+//!   (the switch); only then are the old index's pair files removed. A reader sees the
+//!   old data set or the new one at every instant, and a run killed before the switch
+//!   leaves the old data set whole (plus unlisted new files, which no reader opens);
+//! - any other non-empty directory is refused: its files are not ours to replace;
+//! - files in the directory that no index lists are never removed, except the pair
+//!   files of a replacement that was killed: it lists the files it writes and those it
+//!   will remove in a journal ([`JOURNAL_FILE`]) before touching any, and the next
+//!   replacement removes the listed files the index in place does not list.
+//!
+//! A directory cannot be swapped for another in one step (rename refuses a non-empty
+//! target, and the exchanging rename of Linux needs an unsafe system call, which the
+//! workspace forbids), hence the index switch for replacements.
 
-use crate::error::{Error, Result};
-use crate::pair::ScanPair;
+use crate::error::{limits, Error, Result};
+use crate::pair::{PairViolation, ScanPair};
+use pgm_features::Pose2;
 use serde::{Deserialize, Serialize};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -73,17 +93,152 @@ pub fn read_pair(path: impl AsRef<Path>) -> Result<ScanPair> {
     pair_from_value(path, value)
 }
 
+/// Parses and validates the text of one pair file; `path` is only used in errors.
+pub fn parse_pair(path: &Path, text: &str) -> Result<ScanPair> {
+    let value = serde_json::from_str(text).map_err(|source| Error::Json {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    pair_from_value(path, value)
+}
+
+/// Parses and checks the text of an index file (header, version, member paths that
+/// stay inside the data-set directory); `path` is only used in errors.
+pub fn parse_index(path: &Path, text: &str) -> Result<Index> {
+    let value = serde_json::from_str(text).map_err(|source| Error::Json {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    index_from_value(path, value)
+}
+
+fn index_from_value(index_path: &Path, value: serde_json::Value) -> Result<Index> {
+    let index: Index = serde_json::from_value(value).map_err(|source| Error::Json {
+        path: index_path.to_path_buf(),
+        source,
+    })?;
+    if index.format != FORMAT_NAME {
+        return Err(Error::Invalid {
+            path: index_path.to_path_buf(),
+            field: "format".into(),
+            problem: format!("`{}`, expected `{FORMAT_NAME}`", index.format),
+        });
+    }
+    if index.version != FORMAT_VERSION {
+        return Err(Error::Invalid {
+            path: index_path.to_path_buf(),
+            field: "version".into(),
+            problem: format!(
+                "{}, this reader understands {FORMAT_VERSION}",
+                index.version
+            ),
+        });
+    }
+    for (k, entry) in index.pairs.iter().enumerate() {
+        let file = Path::new(&entry.file);
+        let inside = !entry.file.is_empty()
+            && !file.is_absolute()
+            && file.components().all(|c| {
+                matches!(
+                    c,
+                    std::path::Component::Normal(_) | std::path::Component::CurDir
+                )
+            });
+        if !inside {
+            return Err(Error::Invalid {
+                path: index_path.to_path_buf(),
+                field: format!("pairs[{k}].file"),
+                problem: format!(
+                    "`{}` must be a path inside the data-set directory",
+                    entry.file
+                ),
+            });
+        }
+    }
+    Ok(index)
+}
+
 fn pair_from_value(path: &Path, value: serde_json::Value) -> Result<ScanPair> {
     let pair: ScanPair = serde_json::from_value(value).map_err(|source| Error::Json {
         path: path.to_path_buf(),
         source,
     })?;
-    pair.validate().map_err(|v| Error::Invalid {
-        path: path.to_path_buf(),
-        field: v.field,
-        problem: v.problem,
-    })?;
+    pair.validate()
+        .and_then(|()| check_limits(&pair))
+        .map_err(|v| Error::Invalid {
+            path: path.to_path_buf(),
+            field: v.field,
+            problem: v.problem,
+        })?;
     Ok(pair)
+}
+
+/// The plausibility limits of the log readers ([`limits`]) on a stored pair: values
+/// that are finite (so [`ScanPair::validate`] accepts them) but mean nothing, such as
+/// an odometry of 1e300 m, a maximum range of 1e300 m or a beam angle of 1e300 rad.
+pub fn check_limits(pair: &ScanPair) -> std::result::Result<(), PairViolation> {
+    let violation = |field: String, problem: String| PairViolation { field, problem };
+    let pose = |field: &str, pose: &Pose2| {
+        let t = pose.translation();
+        if t.x.abs() > limits::MAX_POSITION || t.y.abs() > limits::MAX_POSITION {
+            return Err(violation(
+                field.to_string(),
+                format!(
+                    "translation ({}, {}) beyond {:e} m means nothing here",
+                    t.x,
+                    t.y,
+                    limits::MAX_POSITION
+                ),
+            ));
+        }
+        Ok(())
+    };
+    for (name, scan) in [("reference", &pair.reference), ("current", &pair.current)] {
+        if scan.max_range > limits::MAX_RANGE {
+            return Err(violation(
+                format!("{name}.max_range"),
+                format!("{} m is beyond any laser's reach", scan.max_range),
+            ));
+        }
+        if scan.timestamp.abs() > limits::MAX_TIMESTAMP {
+            return Err(violation(
+                format!("{name}.timestamp"),
+                format!("{} s is not a time stamp in seconds", scan.timestamp),
+            ));
+        }
+        if let Some(k) = scan
+            .angles
+            .iter()
+            .position(|a| a.abs() > 2.0 * limits::MAX_SPAN)
+        {
+            return Err(violation(
+                format!("{name}.angles[{k}]"),
+                format!("{} rad is beyond two full turns", scan.angles[k]),
+            ));
+        }
+        if let Some(k) = scan.ranges.iter().position(|r| r.abs() > limits::MAX_RANGE) {
+            return Err(violation(
+                format!("{name}.ranges[{k}]"),
+                format!("{} m is beyond any laser's reach", scan.ranges[k]),
+            ));
+        }
+        if let Some(o) = &scan.odometry {
+            pose(&format!("{name}.odometry"), o)?;
+        }
+        pose(&format!("{name}.laser_offset"), &scan.laser_offset)?;
+    }
+    if let Some(o) = &pair.odometry {
+        pose("odometry", o)?;
+    }
+    if let Some(truth) = &pair.truth {
+        if let Some(e) = &truth.ego_motion {
+            pose("truth.ego_motion", e)?;
+        }
+        for (k, m) in truth.motions.iter().enumerate() {
+            pose(&format!("truth.motions[{k}].motion"), &m.motion)?;
+        }
+    }
+    Ok(())
 }
 
 /// Reads a data set: a directory, an index file or a single pair file (see the
@@ -100,48 +255,14 @@ pub fn read_pairs(path: impl AsRef<Path>) -> Result<Vec<ScanPair>> {
     if !is_index {
         return Ok(vec![pair_from_value(&index_path, value)?]);
     }
-    let index: Index = serde_json::from_value(value).map_err(|source| Error::Json {
-        path: index_path.clone(),
-        source,
-    })?;
-    if index.format != FORMAT_NAME {
-        return Err(Error::Invalid {
-            path: index_path,
-            field: "format".into(),
-            problem: format!("`{}`, expected `{FORMAT_NAME}`", index.format),
-        });
-    }
-    if index.version != FORMAT_VERSION {
-        return Err(Error::Invalid {
-            path: index_path,
-            field: "version".into(),
-            problem: format!(
-                "{}, this reader understands {FORMAT_VERSION}",
-                index.version
-            ),
-        });
-    }
+    let index = index_from_value(&index_path, value)?;
     let base = index_path
         .parent()
         .map(Path::to_path_buf)
         .unwrap_or_default();
     let mut pairs = Vec::with_capacity(index.pairs.len());
-    for (k, entry) in index.pairs.iter().enumerate() {
+    for entry in &index.pairs {
         let file = Path::new(&entry.file);
-        if file.is_absolute()
-            || file
-                .components()
-                .any(|c| c == std::path::Component::ParentDir)
-        {
-            return Err(Error::Invalid {
-                path: index_path.clone(),
-                field: format!("pairs[{k}].file"),
-                problem: format!(
-                    "`{}` must be a path inside the data-set directory",
-                    entry.file
-                ),
-            });
-        }
         let pair = read_pair(base.join(file))?;
         if pair.name != entry.name {
             return Err(Error::Invalid {
@@ -177,56 +298,368 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
     Ok(())
 }
 
-/// File name of pair number `k` in a data-set directory.
+/// A file written under a temporary name beside its destination and renamed into place
+/// by [`StagedFile::commit`]; dropped uncommitted, it is removed. Lets a command that
+/// writes several outputs write none of them when one fails.
+#[derive(Debug)]
+pub struct StagedFile {
+    tmp: PathBuf,
+    path: PathBuf,
+    committed: bool,
+}
+
+impl StagedFile {
+    /// Writes `bytes` (flushed to disk) to a temporary sibling of `path`.
+    pub fn stage(path: impl AsRef<Path>, bytes: &[u8]) -> Result<Self> {
+        let path = path.as_ref().to_path_buf();
+        let dir = match path.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        let name = path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "output".into());
+        let tmp = dir.join(format!(".{name}.tmp-{}", std::process::id()));
+        let staged = Self {
+            tmp,
+            path,
+            committed: false,
+        };
+        write_flushed(&staged.tmp, bytes).map_err(|e| match e {
+            Error::Io { source, .. } => Error::io(&staged.path, source),
+            other => other,
+        })?;
+        Ok(staged)
+    }
+
+    /// Renames the file into place.
+    pub fn commit(mut self) -> Result<()> {
+        std::fs::rename(&self.tmp, &self.path).map_err(|e| Error::io(&self.path, e))?;
+        self.committed = true;
+        Ok(())
+    }
+}
+
+impl Drop for StagedFile {
+    fn drop(&mut self) {
+        if !self.committed {
+            let _ = std::fs::remove_file(&self.tmp);
+        }
+    }
+}
+
+/// File name of pair number `k` in a data-set directory written fresh.
 pub fn pair_file_name(k: usize) -> String {
     format!("pair-{k:05}.json")
 }
 
-/// Writes a data set into directory `dir` (created if missing; see the module docs).
-/// Every pair is validated first; nothing is written if one is invalid.
+/// File name of pair number `k` in generation `g` (0 is [`pair_file_name`]): a data set
+/// that replaces another uses a generation whose names do not exist yet.
+pub fn generation_file_name(g: usize, k: usize) -> String {
+    if g == 0 {
+        pair_file_name(k)
+    } else {
+        format!("pair-g{g}-{k:05}.json")
+    }
+}
+
+/// What a `--out` directory holds before a write.
+enum Target {
+    /// Nothing (missing or empty).
+    Fresh,
+    /// A data set with this index.
+    DataSet(Index),
+}
+
+/// Classifies `dir`; a non-empty directory without a data set is an error.
+fn classify(dir: &Path) -> Result<Target> {
+    let meta = match std::fs::metadata(dir) {
+        Ok(m) => m,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Target::Fresh),
+        Err(e) => return Err(Error::io(dir, e)),
+    };
+    if !meta.is_dir() {
+        return Err(Error::Invalid {
+            path: dir.to_path_buf(),
+            field: "output".into(),
+            problem: "exists and is not a directory; a data set is a directory".into(),
+        });
+    }
+    let mut entries = std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))?;
+    let Some(first) = entries.next() else {
+        return Ok(Target::Fresh);
+    };
+    let first = first
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let index_path = dir.join(INDEX_FILE);
+    let index = std::fs::read_to_string(&index_path)
+        .ok()
+        .and_then(|text| serde_json::from_str::<Index>(&text).ok())
+        .filter(|index| index.format == FORMAT_NAME);
+    match index {
+        Some(index) => Ok(Target::DataSet(index)),
+        None => Err(Error::Invalid {
+            path: dir.to_path_buf(),
+            field: "output".into(),
+            problem: format!(
+                "the directory is not empty and holds no pgm data set (no readable {INDEX_FILE} \
+                 with format `{FORMAT_NAME}`; it holds `{first}`, …); refusing to write into it: \
+                 choose a new or empty directory"
+            ),
+        }),
+    }
+}
+
+/// Writes `bytes` to `path` (a new file), flushed to disk.
+fn write_flushed(path: &Path, bytes: &[u8]) -> Result<()> {
+    let mut f = std::fs::File::create(path).map_err(|e| Error::io(path, e))?;
+    f.write_all(bytes).map_err(|e| Error::io(path, e))?;
+    f.sync_all().map_err(|e| Error::io(path, e))
+}
+
+/// Flushes a directory's entries (renames) to disk; a no-op where directories cannot
+/// be opened as files.
+fn sync_dir(dir: &Path) {
+    if let Ok(f) = std::fs::File::open(dir) {
+        let _ = f.sync_all();
+    }
+}
+
+/// Writes a data set into directory `dir` (see the module docs: fresh directories are
+/// written as a temporary sibling and renamed into place, existing data sets are
+/// replaced through their index, other non-empty directories are refused). Every pair
+/// is validated and serialised first; nothing is written if one is invalid.
 pub fn write_pairs(dir: impl AsRef<Path>, pairs: &[ScanPair]) -> Result<()> {
     let dir = dir.as_ref();
+    let mut contents = Vec::with_capacity(pairs.len());
     for (k, p) in pairs.iter().enumerate() {
-        p.validate().map_err(|v| Error::Invalid {
-            path: dir.join(pair_file_name(k)),
-            field: v.field,
-            problem: v.problem,
-        })?;
+        let path = dir.join(pair_file_name(k));
+        p.validate()
+            .and_then(|()| check_limits(p))
+            .map_err(|v| Error::Invalid {
+                path: path.clone(),
+                field: v.field,
+                problem: v.problem,
+            })?;
+        contents.push(serde_json::to_vec(p).map_err(|source| Error::Json { path, source })?);
     }
-    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    match classify(dir)? {
+        Target::Fresh => write_fresh(dir, pairs, &contents),
+        Target::DataSet(old) => replace_data_set(dir, &old, pairs, &contents),
+    }
+}
+
+fn index_bytes(path: &Path, index: &Index) -> Result<Vec<u8>> {
+    serde_json::to_vec_pretty(index).map_err(|source| Error::Json {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+/// A missing or empty `dir`: write a temporary sibling directory, rename it into place.
+fn write_fresh(dir: &Path, pairs: &[ScanPair], contents: &[Vec<u8>]) -> Result<()> {
+    let parent = match dir.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    std::fs::create_dir_all(&parent).map_err(|e| Error::io(&parent, e))?;
+    let name = dir
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "pairs".into());
+    let stamp = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_nanos());
+    let tmp = parent.join(format!(".{name}.pgm-tmp-{}-{stamp}", std::process::id()));
+    std::fs::create_dir(&tmp).map_err(|e| Error::io(&tmp, e))?;
+    let written = (|| {
+        let mut index = Index {
+            format: FORMAT_NAME.into(),
+            version: FORMAT_VERSION,
+            pairs: Vec::with_capacity(pairs.len()),
+        };
+        for (k, (p, bytes)) in pairs.iter().zip(contents).enumerate() {
+            let file = pair_file_name(k);
+            write_flushed(&tmp.join(&file), bytes)?;
+            index.pairs.push(IndexEntry {
+                name: p.name.clone(),
+                file,
+            });
+        }
+        let index_path = tmp.join(INDEX_FILE);
+        write_flushed(&index_path, &index_bytes(&index_path, &index)?)?;
+        sync_dir(&tmp);
+        // Renaming onto an empty directory replaces it (POSIX); elsewhere remove it first.
+        if std::fs::rename(&tmp, dir).is_err() {
+            let _ = std::fs::remove_dir(dir);
+            std::fs::rename(&tmp, dir).map_err(|e| Error::io(dir, e))?;
+        }
+        sync_dir(&parent);
+        Ok(())
+    })();
+    if written.is_err() {
+        // Only what this call created: the temporary directory and its files.
+        if let Ok(entries) = std::fs::read_dir(&tmp) {
+            for entry in entries.flatten() {
+                let _ = std::fs::remove_file(entry.path());
+            }
+        }
+        let _ = std::fs::remove_dir(&tmp);
+    }
+    written
+}
+
+/// `dir` holds the data set `old`: new pair files under unused names, then the index
+/// switch, then the old pair files go.
+fn replace_data_set(
+    dir: &Path,
+    old: &Index,
+    pairs: &[ScanPair],
+    contents: &[Vec<u8>],
+) -> Result<()> {
+    let journal = dir.join(JOURNAL_FILE);
+    clear_interrupted_write(dir, &journal, old)?;
+    let generation = (0..)
+        .find(|&g| {
+            (0..pairs.len()).all(|k| {
+                let name = generation_file_name(g, k);
+                !dir.join(&name).exists() && old.pairs.iter().all(|e| e.file != name)
+            })
+        })
+        .unwrap_or(0);
     let mut index = Index {
         format: FORMAT_NAME.into(),
         version: FORMAT_VERSION,
         pairs: Vec::with_capacity(pairs.len()),
     };
-    for (k, p) in pairs.iter().enumerate() {
-        let file = pair_file_name(k);
-        let path = dir.join(&file);
-        let bytes = serde_json::to_vec(p).map_err(|source| Error::Json {
-            path: path.clone(),
-            source,
-        })?;
-        write_atomically(&path, &bytes)?;
-        index.pairs.push(IndexEntry {
-            name: p.name.clone(),
-            file,
-        });
-    }
-    let index_path = dir.join(INDEX_FILE);
-    let bytes = serde_json::to_vec_pretty(&index).map_err(|source| Error::Json {
-        path: index_path.clone(),
+    // The journal lists every file this replacement writes or will remove: after a kill
+    // at any point, the files it lists that the index in place does not list are the
+    // losing side (the new files before the switch, the old ones after it).
+    let mut journal_files: Vec<String> = (0..pairs.len())
+        .map(|k| generation_file_name(generation, k))
+        .collect();
+    journal_files.extend(
+        old.pairs
+            .iter()
+            .filter(|e| is_pair_file_name(&e.file))
+            .map(|e| e.file.clone()),
+    );
+    let journal_bytes = serde_json::to_vec(&Journal {
+        files: journal_files,
+    })
+    .map_err(|source| Error::Json {
+        path: journal.clone(),
         source,
     })?;
-    write_atomically(&index_path, &bytes)?;
-    // Remove pair files of an earlier, larger data set.
+    write_atomically(&journal, &journal_bytes)?;
+    let mut created = Vec::new();
+    let switched = (|| {
+        for (k, (p, bytes)) in pairs.iter().zip(contents).enumerate() {
+            let file = generation_file_name(generation, k);
+            let path = dir.join(&file);
+            write_atomically(&path, bytes)?;
+            created.push(path);
+            index.pairs.push(IndexEntry {
+                name: p.name.clone(),
+                file,
+            });
+        }
+        sync_dir(dir);
+        let index_path = dir.join(INDEX_FILE);
+        write_atomically(&index_path, &index_bytes(&index_path, &index)?)?;
+        sync_dir(dir);
+        Ok(())
+    })();
+    if let Err(e) = switched {
+        for path in &created {
+            let _ = std::fs::remove_file(path);
+        }
+        let _ = std::fs::remove_file(&journal);
+        return Err(e);
+    }
+    // The old data set's own pair files, now unlisted (never anything else).
     let listed: std::collections::HashSet<&str> =
         index.pairs.iter().map(|e| e.file.as_str()).collect();
-    let entries = std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))?;
-    for entry in entries.flatten() {
-        let name = entry.file_name().to_string_lossy().into_owned();
-        if name.starts_with("pair-") && name.ends_with(".json") && !listed.contains(name.as_str()) {
-            std::fs::remove_file(entry.path()).map_err(|e| Error::io(entry.path(), e))?;
+    for entry in &old.pairs {
+        let name = entry.file.as_str();
+        if is_pair_file_name(name) && !listed.contains(name) {
+            let path = dir.join(name);
+            match std::fs::remove_file(&path) {
+                Ok(()) => {}
+                Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+                Err(e) => return Err(Error::io(path, e)),
+            }
         }
     }
+    std::fs::remove_file(&journal).map_err(|e| Error::io(&journal, e))?;
+    sync_dir(dir);
     Ok(())
+}
+
+/// File in a data-set directory that lists the pair files a replacement is about to
+/// write and those it will remove, itself removed once the replacement is complete. A
+/// journal left behind by a killed run names files of the two data sets it was
+/// switching between; the next write removes those the index in place does not list.
+pub const JOURNAL_FILE: &str = ".pgm-write-journal.json";
+
+#[derive(Serialize, Deserialize)]
+struct Journal {
+    files: Vec<String>,
+}
+
+/// A plain pair-file name in the data-set directory (`pair-….json`, no path).
+fn is_pair_file_name(name: &str) -> bool {
+    !name.contains(['/', '\\']) && name.starts_with("pair-") && name.ends_with(".json")
+}
+
+/// Removes what a killed replacement left (as its journal says): the listed files the
+/// index in place does not list, and temporary files.
+fn clear_interrupted_write(dir: &Path, journal: &Path, current: &Index) -> Result<()> {
+    // A journal that never reached its name (killed while writing it).
+    let journal_tmp = format!(".{JOURNAL_FILE}.tmp-");
+    if let Ok(entries) = std::fs::read_dir(dir) {
+        for entry in entries.flatten() {
+            if entry
+                .file_name()
+                .to_string_lossy()
+                .starts_with(&journal_tmp)
+            {
+                let _ = std::fs::remove_file(entry.path());
+            }
+        }
+    }
+    let Ok(text) = std::fs::read_to_string(journal) else {
+        return Ok(());
+    };
+    if let Ok(j) = serde_json::from_str::<Journal>(&text) {
+        // Temporary files of the listed files and of the index ([`write_atomically`]).
+        let prefixes: Vec<String> = j
+            .files
+            .iter()
+            .map(String::as_str)
+            .chain([INDEX_FILE])
+            .map(|name| format!(".{name}.tmp-"))
+            .collect();
+        if let Ok(entries) = std::fs::read_dir(dir) {
+            for entry in entries.flatten() {
+                let name = entry.file_name().to_string_lossy().into_owned();
+                if prefixes.iter().any(|p| name.starts_with(p.as_str())) {
+                    let _ = std::fs::remove_file(entry.path());
+                }
+            }
+        }
+        for name in &j.files {
+            if is_pair_file_name(name) && current.pairs.iter().all(|e| &e.file != name) {
+                let path = dir.join(name);
+                match std::fs::remove_file(&path) {
+                    Ok(()) => {}
+                    Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+                    Err(e) => return Err(Error::io(path, e)),
+                }
+            }
+        }
+    }
+    std::fs::remove_file(journal).map_err(|e| Error::io(journal, e))
 }

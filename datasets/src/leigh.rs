@@ -7,7 +7,9 @@
 //!   `angle_min + k·angle_increment`; a beam is a return when
 //!   `range_min < r < range_max` and finite. `nan`, `inf` and `0` mean no return
 //!   (stored as range 0, invalid); a negative range is an error. The scan's time stamp
-//!   is `stamp_header_s`; its laser offset is [`LASER_OFFSET`].
+//!   is `stamp_header_s`; its laser offset is [`LASER_OFFSET`]. A scan needs at least
+//!   one beam, `0 <= range_min < range_max`, a non-zero `angle_increment` (for more
+//!   than one beam) and beams within a full turn.
 //! - Odometry (`odom_at_scan.txt`): `ODOM idx stamp x y theta`, the wheel-odometry pose
 //!   of the robot base at scan `idx`.
 //! - People (`people_gt.txt`): `PERSON scan_idx person_id x y`, an annotated person
@@ -15,9 +17,12 @@
 //!
 //! Lines starting with `#` and blank lines are skipped; lines of another record type
 //! are skipped and counted. Scan indices must be unique, and so must
-//! `(scan_idx, person_id)`.
+//! `(scan_idx, person_id)`. Values that parse but mean nothing are errors naming file,
+//! line and field: positions, ranges and time stamps beyond
+//! [`limits`], person centres farther than any laser reaches
+//! ([`limits::MAX_RANGE`]).
 
-use crate::error::{Error, Result};
+use crate::error::{limits, Error, Result};
 use crate::text::{read_text, Fields};
 use nalgebra::Point2;
 use pgm_features::{Pose2, Scan};
@@ -114,21 +119,54 @@ pub fn parse_scans(path: &Path, text: &str) -> Result<LeighScans> {
         }
         let head = SCAN_HEAD.len();
         let index = f.count(1, "idx", head)?;
-        let timestamp = f.finite(2, "stamp_header_s", head)?;
-        f.finite(3, "stamp_bag_s", head)?;
+        let timestamp = f.timestamp(2, "stamp_header_s", head)?;
+        f.timestamp(3, "stamp_bag_s", head)?;
         f.raw(4, "frame", head)?;
-        let angle_min = f.finite(5, "angle_min", head)?;
+        let angle_min = f.bounded(
+            5,
+            "angle_min",
+            head,
+            2.0 * limits::MAX_SPAN,
+            "an angle (rad)",
+        )?;
         let increment = f.finite(6, "angle_increment", head)?;
         let range_min = f.finite(7, "range_min", head)?;
+        if range_min < 0.0 {
+            return Err(f.error(
+                "range_min",
+                f.tokens[7],
+                "a negative minimum range would make no-return beams (0) returns at the sensor",
+            ));
+        }
         let range_max = f.finite(8, "range_max", head)?;
-        if !(range_max > 0.0 && range_max > range_min) {
+        if !(range_max > range_min && range_max <= limits::MAX_RANGE) {
             return Err(f.error(
                 "range_max",
                 f.tokens[8],
-                format!("must be positive and above range_min {range_min}"),
+                format!(
+                    "must be above range_min {range_min} and at most {:e} m",
+                    limits::MAX_RANGE
+                ),
             ));
         }
-        let n = f.count(9, "n", head)?;
+        let n = f.count_on_line(9, "n", head, 0)?;
+        if n == 0 {
+            return Err(f.error("n", f.tokens[9], "a laser scan needs at least one beam"));
+        }
+        if n > 1 && increment == 0.0 {
+            return Err(f.error(
+                "angle_increment",
+                f.tokens[6],
+                format!("{n} beams 0 rad apart would all lie on one ray"),
+            ));
+        }
+        if increment.abs() * (n - 1) as f64 > limits::MAX_SPAN {
+            return Err(f.error(
+                "angle_increment",
+                f.tokens[6],
+                format!("{n} beams {increment} rad apart span more than a full turn"),
+            ));
+        }
         f.expect_len(head + n, &format!("SCAN declares n = {n} ranges"), |i| {
             if i < head {
                 SCAN_HEAD[i].to_string()
@@ -143,6 +181,16 @@ pub fn parse_scans(path: &Path, text: &str) -> Result<LeighScans> {
             let r = f.number(head + k, &name, head + n)?;
             if r < 0.0 {
                 return Err(f.error(&name, f.tokens[head + k], "negative range"));
+            }
+            if r.is_finite() && r > limits::MAX_RANGE {
+                return Err(f.error(
+                    &name,
+                    f.tokens[head + k],
+                    format!(
+                        "a range above {:e} m means nothing here (nan, inf or 0 mean no return)",
+                        limits::MAX_RANGE
+                    ),
+                ));
             }
             if r.is_finite() {
                 ranges.push(r);
@@ -199,11 +247,11 @@ pub fn parse_odometry(path: &Path, text: &str) -> Result<BTreeMap<usize, Pose2>>
         }
         f.expect_len(NAMES.len(), "ODOM has 5 fields", |i| NAMES[i].to_string())?;
         let index = f.count(1, "idx", 6)?;
-        f.finite(2, "stamp", 6)?;
+        f.timestamp(2, "stamp", 6)?;
         let pose = Pose2::new(
-            f.finite(3, "x", 6)?,
-            f.finite(4, "y", 6)?,
-            f.finite(5, "theta", 6)?,
+            f.position(3, "x", 6)?,
+            f.position(4, "y", 6)?,
+            f.heading(5, "theta", 6)?,
         );
         if out.insert(index, pose).is_some() {
             return Err(f.error("idx", f.tokens[1], "second odometry record for this scan"));
@@ -235,7 +283,17 @@ pub fn parse_people(path: &Path, text: &str) -> Result<Vec<PersonAnnotation>> {
         let person: u32 = raw
             .parse()
             .map_err(|_| f.error("person_id", raw, "not a non-negative integer"))?;
-        let centre = Point2::new(f.finite(3, "x", 5)?, f.finite(4, "y", 5)?);
+        // A centre in the laser frame, so within a laser's reach.
+        let coordinate = |index, field| {
+            f.bounded(
+                index,
+                field,
+                5,
+                limits::MAX_RANGE,
+                "a person centre in the laser frame (m)",
+            )
+        };
+        let centre = Point2::new(coordinate(3, "x")?, coordinate(4, "y")?);
         if let Some(first) = seen.insert((scan, person), line) {
             return Err(f.error(
                 "person_id",

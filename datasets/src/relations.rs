@@ -5,7 +5,8 @@
 //! `inverse(pose(t1)) ∘ pose(t2)` of the robot, expressed in the robot frame at `t1`;
 //! `t1` and `t2` are laser time stamps of the log. Only `x`, `y` and `yaw` are used
 //! (the other three must still be finite numbers). Blank lines and lines starting
-//! with `#` are skipped.
+//! with `#` are skipped. Time stamps, translations and angles beyond
+//! [`limits`](crate::error::limits) are errors naming file, line and field.
 
 use crate::error::Result;
 use crate::text::{read_text, Fields};
@@ -48,7 +49,11 @@ pub fn parse_relations(path: &Path, text: &str) -> Result<Vec<Relation>> {
         })?;
         let mut values = [0.0; 8];
         for (k, name) in NAMES.iter().enumerate() {
-            values[k] = fields.finite(k, name, NAMES.len())?;
+            values[k] = match k {
+                0 | 1 => fields.timestamp(k, name, NAMES.len())?,
+                2..=4 => fields.position(k, name, NAMES.len())?,
+                _ => fields.heading(k, name, NAMES.len())?,
+            };
         }
         relations.push(Relation {
             t1: values[0],

@@ -9,6 +9,7 @@
 //! let source = PairSource::CarmenRelations {
 //!     log: "mit-csail.clf".into(),
 //!     relations: "mit-csail.relations".into(),
+//!     options: Default::default(),
 //! };
 //! let loaded = source.load()?;
 //! for note in &loaded.notes {
@@ -22,6 +23,7 @@
 use crate::builders::{
     consecutive_pairs, leigh_pairs, relation_pairs, LeighPairOptions, RelationPairOptions,
 };
+use crate::carmen::CarmenOptions;
 use crate::error::Result;
 use crate::{carmen, leigh, relations, ScanPair};
 use std::collections::BTreeMap;
@@ -53,10 +55,17 @@ pub enum PairSource {
         log: PathBuf,
         /// The relations file (`t1 t2 x y z roll pitch yaw`).
         relations: PathBuf,
+        /// The CARMEN reader's options (laser geometry overrides).
+        options: CarmenOptions,
     },
     /// Consecutive scans of a CARMEN log with `VERTEX2` poses (the poses give the true
     /// ego-motion).
-    ConsecutiveLog(PathBuf),
+    ConsecutiveLog {
+        /// The CARMEN log.
+        log: PathBuf,
+        /// The CARMEN reader's options (laser geometry overrides).
+        options: CarmenOptions,
+    },
     /// leigh-gtm1 style logs: pairs `k` scans apart with per-point motion labels.
     Leigh {
         /// `SCAN` lines.
@@ -86,7 +95,7 @@ impl fmt::Display for PairSource {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             PairSource::Stored(path) => write!(f, "data set {}", path.display()),
-            PairSource::CarmenRelations { log, relations } => {
+            PairSource::CarmenRelations { log, relations, .. } => {
                 write!(
                     f,
                     "{} with relations {}",
@@ -94,8 +103,8 @@ impl fmt::Display for PairSource {
                     relations.display()
                 )
             }
-            PairSource::ConsecutiveLog(path) => {
-                write!(f, "consecutive scans of {}", path.display())
+            PairSource::ConsecutiveLog { log, .. } => {
+                write!(f, "consecutive scans of {}", log.display())
             }
             PairSource::Leigh { scans, options, .. } => {
                 write!(f, "{} (k = {})", scans.display(), options.k)
@@ -145,8 +154,12 @@ impl PairSource {
         let mut notes = Vec::new();
         let (kind, pairs) = match self {
             PairSource::Stored(path) => (SourceKind::Stored, crate::read_pairs(path)?),
-            PairSource::CarmenRelations { log, relations } => {
-                let carmen_log = carmen::read_carmen(log)?;
+            PairSource::CarmenRelations {
+                log,
+                relations,
+                options,
+            } => {
+                let carmen_log = carmen::read_carmen_with(log, *options)?;
                 notes.extend(skipped_note(log, &carmen_log.skipped));
                 let rels = relations::read_relations(relations)?;
                 let options = RelationPairOptions {
@@ -167,8 +180,8 @@ impl PairSource {
                 }
                 (SourceKind::Relations, built.pairs)
             }
-            PairSource::ConsecutiveLog(path) => {
-                let log = carmen::read_carmen(path)?;
+            PairSource::ConsecutiveLog { log: path, options } => {
+                let log = carmen::read_carmen_with(path, *options)?;
                 notes.extend(skipped_note(path, &log.skipped));
                 let built = consecutive_pairs(&log, &file_stem(path));
                 if built.odometry_was_ground_truth {
@@ -188,7 +201,12 @@ impl PairSource {
             } => {
                 let (log, annotations) =
                     read_leigh(scans, people, odometry.as_deref(), &mut notes)?;
-                (SourceKind::Leigh, leigh_pairs(&log, &annotations, options)?)
+                let pairs = leigh_pairs(&log, &annotations, options).map_err(|e| {
+                    crate::Error::Mismatch {
+                        what: format!("{}: {e}", scans.display()),
+                    }
+                })?;
+                (SourceKind::Leigh, pairs)
             }
         };
         Ok(LoadedPairs { pairs, kind, notes })

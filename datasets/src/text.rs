@@ -1,7 +1,7 @@
 //! Shared helpers of the line-oriented text readers: reading a file with its path in
 //! every error, and typed access to whitespace-separated fields by name.
 
-use crate::error::{Error, Result};
+use crate::error::{limits, Error, Result};
 use std::path::{Path, PathBuf};
 
 /// Reads a whole text file, naming it in the error.
@@ -63,6 +63,88 @@ impl<'a> Fields<'a> {
             return Err(self.error(field, raw, "not a finite number"));
         }
         Ok(v)
+    }
+
+    /// A finite number of magnitude at most `limit`; `what` names the quantity in the
+    /// error (for example "a position (m)").
+    pub fn bounded(
+        &self,
+        index: usize,
+        field: &str,
+        expected: usize,
+        limit: f64,
+        what: &str,
+    ) -> Result<f64> {
+        let v = self.finite(index, field, expected)?;
+        if v.abs() > limit {
+            let raw = self.tokens[index];
+            return Err(self.error(
+                field,
+                raw,
+                format!("{what} of magnitude above {limit:e} means nothing here"),
+            ));
+        }
+        Ok(v)
+    }
+
+    /// A position coordinate (m), within [`limits::MAX_POSITION`].
+    pub fn position(&self, index: usize, field: &str, expected: usize) -> Result<f64> {
+        self.bounded(
+            index,
+            field,
+            expected,
+            limits::MAX_POSITION,
+            "a position (m)",
+        )
+    }
+
+    /// A heading (rad), within [`limits::MAX_HEADING`].
+    pub fn heading(&self, index: usize, field: &str, expected: usize) -> Result<f64> {
+        self.bounded(
+            index,
+            field,
+            expected,
+            limits::MAX_HEADING,
+            "a heading (rad)",
+        )
+    }
+
+    /// A time stamp (s), within [`limits::MAX_TIMESTAMP`].
+    pub fn timestamp(&self, index: usize, field: &str, expected: usize) -> Result<f64> {
+        self.bounded(
+            index,
+            field,
+            expected,
+            limits::MAX_TIMESTAMP,
+            "a time stamp (s)",
+        )
+    }
+
+    /// A count of entries that follow on the line after index `index` (a number of
+    /// beams, remissions, …), followed by `after` more fields: a count larger than
+    /// the rest of the line is an error here, so no size larger than the line itself
+    /// is ever trusted, added to or allocated (a count that is only a few fields off
+    /// is left to [`Fields::expect_len`], which names the first missing field).
+    pub fn count_on_line(
+        &self,
+        index: usize,
+        field: &str,
+        expected: usize,
+        after: usize,
+    ) -> Result<usize> {
+        let n = self.count(index, field, expected)?;
+        let room = self.tokens.len().saturating_sub(index + 1);
+        if n > room {
+            return Err(self.error(
+                field,
+                self.tokens[index],
+                format!(
+                    "declares {n} entries, but only {room} fields follow on the line (and \
+                     {after} more must follow the entries)"
+                ),
+            ));
+        }
+        Ok(n)
     }
 
     /// Any number that parses, `nan` and `inf` included.

@@ -74,15 +74,116 @@ fn round_trip_is_exact_through_any_path() {
         vec![pairs[1].clone()]
     );
     assert_eq!(read_pair(dir.join("pair-00002.json")).unwrap(), pairs[2]);
-    // Rewriting with fewer pairs removes the stale pair file; no temporary files remain.
+    // Rewriting with fewer pairs writes the new pair files under unused names, switches
+    // the index, then removes the old pair files; no temporary files remain.
     write_pairs(&dir, &pairs[..1]).unwrap();
     assert_eq!(read_pairs(&dir).unwrap(), pairs[..1].to_vec());
-    let mut names: Vec<String> = std::fs::read_dir(&dir)
+    assert_eq!(names_in(&dir), vec!["index.json", "pair-g1-00000.json"]);
+    // The next rewrite goes back to the first generation's names.
+    write_pairs(&dir, &pairs[1..]).unwrap();
+    assert_eq!(read_pairs(&dir).unwrap(), pairs[1..].to_vec());
+    assert_eq!(
+        names_in(&dir),
+        vec!["index.json", "pair-00000.json", "pair-00001.json"]
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+fn names_in(dir: &std::path::Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
         .collect();
     names.sort();
-    assert_eq!(names, vec!["index.json", "pair-00000.json"]);
+    names
+}
+
+#[test]
+fn a_directory_without_a_data_set_is_never_written_into() {
+    // Kind 9 (out-stale-delete): a user's file that looks like a pair file survives.
+    let dir = temp_dir("foreign");
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("pair-notes.json"), "x\n").unwrap();
+    let err = write_pairs(&dir, &[pair("a")]).unwrap_err();
+    assert!(
+        matches!(err, Error::Invalid { ref problem, .. } if problem.contains("no pgm data set")),
+        "{err}"
+    );
+    assert_eq!(names_in(&dir), vec!["pair-notes.json"]);
+    assert_eq!(
+        std::fs::read_to_string(dir.join("pair-notes.json")).unwrap(),
+        "x\n"
+    );
+    // An empty directory is fine; so is a file path's parent that does not exist yet.
+    let empty = temp_dir("empty");
+    std::fs::create_dir_all(&empty).unwrap();
+    write_pairs(&empty, &[pair("a")]).unwrap();
+    assert_eq!(names_in(&empty), vec!["index.json", "pair-00000.json"]);
+    let nested = temp_dir("nested").join("a/b");
+    write_pairs(&nested, &[pair("a")]).unwrap();
+    assert_eq!(read_pairs(&nested).unwrap().len(), 1);
+    // A file where the directory should be is an error, and is left alone.
+    let file = temp_dir("file");
+    std::fs::write(&file, "mine").unwrap();
+    assert!(write_pairs(&file, &[pair("a")]).is_err());
+    assert_eq!(std::fs::read_to_string(&file).unwrap(), "mine");
+    for d in [&dir, &empty, &temp_dir("nested")] {
+        let _ = std::fs::remove_dir_all(d);
+    }
+    let _ = std::fs::remove_file(&file);
+}
+
+#[test]
+fn replacing_a_data_set_keeps_files_it_did_not_write() {
+    let dir = temp_dir("keep-notes");
+    write_pairs(&dir, &[pair("a"), pair("b")]).unwrap();
+    std::fs::write(dir.join("notes.txt"), "mine").unwrap();
+    std::fs::write(dir.join("pair-extra.json"), "mine too").unwrap();
+    write_pairs(&dir, &[pair("c")]).unwrap();
+    assert_eq!(read_pairs(&dir).unwrap(), vec![pair("c")]);
+    assert_eq!(
+        names_in(&dir),
+        vec![
+            "index.json",
+            "notes.txt",
+            "pair-extra.json",
+            "pair-g1-00000.json"
+        ]
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_killed_replacement_leaves_the_old_data_set_and_is_cleaned_up_next_time() {
+    use pgm_datasets::format::JOURNAL_FILE;
+    let dir = temp_dir("killed");
+    write_pairs(&dir, &[pair("old")]).unwrap();
+    // What a replacement killed before its index switch leaves: its journal, a new
+    // pair file and a temporary file, all unlisted.
+    std::fs::write(
+        dir.join(JOURNAL_FILE),
+        r#"{"files": ["pair-g1-00000.json", "pair-g1-00001.json"]}"#,
+    )
+    .unwrap();
+    std::fs::write(dir.join("pair-g1-00000.json"), "{}").unwrap();
+    std::fs::write(dir.join(".pair-g1-00001.json.tmp-1"), "{").unwrap();
+    assert_eq!(read_pairs(&dir).unwrap(), vec![pair("old")]);
+    write_pairs(&dir, &[pair("new")]).unwrap();
+    assert_eq!(read_pairs(&dir).unwrap(), vec![pair("new")]);
+    assert_eq!(names_in(&dir), vec!["index.json", "pair-g1-00000.json"]);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_failed_write_leaves_the_old_data_set_untouched() {
+    let dir = temp_dir("failed");
+    write_pairs(&dir, &[pair("old")]).unwrap();
+    let before = names_in(&dir);
+    let mut bad = pair("bad");
+    bad.current.ranges[0] = f64::NAN;
+    assert!(write_pairs(&dir, &[pair("fine"), bad]).is_err());
+    assert_eq!(names_in(&dir), before);
+    assert_eq!(read_pairs(&dir).unwrap(), vec![pair("old")]);
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
@@ -205,4 +306,55 @@ fn bad_index_is_reported() {
     assert!(matches!(read_pairs(&dir).unwrap_err(), Error::Json { .. }));
     std::fs::remove_dir_all(&dir).unwrap();
     assert!(matches!(read_pairs(&dir).unwrap_err(), Error::Io { .. }));
+}
+
+#[test]
+fn numbers_read_from_a_file_round_trip_exactly() {
+    // Found by the pair_json fuzz target: without serde_json's `float_roundtrip` a
+    // literal such as 9.557496377594046 read as a neighbouring f64, and the
+    // shortest-representation writer then gave a file that read back differently.
+    let literal = "9.557496377594046";
+    let exact: f64 = literal.parse().unwrap();
+    let mut value = serde_json::to_value(pair("x")).unwrap();
+    value["reference"]["ranges"][0] = serde_json::Value::Null;
+    let text = serde_json::to_string(&value).unwrap().replacen(
+        "\"ranges\":[null",
+        &format!("\"ranges\":[{literal}"),
+        1,
+    );
+    let read = pgm_datasets::format::parse_pair(std::path::Path::new("p.json"), &text).unwrap();
+    assert_eq!(read.reference.ranges[0].to_bits(), exact.to_bits());
+    let dir = temp_dir("float-roundtrip");
+    write_pairs(&dir, std::slice::from_ref(&read)).unwrap();
+    assert_eq!(read_pairs(&dir).unwrap(), vec![read]);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn values_that_mean_nothing_are_refused_on_read_and_write() {
+    // Kind 7 of issue 16 in stored pairs: finite, so `validate` accepts them.
+    let err = write_and_corrupt("huge-odometry", |v| v["odometry"]["x"] = 1e300.into());
+    assert!(
+        matches!(err, Error::Invalid { ref field, .. } if field == "odometry"),
+        "{err}"
+    );
+    let err = write_and_corrupt("huge-range", |v| {
+        v["current"]["max_range"] = 1e300.into();
+    });
+    assert!(
+        matches!(err, Error::Invalid { ref field, .. } if field == "current.max_range"),
+        "{err}"
+    );
+    let err = write_and_corrupt("huge-angle", |v| {
+        v["reference"]["angles"][2] = 1e300.into();
+    });
+    assert!(
+        matches!(err, Error::Invalid { ref field, .. } if field == "reference.angles[2]"),
+        "{err}"
+    );
+    let mut p = pair("x");
+    p.truth.as_mut().unwrap().motions[0].motion = Pose2::new(1e300, 0.0, 0.0);
+    let dir = temp_dir("huge-write");
+    assert!(write_pairs(&dir, &[p]).is_err());
+    assert!(!dir.exists());
 }

@@ -6,8 +6,28 @@
 //! logs); zeros become −∞ log-potentials. BAYES tables are conditional probability
 //! tables with the child last; semantically the model is the product of all tables,
 //! so both kinds convert to the same factor graph. Lines starting with `c` are comments
-//! (UAI 2016+). Evidence files hold `q v_1 x_1 … v_q x_q` (UAI 2014) or the 2010
-//! variant with a leading sample count of 1.
+//! (UAI 2016+).
+//!
+//! Sizes in the file are checked before they are used: the number of joint states of
+//! a scope is a checked product (an overflow is a parse error naming the line), and
+//! no buffer is reserved beyond what the rest of the file can fill, so a 150-byte file
+//! declaring a table of 2^36 entries is an "unexpected end of file", not an
+//! allocation of 512 GiB.
+//!
+//! Evidence files come in two layouts ([`EvidenceFormat`]): UAI 2014 holds one sample,
+//! `q v_1 x_1 … v_q x_q`; UAI 2010 holds a count of samples `N` followed by `N`
+//! samples in that form, each on its own line. The two can read the same tokens
+//! differently (`2 / 1 0 1 / 0` is two samples in 2010 but two observations of
+//! variable 1 in 2014), so the layout is decided as follows: a file on one line is
+//! UAI 2014 when it parses as such; a file whose first line holds a single number `N`
+//! followed by exactly `N` lines that each hold one complete sample is UAI 2010;
+//! otherwise whichever of the two reads every token (2014 first).
+//! [`Evidence::read_samples`] returns every sample; [`Evidence::read`] the first.
+//!
+//! [`UaiModel::check_positive`] decides, by propagating the zeros of the tables
+//! (generalised arc consistency), whether a model with evidence can have an assignment
+//! of positive probability, and says why not when it cannot (`Z = 0` or
+//! `P(evidence) = 0`).
 
 use crate::error::{Error, Result};
 use crate::factor::TableFactor;
@@ -153,7 +173,8 @@ impl UaiModel {
         };
         const LIMIT: usize = 1 << 40;
         let n = tk.integer("the number of variables", 0, LIMIT)?;
-        let mut cardinalities = Vec::with_capacity(n.min(1 << 20));
+        let mut cardinalities = Vec::with_capacity(n.min(tk.tokens.len()));
+        let first_cardinality = tk.next;
         for i in 0..n {
             cardinalities.push(tk.integer(
                 &format!("the cardinality of variable {i}"),
@@ -162,10 +183,12 @@ impl UaiModel {
             )?);
         }
         let num_functions = tk.integer("the number of functions", 0, LIMIT)?;
-        let mut scopes = Vec::with_capacity(num_functions.min(1 << 20));
+        let mut scopes = Vec::with_capacity(num_functions.min(tk.tokens.len()));
+        // in_scope[v] = the last function whose scope lists v (repeats in O(1)).
+        let mut in_scope = vec![usize::MAX; n];
         for f in 0..num_functions {
             let arity = tk.integer(&format!("the scope size of function {f}"), 0, n)?;
-            let mut scope = Vec::with_capacity(arity);
+            let mut scope = Vec::with_capacity(arity.min(tk.tokens.len() - tk.next));
             for j in 0..arity {
                 let before = tk.next;
                 let v = tk.integer(
@@ -173,7 +196,7 @@ impl UaiModel {
                     0,
                     n.saturating_sub(1),
                 )?;
-                if scope.contains(&v) {
+                if std::mem::replace(&mut in_scope[v], f) == f {
                     let line = tk.tokens[before].1;
                     return Err(tk.error(
                         line,
@@ -190,16 +213,47 @@ impl UaiModel {
             }
             scopes.push(scope);
         }
-        let mut tables = Vec::with_capacity(num_functions.min(1 << 20));
+        let mut tables = Vec::with_capacity(num_functions.min(tk.tokens.len()));
         for (f, scope) in scopes.iter().enumerate() {
-            let expected: usize = scope.iter().map(|&v| cardinalities[v]).product();
             let before = tk.next;
             let size = tk.integer(&format!("the table size of function {f}"), 0, LIMIT)?;
+            let line = tk.tokens[before].1;
+            let expected = scope
+                .iter()
+                .try_fold(1usize, |acc, &v| acc.checked_mul(cardinalities[v]));
+            let Some(expected) = expected else {
+                let mut cards: Vec<String> = scope
+                    .iter()
+                    .take(6)
+                    .map(|&v| cardinalities[v].to_string())
+                    .collect();
+                if scope.len() > 6 {
+                    cards.push("…".into());
+                }
+                return Err(tk.error(
+                    line,
+                    format!(
+                        "function {f}: the product of the cardinalities of its {} scope \
+                         variables ({}) overflows: no table has that many joint states",
+                        scope.len(),
+                        cards.join(" × ")
+                    ),
+                ));
+            };
             if size != expected {
-                let line = tk.tokens[before].1;
                 return Err(tk.error(
                     line,
                     format!("function {f}: table size {size}, but its scope has {expected} joint states"),
+                ));
+            }
+            let remaining = tk.tokens.len() - tk.next;
+            if size > remaining {
+                return Err(tk.error(
+                    tk.last_line(),
+                    format!(
+                        "unexpected end of file: function {f} declares {size} table entries \
+                         (line {line}), but only {remaining} numbers follow"
+                    ),
                 ));
             }
             let mut table = Vec::with_capacity(size);
@@ -209,6 +263,28 @@ impl UaiModel {
             tables.push(table);
         }
         tk.expect_end()?;
+        // A variable in some scope has at most as many states as that table has entries;
+        // the states of a variable in no scope are backed by nothing in the file, so
+        // together they may not outnumber the file's tokens (else results and beliefs
+        // would be sized by a bare number).
+        let mut unbacked: usize = 0;
+        for (v, &k) in cardinalities.iter().enumerate() {
+            if in_scope[v] == usize::MAX {
+                unbacked = unbacked.saturating_add(k);
+                if unbacked > tk.tokens.len() {
+                    let line = tk.tokens[first_cardinality + v].1;
+                    return Err(tk.error(
+                        line,
+                        format!(
+                            "variable {v} has {k} states but appears in no function: nothing \
+                             in the file backs them (variables in no function may have at \
+                             most {} states together, the number of tokens in the file)",
+                            tk.tokens.len()
+                        ),
+                    ));
+                }
+            }
+        }
         Ok(Self {
             kind,
             cardinalities,
@@ -298,40 +374,158 @@ fn write_atomically(path: &Path, text: &str) -> Result<()> {
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct Evidence(pub Vec<(usize, usize)>);
 
+/// The layout of an evidence file (see the module docs for how it is decided).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EvidenceFormat {
+    /// One sample: `q v_1 x_1 … v_q x_q`.
+    Uai2014,
+    /// A sample count `N`, then `N` samples in the 2014 form.
+    Uai2010,
+}
+
+/// Every sample of an evidence file.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct EvidenceSamples {
+    /// The layout the file was read in.
+    pub format: EvidenceFormat,
+    /// The samples in file order (at least one; an empty file is one empty sample).
+    pub samples: Vec<Evidence>,
+}
+
 impl Evidence {
-    /// Reads an evidence file and checks it against the model's cardinalities.
+    /// Reads an evidence file and checks it against the model's cardinalities. A UAI
+    /// 2010 file with several samples gives its first sample
+    /// ([`Evidence::read_samples`] gives them all).
     pub fn read(path: impl AsRef<Path>, cardinalities: &[usize]) -> Result<Self> {
-        let path = path.as_ref();
-        Self::parse(&mut Tokens::read(path)?, cardinalities)
+        Ok(Self::read_samples(path, cardinalities)?
+            .samples
+            .swap_remove(0))
     }
 
-    /// Parses evidence text; `path` is used in error messages only.
+    /// Parses evidence text (the first sample, as [`Evidence::read`]); `path` is used
+    /// in error messages only.
     pub fn parse_str(path: impl AsRef<Path>, text: &str, cardinalities: &[usize]) -> Result<Self> {
-        Self::parse(&mut Tokens::from_text(path.as_ref(), text), cardinalities)
+        Ok(Self::parse_samples_str(path, text, cardinalities)?
+            .samples
+            .swap_remove(0))
     }
 
-    fn parse(tk: &mut Tokens, cardinalities: &[usize]) -> Result<Self> {
-        let total = tk.tokens.len();
-        if total == 0 {
-            return Ok(Self::default());
+    /// Reads every sample of an evidence file, checked against the model's
+    /// cardinalities.
+    pub fn read_samples(
+        path: impl AsRef<Path>,
+        cardinalities: &[usize],
+    ) -> Result<EvidenceSamples> {
+        let path = path.as_ref();
+        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        Self::parse_samples_str(path, &text, cardinalities)
+    }
+
+    /// Parses every sample of evidence text; `path` is used in error messages only.
+    pub fn parse_samples_str(
+        path: impl AsRef<Path>,
+        text: &str,
+        cardinalities: &[usize],
+    ) -> Result<EvidenceSamples> {
+        let path = path.as_ref();
+        let tk = Tokens::from_text(path, text);
+        if tk.tokens.is_empty() {
+            return Ok(EvidenceSamples {
+                format: EvidenceFormat::Uai2014,
+                samples: vec![Self::default()],
+            });
         }
-        // UAI 2014: "q v x ..." has 1 + 2q tokens; UAI 2010 prefixes a sample count of 1.
-        let first: Option<usize> = tk.tokens[0].0.parse().ok();
-        if first == Some(1) && total != 3 {
-            tk.next = 1;
+        let lines: Vec<usize> = {
+            let mut l: Vec<usize> = tk.tokens.iter().map(|t| t.1).collect();
+            l.dedup();
+            l
+        };
+        let as_2014 = || {
+            let mut tk = Tokens::from_text(path, text);
+            let sample = Self::parse_sample(&mut tk, cardinalities, "")?;
+            tk.expect_end()?;
+            Ok(EvidenceSamples {
+                format: EvidenceFormat::Uai2014,
+                samples: vec![sample],
+            })
+        };
+        let as_2010 = || {
+            let mut tk = Tokens::from_text(path, text);
+            let count = tk.integer("the number of evidence samples (UAI 2010)", 1, usize::MAX)?;
+            let mut samples = Vec::with_capacity(count.min(tk.tokens.len()));
+            for s in 0..count {
+                samples.push(Self::parse_sample(
+                    &mut tk,
+                    cardinalities,
+                    &format!("sample {s}: "),
+                )?);
+            }
+            tk.expect_end()?;
+            Ok(EvidenceSamples {
+                format: EvidenceFormat::Uai2010,
+                samples,
+            })
+        };
+        if lines.len() == 1 {
+            // One line: UAI 2014 unless only the 2010 reading parses.
+            return as_2014().or_else(|e: Error| as_2010().map_err(|_| e));
         }
+        // First line a lone count N, then N lines of one sample each: UAI 2010.
+        let first_line_alone = tk.tokens.len() >= 2 && tk.tokens[0].1 != tk.tokens[1].1;
+        if first_line_alone {
+            let count: Option<usize> = tk.tokens[0].0.parse().ok();
+            if count == Some(lines.len() - 1) {
+                if let Ok(read) = as_2010() {
+                    let one_line_each = read.samples.len() == lines.len() - 1
+                        && Self::samples_follow_lines(&tk, &read);
+                    if one_line_each {
+                        return Ok(read);
+                    }
+                }
+            }
+        }
+        match as_2014() {
+            Ok(read) => Ok(read),
+            Err(e14) => as_2010().map_err(|e10| if first_line_alone { e10 } else { e14 }),
+        }
+    }
+
+    /// True when sample `s` of `read` sits on line `s + 1` of the token stream's lines.
+    fn samples_follow_lines(tk: &Tokens, read: &EvidenceSamples) -> bool {
+        let mut at = 1;
+        for sample in &read.samples {
+            let len = 1 + 2 * sample.0.len();
+            let Some(slice) = tk.tokens.get(at..at + len) else {
+                return false;
+            };
+            if slice.iter().any(|t| t.1 != slice[0].1)
+                || tk.tokens.get(at + len).is_some_and(|t| t.1 == slice[0].1)
+            {
+                return false;
+            }
+            at += len;
+        }
+        at == tk.tokens.len()
+    }
+
+    /// One sample `q v_1 x_1 …` read from the current position.
+    fn parse_sample(tk: &mut Tokens, cardinalities: &[usize], prefix: &str) -> Result<Self> {
         let n = cardinalities.len();
-        let q = tk.integer("the number of observed variables", 0, n)?;
-        let mut pairs = Vec::with_capacity(q);
+        let q = tk.integer(&format!("{prefix}the number of observed variables"), 0, n)?;
+        let mut pairs: Vec<(usize, usize)> = Vec::with_capacity(q.min(tk.tokens.len()));
+        let mut seen: std::collections::HashMap<usize, usize> = std::collections::HashMap::new();
         for i in 0..q {
             let v = tk.integer(
-                &format!("the variable of observation {i}"),
+                &format!("{prefix}the variable of observation {i}"),
                 0,
                 n.saturating_sub(1),
             )?;
             let before = tk.next;
             let x = tk.integer(
-                &format!("the state of observation {i} (variable {v})"),
+                &format!("{prefix}the state of observation {i} (variable {v})"),
                 0,
                 usize::MAX,
             )?;
@@ -340,24 +534,28 @@ impl Evidence {
                 return Err(tk.error(
                     line,
                     format!(
-                        "observation {i}: state {x} of variable {v}, which has {} states",
+                        "{prefix}observation {i}: state {x} of variable {v}, which has {} states",
                         cardinalities[v]
                     ),
                 ));
             }
-            if let Some(&(_, prev)) = pairs.iter().find(|(u, _)| *u == v) {
+            if let Some(prev) = seen.insert(v, x) {
                 if prev != x {
                     let line = tk.tokens[before].1;
                     return Err(tk.error(
                         line,
-                        format!("variable {v} observed twice, as {prev} and {x}"),
+                        format!("{prefix}variable {v} observed twice, as {prev} and {x}"),
                     ));
                 }
             }
             pairs.push((v, x));
         }
-        tk.expect_end()?;
         Ok(Self(pairs))
+    }
+
+    /// The observed state of `variable`, if it is observed.
+    pub fn state_of(&self, variable: usize) -> Option<usize> {
+        self.0.iter().find(|(v, _)| *v == variable).map(|(_, x)| *x)
     }
 
     /// Clamps the observed variables by adding hard unary factors (0 at the observed
@@ -368,6 +566,173 @@ impl Evidence {
             let mut table = vec![f64::NEG_INFINITY; k];
             table[x] = 0.0;
             graph.add_factor(TableFactor::new(vec![VariableId(v)], vec![k], table)?)?;
+        }
+        Ok(())
+    }
+}
+
+/// Why a model (with evidence) has no assignment of positive probability
+/// ([`UaiModel::check_positive`]).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct NoPositiveAssignment {
+    /// The evidence, when the model alone has positive assignments but none agrees
+    /// with it (`P(evidence) = 0`); `None` when the model alone has none (`Z = 0`).
+    pub evidence: Option<Vec<(usize, usize)>>,
+    /// The variable left with no possible state (`None` when the function is a
+    /// constant, of empty scope, equal to 0).
+    pub variable: Option<usize>,
+    /// The function whose zeros removed that variable's last state.
+    pub function: usize,
+    /// The scope of that function.
+    pub scope: Vec<usize>,
+}
+
+impl std::fmt::Display for NoPositiveAssignment {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let cause = match self.variable {
+            Some(v) => format!(
+                "function {} (scope {:?}) is zero for every remaining state of variable {v}",
+                self.function, self.scope
+            ),
+            None => format!("function {} is the constant 0", self.function),
+        };
+        match &self.evidence {
+            None => write!(
+                f,
+                "no assignment has positive probability (Z = 0): after propagating the \
+                 model's zeros, {cause}"
+            ),
+            Some(evidence) => {
+                let observed: Vec<String> = evidence
+                    .iter()
+                    .map(|(v, x)| format!("x{v} = {x}"))
+                    .collect();
+                write!(
+                    f,
+                    "the evidence has probability 0 (P(evidence) = 0): with {}, {cause}",
+                    observed.join(", ")
+                )
+            }
+        }
+    }
+}
+
+impl std::error::Error for NoPositiveAssignment {}
+
+/// Work limit of [`UaiModel::check_positive`] (table entries visited).
+const SUPPORT_WORK_LIMIT: u64 = 1 << 28;
+
+impl UaiModel {
+    /// Checks that some assignment agreeing with `evidence` has positive probability,
+    /// by generalised arc consistency on the tables' zeros: states without support in
+    /// some table are removed until nothing changes. An emptied variable proves that
+    /// no such assignment exists; the error says whether the model alone has none
+    /// (`Z = 0`) or only none that agrees with the evidence. Passing the check does not
+    /// prove that one exists on a loopy model (that is NP-hard), but it is exact on
+    /// trees. The work is bounded (2^28 table entries visited); past that the check
+    /// passes without a verdict.
+    pub fn check_positive(
+        &self,
+        evidence: &Evidence,
+    ) -> std::result::Result<(), NoPositiveAssignment> {
+        if let Err((variable, function)) = self.propagate_zeros(&[]) {
+            return Err(NoPositiveAssignment {
+                evidence: None,
+                variable,
+                function,
+                scope: self.scopes[function].clone(),
+            });
+        }
+        if evidence.0.is_empty() {
+            return Ok(());
+        }
+        self.propagate_zeros(&evidence.0)
+            .map_err(|(variable, function)| NoPositiveAssignment {
+                evidence: Some(evidence.0.clone()),
+                variable,
+                function,
+                scope: self.scopes[function].clone(),
+            })
+    }
+
+    /// Arc consistency over the positive entries; `Err((variable, function))` names the
+    /// variable that lost its last state (none for a constant function of value 0) and
+    /// the function that removed it.
+    fn propagate_zeros(
+        &self,
+        evidence: &[(usize, usize)],
+    ) -> std::result::Result<(), (Option<usize>, usize)> {
+        let n = self.cardinalities.len();
+        let mut domains: Vec<Vec<bool>> =
+            self.cardinalities.iter().map(|&k| vec![true; k]).collect();
+        for &(v, x) in evidence {
+            if v < n && x < self.cardinalities[v] {
+                let keep = domains[v][x];
+                domains[v].iter_mut().for_each(|d| *d = false);
+                domains[v][x] = keep;
+            }
+        }
+        let mut functions_of: Vec<Vec<usize>> = vec![Vec::new(); n];
+        for (f, scope) in self.scopes.iter().enumerate() {
+            for &v in scope {
+                functions_of[v].push(f);
+            }
+        }
+        let mut queued = vec![true; self.scopes.len()];
+        let mut queue: std::collections::VecDeque<usize> = (0..self.scopes.len()).collect();
+        let mut work: u64 = 0;
+        let mut states = Vec::new();
+        let mut supported: Vec<Vec<bool>> = Vec::new();
+        while let Some(f) = queue.pop_front() {
+            queued[f] = false;
+            let scope = &self.scopes[f];
+            let table = &self.tables[f];
+            work += table.len() as u64 * (scope.len() as u64 + 1);
+            if work > SUPPORT_WORK_LIMIT {
+                return Ok(());
+            }
+            supported.clear();
+            supported.extend(scope.iter().map(|&v| vec![false; self.cardinalities[v]]));
+            states.clear();
+            states.resize(scope.len(), 0);
+            for &p in table {
+                if p > 0.0 && scope.iter().zip(&states).all(|(&v, &x)| domains[v][x]) {
+                    for (j, &x) in states.iter().enumerate() {
+                        supported[j][x] = true;
+                    }
+                }
+                // Next joint state, last scope position fastest.
+                for j in (0..scope.len()).rev() {
+                    states[j] += 1;
+                    if states[j] < self.cardinalities[scope[j]] {
+                        break;
+                    }
+                    states[j] = 0;
+                }
+            }
+            if scope.is_empty() && !table.iter().any(|&p| p > 0.0) {
+                return Err((None, f));
+            }
+            for (j, &v) in scope.iter().enumerate() {
+                let mut changed = false;
+                for (x, d) in domains[v].iter_mut().enumerate() {
+                    if *d && !supported[j][x] {
+                        *d = false;
+                        changed = true;
+                    }
+                }
+                if !domains[v].iter().any(|d| *d) {
+                    return Err((Some(v), f));
+                }
+                if changed {
+                    for &g in &functions_of[v] {
+                        if g != f && !queued[g] {
+                            queued[g] = true;
+                            queue.push_back(g);
+                        }
+                    }
+                }
+            }
         }
         Ok(())
     }
@@ -389,4 +754,133 @@ pub fn mar_result(marginals: &[Vec<f64>]) -> String {
     }
     s.push('\n');
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn model(text: &str) -> Result<UaiModel> {
+        UaiModel::parse_str("m.uai", text)
+    }
+
+    #[test]
+    fn joint_state_products_that_overflow_are_parse_errors() {
+        // 64 binary variables in one scope: 2^64 wraps to 0, which must not match a
+        // table of size 0.
+        let n = 64;
+        let cards = vec!["2"; n].join(" ");
+        let scope: Vec<String> = (0..n).map(|v| v.to_string()).collect();
+        let text = format!("MARKOV\n{n}\n{cards}\n1\n{n} {}\n0\n", scope.join(" "));
+        let err = model(&text).unwrap_err().to_string();
+        assert!(
+            err.contains("m.uai:6:") && err.contains("overflows"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn declared_table_sizes_are_not_allocated_before_the_data_is_there() {
+        // 36 binary variables: the table would need 2^36 entries (512 GiB of f64).
+        let n = 36;
+        let cards = vec!["2"; n].join(" ");
+        let scope: Vec<String> = (0..n).map(|v| v.to_string()).collect();
+        let text = format!(
+            "MARKOV\n{n}\n{cards}\n1\n{n} {}\n{}\n0.5 0.5\n",
+            scope.join(" "),
+            1u64 << 36
+        );
+        let err = model(&text).unwrap_err().to_string();
+        assert!(
+            err.contains("unexpected end of file") && err.contains("68719476736"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn states_of_a_variable_in_no_function_are_bounded_by_the_file() {
+        // Found by fuzzing: 77777777773 states for a variable no table mentions made
+        // the zero propagation (and BP's beliefs) allocate 78 GB.
+        let err = model("MARKOV\n2\n2 77777777773\n1\n0\n1 0\n").unwrap_err();
+        let err = err.to_string();
+        assert!(
+            err.contains("m.uai:3:") && err.contains("variable 1"),
+            "{err}"
+        );
+        assert!(model("MARKOV\n2\n2 3\n1\n1 0\n2 1 1\n").is_ok());
+    }
+
+    #[test]
+    fn table_factor_refuses_a_shape_whose_product_overflows() {
+        let scope: Vec<VariableId> = (0..64).map(VariableId).collect();
+        let err = TableFactor::new(scope, vec![2; 64], vec![]).unwrap_err();
+        assert!(err.to_string().contains("fits in usize"), "{err}");
+    }
+
+    #[test]
+    fn evidence_layouts_are_told_apart() {
+        let cards = [2, 2, 2];
+        let read = |text: &str| Evidence::parse_samples_str("e.evid", text, &cards);
+        // UAI 2010: two samples, the first observes x0 = 1 (B09).
+        let two = read("2\n1 0 1\n0\n").unwrap();
+        assert_eq!(two.format, EvidenceFormat::Uai2010);
+        assert_eq!(two.samples, vec![Evidence(vec![(0, 1)]), Evidence(vec![])]);
+        assert_eq!(
+            Evidence::parse_str("e.evid", "2\n1 0 1\n0\n", &cards).unwrap(),
+            Evidence(vec![(0, 1)])
+        );
+        // UAI 2014 on one line, even when its tokens would also read as 2010.
+        let one = read("2 0 1 1 0\n").unwrap();
+        assert_eq!(one.format, EvidenceFormat::Uai2014);
+        assert_eq!(one.samples, vec![Evidence(vec![(0, 1), (1, 0)])]);
+        // UAI 2014 spread over lines without one sample per line.
+        let spread = read("2\n0 1\n1 0\n").unwrap();
+        assert_eq!(spread.format, EvidenceFormat::Uai2014);
+        assert_eq!(spread.samples, vec![Evidence(vec![(0, 1), (1, 0)])]);
+        // UAI 2010 with one sample on one line (only 2010 parses).
+        let single = read("1 2 0 1 2 1\n").unwrap();
+        assert_eq!(single.format, EvidenceFormat::Uai2010);
+        assert_eq!(single.samples, vec![Evidence(vec![(0, 1), (2, 1)])]);
+        // Empty: no evidence.
+        assert_eq!(read("").unwrap().samples, vec![Evidence(vec![])]);
+        // Neither layout: an error naming the file and line.
+        let err = read("3 0 1\n").unwrap_err().to_string();
+        assert!(err.starts_with("e.evid:1:"), "{err}");
+    }
+
+    fn tiny(table: &str) -> UaiModel {
+        model(&format!("MARKOV\n1\n2\n1\n1 0\n2\n{table}\n")).unwrap()
+    }
+
+    #[test]
+    fn models_and_evidence_without_positive_assignment_are_refused_with_the_reason() {
+        // B04: the only table is zero.
+        let err = tiny("0 0")
+            .check_positive(&Evidence::default())
+            .unwrap_err();
+        assert_eq!(err.evidence, None);
+        assert!(err.to_string().contains("Z = 0"), "{err}");
+        // B10: the evidence observes a state of probability 0.
+        let m = tiny("1 0");
+        assert_eq!(m.check_positive(&Evidence::default()), Ok(()));
+        let err = m.check_positive(&Evidence(vec![(0, 1)])).unwrap_err();
+        assert_eq!(err.evidence, Some(vec![(0, 1)]));
+        assert!(err.to_string().contains("P(evidence) = 0"), "{err}");
+        assert_eq!(m.check_positive(&Evidence(vec![(0, 0)])), Ok(()));
+        // ev-contradict: an equality chain with its ends observed apart.
+        let chain = model("MARKOV\n3\n2 2 2\n2\n2 0 1\n2 1 2\n4\n1 0 0 1\n4\n1 0 0 1\n").unwrap();
+        assert_eq!(
+            chain.check_positive(&Evidence(vec![(0, 1), (2, 1)])),
+            Ok(())
+        );
+        let err = chain
+            .check_positive(&Evidence(vec![(0, 0), (2, 1)]))
+            .unwrap_err();
+        assert!(err.to_string().contains("x0 = 0, x2 = 1"), "{err}");
+        // A constant function of value 0.
+        let constant = model("MARKOV\n1\n2\n2\n0\n1 0\n1\n0\n2\n1 1\n").unwrap();
+        let err = constant.check_positive(&Evidence::default()).unwrap_err();
+        assert_eq!(err.variable, None);
+        assert!(err.to_string().contains("constant 0"), "{err}");
+    }
 }

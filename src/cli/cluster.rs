@@ -18,7 +18,7 @@ use pgm::methods::{association_source, default_association, MethodOptions, ASSOC
 use pgm::plot::PairPicture;
 use pgm_crf_clustering::{Clustering, UpdateSchedule};
 use pgm_datasets::{builders, leigh, ClusterMotion, ScanPair};
-use pgm_features::{ParamGuard, Scan};
+use pgm_features::ParamGuard;
 use serde::Serialize;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -139,6 +139,16 @@ pub struct OnePairArgs {
     /// Index of the current scan in the log (as `--reference`).
     #[arg(long)]
     pub current: Option<usize>,
+    /// CARMEN FLASER lines: field of view of the laser in degrees (overrides the log's
+    /// PARAM lines and CARMEN's rule for the beam count).
+    #[arg(long, requires = "carmen")]
+    pub laser_fov: Option<f64>,
+    /// CARMEN FLASER lines: angle between beams in degrees (overrides as --laser-fov).
+    #[arg(long, requires = "carmen")]
+    pub laser_resolution: Option<f64>,
+    /// CARMEN FLASER lines: angle of the first beam in degrees (default -90, CARMEN's).
+    #[arg(long, requires = "carmen", allow_negative_numbers = true)]
+    pub laser_start: Option<f64>,
 }
 
 /// `pgm cluster`.
@@ -185,19 +195,15 @@ fn load_pair(args: &OnePairArgs) -> Result<ScanPair, CliError> {
         };
     }
     if let (Some(path), Some(i), Some(j)) = (&args.carmen, args.reference, args.current) {
-        let log = pgm_datasets::carmen::read_carmen(path).map_err(CliError::from_display)?;
-        let get = |k: usize| {
-            log.scans.get(k).ok_or_else(|| {
-                CliError(format!(
-                    "{}: no laser scan {k} (the log has {} FLASER / ROBOTLASER1 lines, \
-                     counted from 0)",
-                    path.display(),
-                    log.scans.len()
-                ))
-            })
+        let options = pgm_datasets::carmen::CarmenOptions {
+            front_laser_fov: args.laser_fov,
+            front_laser_resolution: args.laser_resolution,
+            front_laser_start: args.laser_start,
+            ..Default::default()
         };
-        let (a, b) = (get(i)?, get(j)?);
-        return Ok(log_pair(path, i, j, &a.scan, &b.scan));
+        let log = pgm_datasets::carmen::read_carmen_with(path, options)
+            .map_err(CliError::from_display)?;
+        return builders::carmen_scan_pair(path, &log, i, j).map_err(CliError::from_display);
     }
     let (Some(scans), Some(i), Some(j)) = (&args.scans, args.reference, args.current) else {
         return Err(CliError(
@@ -211,28 +217,7 @@ fn load_pair(args: &OnePairArgs) -> Result<ScanPair, CliError> {
         let odo = leigh::read_odometry(path).map_err(CliError::from_display)?;
         leigh::attach_odometry(&mut log, &odo, path).map_err(CliError::from_display)?;
     }
-    let get = |k: usize| {
-        log.get(k)
-            .ok_or_else(|| CliError(format!("{}: no scan with index {k}", scans.display())))
-    };
-    let (a, b) = (get(i)?, get(j)?);
-    Ok(log_pair(scans, i, j, &a.scan, &b.scan))
-}
-
-/// The pair of scans `i` (reference) and `j` (current) of the log at `path`, named
-/// `<file stem>:<i>-<j>`, with the odometry prior of the two scans.
-fn log_pair(path: &std::path::Path, i: usize, j: usize, a: &Scan, b: &Scan) -> ScanPair {
-    ScanPair {
-        name: format!(
-            "{}:{i}-{j}",
-            path.file_stem()
-                .map_or("log".into(), |s| s.to_string_lossy())
-        ),
-        odometry: builders::odometry_prior(a, b),
-        reference: a.clone(),
-        current: b.clone(),
-        truth: None,
-    }
+    builders::leigh_scan_pair(scans, &log, i, j).map_err(CliError::from_display)
 }
 
 #[derive(Serialize)]

@@ -17,6 +17,7 @@
 use super::{CliError, CliResult};
 use clap::{Args, Subcommand};
 use pgm_datasets::builders::{leigh_pairs, summarize_leigh_pairs, LeighPairOptions, Unannotated};
+use pgm_datasets::carmen;
 use pgm_datasets::source::{read_leigh, LoadedPairs, PairSource};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -60,6 +61,29 @@ pub struct SourceArgs {
     /// leigh-gtm1 odometry per scan (`ODOM idx stamp x y theta`).
     #[arg(long, requires = "scans")]
     pub odometry: Option<PathBuf>,
+    /// CARMEN FLASER lines: field of view of the laser in degrees (overrides the log's
+    /// PARAM lines and CARMEN's rule for the beam count).
+    #[arg(long)]
+    pub laser_fov: Option<f64>,
+    /// CARMEN FLASER lines: angle between beams in degrees (overrides the log's PARAM
+    /// lines and CARMEN's rule for the beam count).
+    #[arg(long)]
+    pub laser_resolution: Option<f64>,
+    /// CARMEN FLASER lines: angle of the first beam in degrees (default -90, CARMEN's).
+    #[arg(long, allow_negative_numbers = true)]
+    pub laser_start: Option<f64>,
+}
+
+impl SourceArgs {
+    /// The CARMEN reader options these arguments ask for.
+    pub fn carmen_options(&self) -> carmen::CarmenOptions {
+        carmen::CarmenOptions {
+            front_laser_fov: self.laser_fov,
+            front_laser_resolution: self.laser_resolution,
+            front_laser_start: self.laser_start,
+            ..Default::default()
+        }
+    }
 }
 
 /// Options of the leigh-gtm1 pair builder.
@@ -94,7 +118,8 @@ pub struct PairsArgs {
     /// leigh-gtm1: scan distance of the pairs.
     #[arg(long, default_value_t = 5)]
     pub k: usize,
-    /// Output directory (created; an existing data set there is replaced).
+    /// Output directory: created, or an empty directory, or one holding a data set,
+    /// which is replaced (datasets/FORMAT.md; other files are never removed).
     #[arg(long)]
     pub out: PathBuf,
 }
@@ -167,10 +192,14 @@ pub fn pair_source(
         return Ok(PairSource::CarmenRelations {
             log: log.clone(),
             relations: relations.clone(),
+            options: source.carmen_options(),
         });
     }
     if let Some(log) = &source.log {
-        return Ok(PairSource::ConsecutiveLog(log.clone()));
+        return Ok(PairSource::ConsecutiveLog {
+            log: log.clone(),
+            options: source.carmen_options(),
+        });
     }
     let (Some(scans), Some(people)) = (&source.scans, &source.people) else {
         return Err(CliError("--scans needs --people".into()));
@@ -227,7 +256,7 @@ fn run_summary(args: SummaryArgs) -> CliResult {
     let mut rows = Vec::new();
     for &k in &args.k {
         let pairs = leigh_pairs(&log, &annotations, &args.leigh.options(k))
-            .map_err(CliError::from_display)?;
+            .map_err(|e| CliError(format!("{}: {e}", args.scans.display())))?;
         rows.push(summarize_leigh_pairs(k, &pairs));
     }
     if args.json {

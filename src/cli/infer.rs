@@ -22,9 +22,13 @@ pub enum Task {
 pub struct InferArgs {
     /// Model file in the UAI format (MARKOV or BAYES).
     pub model: PathBuf,
-    /// Evidence file (UAI 2014 `q v x …`, or the 2010 variant).
+    /// Evidence file (UAI 2014 `q v x …`, or the 2010 variant with several samples).
     #[arg(long)]
     pub evidence: Option<PathBuf>,
+    /// Which sample of a UAI 2010 evidence file to use (index from 0; default 0, with a
+    /// note on stderr when the file holds more than one).
+    #[arg(long, requires = "evidence")]
+    pub sample: Option<usize>,
     /// Message schedule.
     #[arg(long, default_value = "sequential", value_parser = ["flooding", "sequential", "residual"])]
     pub schedule: String,
@@ -48,13 +52,19 @@ pub fn run(args: InferArgs, task: Task) -> CliResult {
     let mut graph = model
         .to_factor_graph()
         .map_err(|e| CliError(format!("{}: {e}", args.model.display())))?;
+    let evidence = read_evidence(&args, &model)?;
     if let Some(path) = &args.evidence {
-        let evidence =
-            Evidence::read(path, &model.cardinalities).map_err(CliError::from_display)?;
         evidence
             .apply(&mut graph)
             .map_err(|e| CliError(format!("{}: {e}", path.display())))?;
     }
+    model.check_positive(&evidence).map_err(|e| {
+        let inputs = match &args.evidence {
+            Some(path) => format!("{} with {}", args.model.display(), path.display()),
+            None => args.model.display().to_string(),
+        };
+        CliError(format!("{inputs}: {e}"))
+    })?;
     let kind: ScheduleKind = args.schedule.parse().map_err(CliError::from_display)?;
     let mode = match task {
         Task::Map => Mode::MaxProduct,
@@ -66,10 +76,11 @@ pub fn run(args: InferArgs, task: Task) -> CliResult {
         .max_iterations(args.max_iters);
     let mut schedule = kind.build();
     let started = Instant::now();
-    let result = bp
+    let mut result = bp
         .run(&graph, &mut schedule)
         .map_err(CliError::from_display)?;
     let seconds = started.elapsed().as_secs_f64();
+    check_result(&args, task, &evidence, &mut result)?;
     if result.contradictions > 0 {
         eprintln!(
             "pgm: warning: {} message updates were all-zero (the evidence or hard zeros contradict each other); beliefs there are uniform",
@@ -90,4 +101,75 @@ pub fn run(args: InferArgs, task: Task) -> CliResult {
         eprintln!("{stats}");
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The evidence sample the arguments ask for (empty without `--evidence`).
+fn read_evidence(args: &InferArgs, model: &UaiModel) -> Result<Evidence, CliError> {
+    let Some(path) = &args.evidence else {
+        return Ok(Evidence::default());
+    };
+    let read =
+        Evidence::read_samples(path, &model.cardinalities).map_err(CliError::from_display)?;
+    let count = read.samples.len();
+    let index = args.sample.unwrap_or(0);
+    if index >= count {
+        return Err(CliError(format!(
+            "{}: --sample {index}, but the file holds {count} evidence sample{} (counted from 0)",
+            path.display(),
+            if count == 1 { "" } else { "s" }
+        )));
+    }
+    if count > 1 && args.sample.is_none() {
+        eprintln!(
+            "pgm: note: {} holds {count} evidence samples (UAI 2010 layout); using sample 0 \
+             and ignoring the others (--sample N picks another)",
+            path.display()
+        );
+    }
+    Ok(read.samples.into_iter().nth(index).unwrap_or_default())
+}
+
+/// Refuses a result that contradicts the model: an MPE of probability 0 (which loopy
+/// max-product can decode even when positive assignments exist) or NaN beliefs; pins
+/// the beliefs of observed variables to their observed state.
+fn check_result(
+    args: &InferArgs,
+    task: Task,
+    evidence: &Evidence,
+    result: &mut pgm_core::BpResult,
+) -> Result<(), CliError> {
+    if let Task::Map = task {
+        if result.log_score == f64::NEG_INFINITY {
+            return Err(CliError(format!(
+                "{}: max-product found no assignment of positive probability (its best \
+                 assignment {:?} has probability 0); the zeros of the model{} may leave none",
+                args.model.display(),
+                result.assignment,
+                if evidence.0.is_empty() {
+                    ""
+                } else {
+                    " and the evidence"
+                },
+            )));
+        }
+    }
+    for &(v, x) in &evidence.0 {
+        if let Some(belief) = result.beliefs.get_mut(v) {
+            belief
+                .iter_mut()
+                .enumerate()
+                .for_each(|(s, p)| *p = f64::from(s == x));
+        }
+    }
+    if let Some(v) = result
+        .beliefs
+        .iter()
+        .position(|b| b.iter().any(|p| p.is_nan()))
+    {
+        return Err(CliError(format!(
+            "{}: belief propagation produced NaN beliefs for variable {v}",
+            args.model.display()
+        )));
+    }
+    Ok(())
 }

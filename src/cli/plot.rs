@@ -21,8 +21,8 @@ pub struct PlotArgs {
     pub svg: PathBuf,
     /// Region to draw in the reference sensor frame, metres: x_min,x_max,y_min,y_max
     /// (x forward, y left). Default: all points within 60 m ahead and 30 m aside.
-    #[arg(long, value_delimiter = ',', num_args = 4)]
-    pub view: Option<Vec<f64>>,
+    #[arg(long, allow_hyphen_values = true, value_parser = parse_view, value_name = "X_MIN,X_MAX,Y_MIN,Y_MAX")]
+    pub view: Option<[f64; 4]>,
     /// Width of the picture in pixels.
     #[arg(long, default_value_t = 900)]
     pub width: u32,
@@ -51,17 +51,9 @@ pub fn run(args: PlotArgs) -> CliResult {
     let mut picture = PairPicture::new(pair);
     picture.width = args.width;
     picture.boxes = !args.no_boxes;
-    if let Some(v) = &args.view {
-        let ok = v.len() == 4 && v.iter().all(|x| x.is_finite()) && v[0] < v[1] && v[2] < v[3];
-        if !ok {
-            return Err(CliError(format!(
-                "--view {v:?}: expected x_min,x_max,y_min,y_max with x_min < x_max and y_min < y_max"
-            )));
-        }
-        picture.view = Some([v[0], v[1], v[2], v[3]]);
-    }
-    picture
-        .write_svg(&args.svg)
+    picture.view = args.view;
+    let svg = picture.to_svg_string().map_err(CliError::from_display)?;
+    pgm::datasets::format::write_atomically(&args.svg, svg.as_bytes())
         .map_err(CliError::from_display)?;
     eprintln!(
         "pgm: drew pair {} ({}) into {}",
@@ -70,4 +62,23 @@ pub fn run(args: PlotArgs) -> CliResult {
         args.svg.display()
     );
     Ok(ExitCode::SUCCESS)
+}
+
+/// Parses `--view x_min,x_max,y_min,y_max` (negative numbers included: the value is
+/// one token, so `--view -5,5,-3,3` and `--view=-5,5,-3,3` both work).
+pub fn parse_view(text: &str) -> Result<[f64; 4], String> {
+    let values: Vec<f64> = text
+        .split(',')
+        .map(|t| t.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|e| format!("{text:?}: {e}; expected x_min,x_max,y_min,y_max in metres"))?;
+    match values[..] {
+        [x0, x1, y0, y1] if values.iter().all(|v| v.is_finite()) && x0 < x1 && y0 < y1 => {
+            Ok([x0, x1, y0, y1])
+        }
+        _ => Err(format!(
+            "{text:?}: expected four finite numbers x_min,x_max,y_min,y_max with x_min < x_max \
+             and y_min < y_max"
+        )),
+    }
 }

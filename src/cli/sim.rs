@@ -3,6 +3,7 @@
 
 use super::{CliError, CliResult};
 use clap::Args;
+use pgm::datasets::format::StagedFile;
 use pgm::datasets::sim::{simulate_pairs, DatasetStats, Preset, SimConfig};
 use pgm::features::ParamGuard;
 use pgm::plot::PairPicture;
@@ -21,7 +22,9 @@ pub struct SimArgs {
     /// Number of pairs.
     #[arg(long, default_value_t = 100)]
     pub pairs: usize,
-    /// Write the pairs as a data set into this directory (index.json + pair files).
+    /// Write the pairs as a data set into this directory (index.json + pair files): a
+    /// new or empty directory, or one holding a data set, which is replaced (see
+    /// datasets/FORMAT.md; other files are never removed).
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Print the data set statistics as a Markdown table on stdout (the default when
@@ -85,14 +88,23 @@ pub fn run(args: SimArgs) -> CliResult {
         )));
     }
     let pairs = simulate_pairs(&config, args.seed, args.pairs);
+    // Both outputs or neither: the picture is staged beside its destination, the data
+    // set written, then the picture renamed into place.
+    let staged = match &args.svg {
+        Some(path) => {
+            let svg = PairPicture::new(&pairs[args.svg_pair])
+                .to_svg_string()
+                .map_err(CliError::from_display)?;
+            Some(StagedFile::stage(path, svg.as_bytes()).map_err(CliError::from_display)?)
+        }
+        None => None,
+    };
     if let Some(dir) = &args.out {
         pgm::datasets::write_pairs(dir, &pairs).map_err(CliError::from_display)?;
         eprintln!("pgm: wrote {} pairs to {}", pairs.len(), dir.display());
     }
-    if let Some(path) = &args.svg {
-        PairPicture::new(&pairs[args.svg_pair])
-            .write_svg(path)
-            .map_err(CliError::from_display)?;
+    if let (Some(staged), Some(path)) = (staged, &args.svg) {
+        staged.commit().map_err(CliError::from_display)?;
         eprintln!("pgm: drew pair {} into {}", args.svg_pair, path.display());
     }
     if args.stats || (args.out.is_none() && args.svg.is_none()) {

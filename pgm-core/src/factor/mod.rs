@@ -252,7 +252,14 @@ pub(crate) fn check_scope_shape(
             variable: scope[p].0,
         });
     }
-    Ok(shape.iter().product())
+    shape
+        .iter()
+        .try_fold(1usize, |acc, &k| acc.checked_mul(k))
+        .ok_or_else(|| crate::Error::InvalidParameter {
+            name: what,
+            value: format!("shape {shape:?}"),
+            expected: "a product of cardinalities that fits in memory (it overflows usize)",
+        })
 }
 
 /// Checks that every log-potential is finite or −∞.

@@ -18,6 +18,19 @@ pub struct TableFactor {
 impl TableFactor {
     /// A table factor; checks the table size and that entries are finite or −∞.
     pub fn new(scope: Vec<VariableId>, shape: Vec<usize>, log_table: Vec<f64>) -> Result<Self> {
+        // The number of joint states, checked: a wrapped product could match a short table.
+        if !shape.contains(&0)
+            && shape
+                .iter()
+                .try_fold(1usize, |acc, &k| acc.checked_mul(k))
+                .is_none()
+        {
+            return Err(Error::InvalidParameter {
+                name: "table factor shape",
+                value: format!("{shape:?}"),
+                expected: "a product of cardinalities (number of joint states) that fits in usize",
+            });
+        }
         let expected = super::check_scope_shape(&scope, &shape, "table factor shape")?;
         if expected != log_table.len() {
             return Err(Error::TableSize {

@@ -1,0 +1,236 @@
+//! The checks behind each fuzz target of `pgm`, one function per parser. Each takes
+//! the raw fuzz input, runs the parser and what is built from its output, and panics
+//! only when an invariant the parser promises is broken (a panic, abort or hang inside
+//! the parser is a finding on its own). The same functions run every committed corpus
+//! file in the workspace test `tests/fuzz_corpus.rs`, so CI keeps the corpus without
+//! nightly.
+
+use std::path::Path;
+
+/// The input as text (the parsers read text files); `None` for invalid UTF-8, which
+/// the file readers refuse before parsing.
+fn text(data: &[u8]) -> Option<&str> {
+    std::str::from_utf8(data).ok()
+}
+
+/// UAI model files: parse, convert to a factor graph, check for positive assignments,
+/// and write back (the text round trip must give the same model).
+pub fn uai_model(data: &[u8]) {
+    use pgm_core::uai::{Evidence, UaiModel};
+    let Some(text) = text(data) else { return };
+    let Ok(model) = UaiModel::parse_str("fuzz.uai", text) else {
+        return;
+    };
+    for (scope, table) in model.scopes.iter().zip(&model.tables) {
+        let states: usize = scope.iter().map(|&v| model.cardinalities[v]).product();
+        assert_eq!(states, table.len(), "table size checked against the scope");
+    }
+    let _ = model.to_factor_graph();
+    let _ = model.check_positive(&Evidence::default());
+    let again = UaiModel::parse_str("fuzz.uai", &model.to_uai_string())
+        .expect("a model written by to_uai_string reads back");
+    assert_eq!(again, model, "round trip");
+}
+
+/// UAI evidence files: the first byte picks the number of variables (1-6), the next
+/// bytes their cardinalities (1-4), the rest is the evidence text.
+pub fn uai_evidence(data: &[u8]) {
+    use pgm_core::uai::Evidence;
+    let Some((&first, rest)) = data.split_first() else {
+        return;
+    };
+    let n = 1 + first as usize % 6;
+    if rest.len() < n {
+        return;
+    }
+    let cards: Vec<usize> = rest[..n].iter().map(|b| 1 + *b as usize % 4).collect();
+    let Some(text) = text(&rest[n..]) else { return };
+    let Ok(read) = Evidence::parse_samples_str("fuzz.evid", text, &cards) else {
+        return;
+    };
+    assert!(!read.samples.is_empty());
+    for sample in &read.samples {
+        for &(v, x) in &sample.0 {
+            assert!(v < n && x < cards[v], "observation ({v}, {x}) checked");
+        }
+    }
+    let first = Evidence::parse_str("fuzz.evid", text, &cards).expect("same text");
+    assert_eq!(first, read.samples[0]);
+}
+
+/// CARMEN logs: every scan read satisfies the `Scan` invariants, and the pair builders
+/// give valid pairs.
+pub fn carmen(data: &[u8]) {
+    use pgm_datasets::builders::{carmen_scan_pair, consecutive_pairs};
+    use pgm_datasets::carmen::{parse_carmen, CarmenOptions};
+    let Some(text) = text(data) else { return };
+    let path = Path::new("fuzz.clf");
+    let Ok(log) = parse_carmen(path, text, CarmenOptions::default()) else {
+        return;
+    };
+    for s in &log.scans {
+        assert!(s.line >= 1);
+        assert_eq!(s.scan.validate(), Ok(()), "line {}", s.line);
+        assert!(!s.scan.is_empty());
+    }
+    for p in consecutive_pairs(&log, "fuzz").pairs {
+        assert_eq!(p.validate(), Ok(()), "{}", p.name);
+    }
+    if !log.scans.is_empty() {
+        if let Ok(p) = carmen_scan_pair(path, &log, 0, log.scans.len() - 1) {
+            assert_eq!(p.validate(), Ok(()));
+            assert!(p.reference.valid_count() > 0 && p.current.valid_count() > 0);
+        }
+    }
+}
+
+/// Kümmerle relation files.
+pub fn relations(data: &[u8]) {
+    let Some(text) = text(data) else { return };
+    let Ok(relations) = pgm_datasets::relations::parse_relations(Path::new("fuzz.rel"), text)
+    else {
+        return;
+    };
+    for r in relations {
+        assert!(r.t1.is_finite() && r.t2.is_finite() && r.motion.is_finite());
+        assert!(r.line >= 1);
+    }
+}
+
+/// leigh-gtm1 style text logs: the input holds the scans, the odometry and the people
+/// files separated by the byte 0x1E; the pairs built from them are valid.
+pub fn leigh(data: &[u8]) {
+    use pgm_datasets::builders::{leigh_pairs, summarize_leigh_pairs, LeighPairOptions};
+    use pgm_datasets::leigh::{attach_odometry, parse_odometry, parse_people, parse_scans};
+    let Some(text) = text(data) else { return };
+    let mut parts = text.split('\u{1e}');
+    let (scans, odometry, people) = (
+        parts.next().unwrap_or(""),
+        parts.next().unwrap_or(""),
+        parts.next().unwrap_or(""),
+    );
+    let Ok(mut scans) = parse_scans(Path::new("scans.txt"), scans) else {
+        return;
+    };
+    for s in &scans.scans {
+        assert_eq!(s.scan.validate(), Ok(()), "line {}", s.line);
+    }
+    for w in scans.scans.windows(2) {
+        assert!(w[0].index < w[1].index, "indices increase");
+    }
+    let with_odometry = match parse_odometry(Path::new("odom.txt"), odometry) {
+        Ok(odo) => attach_odometry(&mut scans, &odo, Path::new("odom.txt")).is_ok(),
+        Err(_) => false,
+    };
+    let Ok(people) = parse_people(Path::new("people.txt"), people) else {
+        return;
+    };
+    for k in 1..=3 {
+        let options = LeighPairOptions {
+            k,
+            moving_threshold: if with_odometry { 0.2 } else { 0.0 },
+            ..Default::default()
+        };
+        if let Ok(pairs) = leigh_pairs(&scans, &people, &options) {
+            for p in &pairs {
+                assert_eq!(p.validate(), Ok(()), "{}", p.name);
+            }
+            let summary = summarize_leigh_pairs(k, &pairs);
+            assert!(summary.returns_per_scan.is_finite());
+        }
+    }
+}
+
+/// Scan-pair JSON files: a pair that reads is valid and survives a write/read round
+/// trip: every number exactly, except pose angles, which are stored as a rotation
+/// and written as an angle in (−π, π] (equal up to rounding there).
+pub fn pair_json(data: &[u8]) {
+    use pgm_datasets::format::parse_pair;
+    let Some(text) = text(data) else { return };
+    let Ok(pair) = parse_pair(Path::new("pair.json"), text) else {
+        return;
+    };
+    assert_eq!(pair.validate(), Ok(()));
+    let written = serde_json::to_string(&pair).expect("a valid pair serialises");
+    let again = parse_pair(Path::new("pair.json"), &written).expect("written pair reads");
+    let same_pose = |a: &pgm_features::Pose2, b: &pgm_features::Pose2| {
+        a.translation() == b.translation() && a.rotation_error(b) <= 1e-15
+    };
+    let same_scan = |a: &pgm_features::Scan, b: &pgm_features::Scan| {
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        a.timestamp.to_bits() == b.timestamp.to_bits()
+            && bits(&a.angles) == bits(&b.angles)
+            && bits(&a.ranges) == bits(&b.ranges)
+            && a.valid == b.valid
+            && a.max_range.to_bits() == b.max_range.to_bits()
+            && a.odometry.is_some() == b.odometry.is_some()
+            && a.odometry
+                .zip(b.odometry)
+                .is_none_or(|(x, y)| same_pose(&x, &y))
+            && same_pose(&a.laser_offset, &b.laser_offset)
+    };
+    assert_eq!(again.name, pair.name);
+    assert!(
+        same_scan(&again.reference, &pair.reference),
+        "reference scan"
+    );
+    assert!(same_scan(&again.current, &pair.current), "current scan");
+    assert_eq!(again.odometry.is_some(), pair.odometry.is_some());
+    if let (Some(a), Some(b)) = (again.odometry, pair.odometry) {
+        assert!(same_pose(&a, &b), "odometry");
+    }
+    match (&again.truth, &pair.truth) {
+        (Some(a), Some(b)) => {
+            assert_eq!(a.labels, b.labels);
+            assert_eq!(a.reference_labels, b.reference_labels);
+            assert_eq!(a.associations, b.associations);
+            assert_eq!(a.motions.len(), b.motions.len());
+            for (x, y) in a.motions.iter().zip(&b.motions) {
+                assert_eq!((x.label, &x.kind), (y.label, &y.kind));
+                assert!(same_pose(&x.motion, &y.motion), "motion");
+            }
+            assert_eq!(a.ego_motion.is_some(), b.ego_motion.is_some());
+            if let (Some(x), Some(y)) = (a.ego_motion, b.ego_motion) {
+                assert!(same_pose(&x, &y), "ego-motion");
+            }
+        }
+        (None, None) => {}
+        _ => panic!("truth lost or invented"),
+    }
+}
+
+/// Index files of a data set.
+pub fn index_json(data: &[u8]) {
+    use pgm_datasets::format::parse_index;
+    let Some(text) = text(data) else { return };
+    if let Ok(index) = parse_index(Path::new("index.json"), text) {
+        for entry in &index.pairs {
+            let file = Path::new(&entry.file);
+            assert!(!file.is_absolute());
+            assert!(file
+                .components()
+                .all(|c| !matches!(c, std::path::Component::ParentDir)));
+        }
+    }
+}
+
+/// CRF-Clustering weight files (`pgm train clustering --out`, `--weights`).
+pub fn weights_json(data: &[u8]) {
+    use pgm_core::ParamGuard;
+    use pgm_crf_clustering::weights::feature_set;
+    use pgm_crf_clustering::{ClusteringParams, ClusteringWeights};
+    let Some(text) = text(data) else { return };
+    let Ok(w) = pgm_core::Weights::from_json(feature_set(), text) else {
+        return;
+    };
+    assert!(
+        w.values().iter().all(|v| v.is_finite()),
+        "weights read are finite"
+    );
+    let weights = ClusteringWeights::from_weights(&w);
+    let _ = ClusteringParams {
+        weights,
+        ..ClusteringParams::default()
+    }
+    .check();
+}
