@@ -177,16 +177,18 @@ fn run_clustering(args: TrainClusteringArgs) -> CliResult {
     named
         .save(&args.out)
         .map_err(|e| CliError(format!("{}: {e}", args.out.display())))?;
-    eprintln!(
-        "pgm: learned from {} instances ({} pairs) in {} iterations (converged: {}, objective {:.3}); wrote {}",
-        instances.len(),
-        pairs.len(),
-        result.iterations,
-        result.converged,
-        result.objective,
-        args.out.display()
-    );
-    println!("{named}");
+    let summary = serde_json::json!({
+        "model": "crf-clustering",
+        "out": args.out.display().to_string(),
+        "instances": instances.len(),
+        "pairs": pairs.len(),
+        "iterations": result.iterations,
+        "converged": result.converged,
+        "objective": result.objective,
+        "weights": serde_json::from_str::<serde_json::Value>(&named.to_json())
+            .map_err(CliError::from_display)?["weights"],
+    });
+    println!("{summary}");
     Ok(ExitCode::SUCCESS)
 }
 
