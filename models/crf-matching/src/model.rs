@@ -34,7 +34,6 @@
 
 use crate::weights::{index, MatchingWeights};
 use crate::Result;
-use nalgebra::Point2;
 use pgm_core::hybrid::chain::{FeatureSink, HybridChainModel};
 use pgm_features::boosting::{Booster, StepFunction};
 use pgm_features::clustering::association_variance;
@@ -245,6 +244,8 @@ pub struct MatchingModel<'a> {
     group_of: Vec<usize>,
     motions: Vec<Pose2>,
     stats: Vec<RigidAlignment>,
+    /// Each node's current state (as the solver last told).
+    labels: Vec<Option<usize>>,
     version: u64,
     cache: RefCell<LocalCache>,
 }
@@ -307,6 +308,7 @@ impl<'a> MatchingModel<'a> {
             data_rest,
             group_of,
             stats: vec![RigidAlignment::new(); motions.len()],
+            labels: vec![None; n],
             motions,
             version: 1,
             cache: RefCell::new(LocalCache {
@@ -437,41 +439,52 @@ impl<'a> MatchingModel<'a> {
         sink.add(row + cj.len(), index::OUTLIER_STAY, 1.0);
     }
 
-    /// Moves node `i`'s association between its group's statistics.
-    fn relabel(&mut self, i: usize, old: Option<usize>, new: Option<usize>) {
-        let p = self.problem;
-        let s = p.current.points[i];
-        let w = 1.0 / p.variances[i];
-        let g = self.group_of[i];
-        let partner = |state: Option<usize>| {
-            state.and_then(|a| self.candidates[i].get(a).map(|&j| p.reference.points[j]))
-        };
-        let (from, to): (Option<Point2<f64>>, Option<Point2<f64>>) = (partner(old), partner(new));
-        if from == to {
-            return;
-        }
-        if let Some(gp) = from {
-            self.stats[g].remove(&s, &gp, w);
-        }
-        if let Some(gp) = to {
-            self.stats[g].add(&s, &gp, w);
-        }
+    /// Records node `i`'s new state (the statistics are rebuilt at each solve).
+    fn relabel(&mut self, i: usize, new: usize) {
+        self.labels[i] = Some(new);
     }
 
-    /// Re-solves every group's motion (eq. 6) from at least [`MIN_GROUP_POINTS`]
-    /// associated points; returns the largest change.
+    /// Re-solves every group's motion (eq. 6) from its nodes' current associations,
+    /// each pair weighted by `1 / σ_i²`, keeping only the pairs that lie within
+    /// [`INLIER_SIGMAS`] association standard deviations of the group's motion (twice:
+    /// solve, trim, solve again), like ICP's shrinking correspondence distance: a MAP
+    /// association the CRF prefers to the outlier state but that the motion cannot
+    /// explain (an unmodelled mover, a wrong partner) does not pull the motion. A
+    /// group with fewer than [`MIN_GROUP_POINTS`] kept pairs keeps its motion. Returns
+    /// the largest change.
     pub fn solve_motions(&mut self) -> f64 {
+        let p = self.problem;
         let mut change = 0.0f64;
-        for (m, stats) in self.motions.iter_mut().zip(&self.stats) {
-            if stats.len() < MIN_GROUP_POINTS {
-                continue;
+        for g in 0..self.motions.len() {
+            let mut motion = self.motions[g];
+            for _ in 0..2 {
+                let stats = &mut self.stats[g];
+                stats.clear();
+                for i in 0..self.labels.len() {
+                    if self.group_of[i] != g {
+                        continue;
+                    }
+                    let Some(j) = self.labels[i].and_then(|l| self.candidates[i].get(l)) else {
+                        continue;
+                    };
+                    let (s, gp) = (p.current.points[i], p.reference.points[*j]);
+                    let limit = INLIER_SIGMAS * INLIER_SIGMAS * p.variances[i];
+                    if (motion.transform_point(&s) - gp).norm_squared() <= limit {
+                        stats.add(&s, &gp, 1.0 / p.variances[i]);
+                    }
+                }
+                if stats.len() < MIN_GROUP_POINTS {
+                    break;
+                }
+                if let Some(a) = stats.solve() {
+                    motion = a.motion;
+                }
             }
-            if let Some(a) = stats.solve() {
-                change = change
-                    .max(a.motion.translation_error(m))
-                    .max(a.motion.rotation_error(m));
-                *m = a.motion;
-            }
+            let m = &mut self.motions[g];
+            change = change
+                .max(motion.translation_error(m))
+                .max(motion.rotation_error(m));
+            *m = motion;
         }
         if change != 0.0 {
             self.version += 1;
@@ -479,6 +492,10 @@ impl<'a> MatchingModel<'a> {
         change
     }
 }
+
+/// Associations farther than this many association standard deviations `σ_i` from
+/// their group's motion do not enter its solve (see [`MatchingModel::solve_motions`]).
+pub const INLIER_SIGMAS: f64 = 3.0;
 
 impl HybridChainModel for MatchingModel<'_> {
     fn weights(&self) -> &[f64] {
@@ -505,8 +522,8 @@ impl HybridChainModel for MatchingModel<'_> {
         self.write_pair_features(i, sink);
     }
 
-    fn set_label(&mut self, _chain: usize, i: usize, old: Option<usize>, new: usize) {
-        self.relabel(i, old, Some(new));
+    fn set_label(&mut self, _chain: usize, i: usize, _old: Option<usize>, new: usize) {
+        self.relabel(i, new);
     }
 
     fn solve(&mut self) -> f64 {
