@@ -1,8 +1,9 @@
 //! Reproduces Table I of the CRF-Clustering paper (Tipaldi and Ramos): mean and
 //! standard deviation of homogeneity (H), completeness (C) and V-measure (V) for CBD,
-//! motion K-Means, CRF-Clustering with true associations (CRF-T) and with automatic
-//! associations (nearest neighbour after ICP, standing in for the paper's CRF-M),
-//! printed next to the paper's figures.
+//! motion K-Means, CRF-Clustering with true associations (CRF-T), with associations
+//! from CRF-Matching (CRF-M, `pgm-crf-matching` with its shipped weights, trained on
+//! simulated seed 1000) and with the other automatic associations (nearest neighbour
+//! after ICP, segment-wise ICP), printed next to the paper's figures.
 //!
 //! (a) Simulated urban pairs (preset mixed, the simulator's default pair selection:
 //!     every moving object has at least 3 returns seen in both scans, like the papers'
@@ -92,7 +93,7 @@ fn main() -> ExitCode {
         .and_then(|i| args.get(i + 1))
         .and_then(|v| v.parse().ok())
         .unwrap_or(if quick { 10 } else { 50 });
-    let (icp, segment, truth) = ("icp", "segment-icp", "true");
+    let (icp, segment, truth, crf_m) = ("icp", "segment-icp", "true", "crf-matching");
     let config = match SimConfig::default().check() {
         Ok(c) => c,
         Err(e) => {
@@ -111,7 +112,9 @@ fn main() -> ExitCode {
         ("CRF-T", "crf", truth, Some(&PAPER[2].1)),
         ("K-Means (seg.-ICP assoc.)", "kmeans", segment, None),
         ("CRF, ICP assoc.", "crf", icp, None),
-        ("CRF, seg.-ICP assoc.", "crf", segment, Some(&PAPER[3].1)),
+        ("CRF, seg.-ICP assoc.", "crf", segment, None),
+        ("K-Means (CRF-M assoc.)", "kmeans", crf_m, None),
+        ("CRF-M", "crf", crf_m, Some(&PAPER[3].1)),
         ("one cluster", "one-cluster", icp, None),
     ];
     for (name, method, associations, paper) in rows {
@@ -234,6 +237,7 @@ fn main() -> ExitCode {
             ("K-Means (ICP assoc.)", "kmeans", icp),
             ("CRF, ICP assoc.", "crf", icp),
             ("CRF, seg.-ICP assoc.", "crf", segment),
+            ("CRF, CRF-M assoc.", "crf", crf_m),
             ("one cluster", "one-cluster", icp),
         ] {
             match run(&pairs, method, associations) {
