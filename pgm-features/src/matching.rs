@@ -216,7 +216,14 @@ pub fn association_features(
 /// angle in radians).
 #[inline]
 pub fn registered_bearing(q: &Point2<f64>, angle: f64, increment: f64) -> f64 {
-    let d = crate::pose::wrap_angle(q.y.atan2(q.x) - angle).abs();
+    bearing_offset(q.y.atan2(q.x), angle, increment)
+}
+
+/// [`registered_bearing`] from the bearing of `q` (rad), for callers that compare one
+/// point with many beams.
+#[inline]
+pub fn bearing_offset(bearing: f64, angle: f64, increment: f64) -> f64 {
+    let d = crate::pose::wrap_angle(bearing - angle).abs();
     if increment > 0.0 {
         d / increment
     } else {

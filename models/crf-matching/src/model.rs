@@ -38,7 +38,7 @@ use pgm_core::hybrid::chain::{FeatureSink, HybridChainModel};
 use pgm_features::boosting::{Booster, StepFunction};
 use pgm_features::clustering::association_variance;
 use pgm_features::matching::{
-    association_features, outlier_features, registered_bearing, ScanShape, ASSOCIATION_FEATURES,
+    association_features, bearing_offset, outlier_features, ScanShape, ASSOCIATION_FEATURES,
     MOTION_FEATURES, OUTLIER_FEATURES,
 };
 use pgm_features::registration::Icp;
@@ -299,6 +299,23 @@ impl<'a> MatchingModel<'a> {
             }
         }
         let n = candidates.len();
+        // The outlier features under the round's starting motions (see
+        // `write_local_features`).
+        let mut f = [0.0; OUTLIER_FEATURES];
+        let outlier: Vec<f64> = (0..n)
+            .map(|i| {
+                outlier_features(
+                    &problem.current,
+                    i,
+                    &problem.reference_scan,
+                    problem.reference_increment,
+                    &problem.search,
+                    &motions[group_of[i]],
+                    &mut f,
+                );
+                problem.outlier.score(&f)
+            })
+            .collect();
         Self {
             problem,
             weights: weights.to_vec(),
@@ -315,7 +332,7 @@ impl<'a> MatchingModel<'a> {
                 version: vec![0; n],
                 distance: vec![0.0; total],
                 score: vec![0.0; total],
-                outlier: vec![0.0; n],
+                outlier,
             }),
         }
     }
@@ -351,26 +368,21 @@ impl<'a> MatchingModel<'a> {
         let motion = self.motions[self.group_of[i]];
         let q = motion.transform_point(&p.current.points[i]);
         let o = self.offsets[i];
+        let q_bearing = q.y.atan2(q.x);
         for (k, &j) in self.candidates[i].iter().enumerate() {
             let d = (q - p.reference.points[j]).norm();
-            let bearing = registered_bearing(&q, p.reference.angles[j], p.reference_increment);
+            let bearing = bearing_offset(q_bearing, p.reference.angles[j], p.reference_increment);
             cache.distance[o + k] = d;
             cache.score[o + k] = p.data_steps[0].eval(d) + p.data_steps[1].eval(bearing);
         }
-        let mut f = [0.0; OUTLIER_FEATURES];
-        outlier_features(
-            &p.current,
-            i,
-            &p.reference_scan,
-            p.reference_increment,
-            &p.search,
-            &motion,
-            &mut f,
-        );
-        cache.outlier[i] = p.outlier.score(&f);
     }
 
-    /// Writes the local features of node `i` (see the module docs).
+    /// Writes the local features of node `i` (see the module docs). The outlier
+    /// booster's margin is the one under the motions the model was built with (a
+    /// round's starting motions; [`crate::Matcher`] builds a new model each round):
+    /// its features (nearest return, visibility) change little while a round refines
+    /// the motions, and re-evaluating them every sweep lets returns at the edge flip
+    /// between partner and outlier as the motions creep.
     pub fn write_local_features<S: FeatureSink>(&self, i: usize, sink: &mut S) {
         self.refresh(i);
         let cache = self.cache.borrow();
@@ -495,7 +507,7 @@ impl<'a> MatchingModel<'a> {
 
 /// Associations farther than this many association standard deviations `σ_i` from
 /// their group's motion do not enter its solve (see [`MatchingModel::solve_motions`]).
-pub const INLIER_SIGMAS: f64 = 3.0;
+pub const INLIER_SIGMAS: f64 = 2.0;
 
 impl HybridChainModel for MatchingModel<'_> {
     fn weights(&self) -> &[f64] {
