@@ -345,3 +345,56 @@ fn bad_initial_labels_are_refused() {
         .check()
         .is_err());
 }
+
+/// One position whose preferred state is the other one than the continuous value
+/// remembers (the last label): every solve flips the preference, a limit cycle of
+/// period two.
+struct Flipper {
+    value: usize,
+}
+
+impl HybridChainModel for Flipper {
+    fn weights(&self) -> &[f64] {
+        &[1.0]
+    }
+    fn num_chains(&self) -> usize {
+        1
+    }
+    fn chain_len(&self, _chain: usize) -> usize {
+        1
+    }
+    fn num_states(&self, _chain: usize, _i: usize) -> usize {
+        2
+    }
+    fn write_local<S: FeatureSink>(&self, _chain: usize, _i: usize, sink: &mut S) {
+        sink.add(1 - self.value, 0, 1.0);
+    }
+    fn write_pair<S: FeatureSink>(&self, _chain: usize, _i: usize, _sink: &mut S) {}
+    fn set_label(&mut self, _chain: usize, _i: usize, _old: Option<usize>, new: usize) {
+        self.value = new;
+    }
+    fn solve(&mut self) -> f64 {
+        // The value moves by one unit at every solve.
+        1.0
+    }
+}
+
+#[test]
+fn limit_cycles_stop_early_and_are_reported() {
+    let run = |stop: bool| {
+        HybridChainParams::default()
+            .stop_on_cycle(stop)
+            .max_sweeps(20)
+            .check()
+            .unwrap()
+            .run(&mut Flipper { value: 0 }, &[vec![0]])
+            .unwrap()
+    };
+    let cycled = run(true);
+    assert!(cycled.cycled && !cycled.converged);
+    // Start 0, sweep 1 → 1, sweep 2 → 0 (the start again).
+    assert_eq!(cycled.sweeps, 2);
+    let endless = run(false);
+    assert!(!endless.cycled && !endless.converged);
+    assert_eq!(endless.sweeps, 20);
+}

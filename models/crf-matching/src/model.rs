@@ -458,8 +458,10 @@ impl<'a> MatchingModel<'a> {
 
     /// Re-solves every group's motion (eq. 6) from its nodes' current associations,
     /// each pair weighted by `1 / σ_i²`, keeping only the pairs that lie within
-    /// [`INLIER_SIGMAS`] association standard deviations of the group's motion (twice:
-    /// solve, trim, solve again), like ICP's shrinking correspondence distance: a MAP
+    /// [`INLIER_SIGMAS`] association standard deviations of the group's motion (trim
+    /// and solve until no pair is dropped, at most [`TRIM_ITERATIONS`] times; a
+    /// dropped pair is not re-admitted within one solve, so the iteration cannot
+    /// cycle), like ICP's shrinking correspondence distance: a MAP
     /// association the CRF prefers to the outlier state but that the motion cannot
     /// explain (an unmodelled mover, a wrong partner) does not pull the motion. A
     /// group with fewer than [`MIN_GROUP_POINTS`] kept pairs keeps its motion. Returns
@@ -467,26 +469,34 @@ impl<'a> MatchingModel<'a> {
     pub fn solve_motions(&mut self) -> f64 {
         let p = self.problem;
         let mut change = 0.0f64;
+        let mut pairs = Vec::new();
         for g in 0..self.motions.len() {
+            // The group's associated pairs (current point, reference point, σ²).
+            pairs.clear();
+            for i in 0..self.labels.len() {
+                if self.group_of[i] != g {
+                    continue;
+                }
+                if let Some(j) = self.labels[i].and_then(|l| self.candidates[i].get(l)) {
+                    pairs.push((p.current.points[i], p.reference.points[*j], p.variances[i]));
+                }
+            }
             let mut motion = self.motions[g];
-            for _ in 0..2 {
+            for round in 0..TRIM_ITERATIONS {
+                // Trim: drop the pairs the motion cannot explain (never re-admitted, so
+                // the iteration cannot cycle).
+                let before = pairs.len();
+                pairs.retain(|(s, gp, var)| {
+                    (motion.transform_point(s) - gp).norm_squared()
+                        <= INLIER_SIGMAS * INLIER_SIGMAS * var
+                });
+                if pairs.len() < MIN_GROUP_POINTS || (round > 0 && pairs.len() == before) {
+                    break;
+                }
                 let stats = &mut self.stats[g];
                 stats.clear();
-                for i in 0..self.labels.len() {
-                    if self.group_of[i] != g {
-                        continue;
-                    }
-                    let Some(j) = self.labels[i].and_then(|l| self.candidates[i].get(l)) else {
-                        continue;
-                    };
-                    let (s, gp) = (p.current.points[i], p.reference.points[*j]);
-                    let limit = INLIER_SIGMAS * INLIER_SIGMAS * p.variances[i];
-                    if (motion.transform_point(&s) - gp).norm_squared() <= limit {
-                        stats.add(&s, &gp, 1.0 / p.variances[i]);
-                    }
-                }
-                if stats.len() < MIN_GROUP_POINTS {
-                    break;
+                for (s, gp, var) in &pairs {
+                    stats.add(s, gp, 1.0 / var);
                 }
                 if let Some(a) = stats.solve() {
                     motion = a.motion;
@@ -508,6 +518,10 @@ impl<'a> MatchingModel<'a> {
 /// Associations farther than this many association standard deviations `σ_i` from
 /// their group's motion do not enter its solve (see [`MatchingModel::solve_motions`]).
 pub const INLIER_SIGMAS: f64 = 2.0;
+
+/// Most solve-and-trim iterations of one group's motion in
+/// [`MatchingModel::solve_motions`]; they stop earlier once no pair is dropped.
+pub const TRIM_ITERATIONS: usize = 6;
 
 impl HybridChainModel for MatchingModel<'_> {
     fn weights(&self) -> &[f64] {

@@ -266,7 +266,16 @@ pub struct HybridChainParams {
     pub tolerance: f64,
     /// When the continuous values are re-solved.
     pub update: ChainUpdate,
+    /// Stop when a sweep ends with the labels of one of the last [`CYCLE_MEMORY`]
+    /// sweeps (or the start) without having converged (true): the alternation is then
+    /// in a limit cycle (a label flip moves the continuous values just enough to flip
+    /// it back) and would otherwise run to `max_sweeps`. The result reports
+    /// [`HybridChainResult::cycled`].
+    pub stop_on_cycle: bool,
 }
+
+/// How many past labellings [`HybridChainParams::stop_on_cycle`] remembers.
+pub const CYCLE_MEMORY: usize = 4;
 
 impl Default for HybridChainParams {
     fn default() -> Self {
@@ -274,6 +283,7 @@ impl Default for HybridChainParams {
             max_sweeps: 30,
             tolerance: 1e-6,
             update: ChainUpdate::EverySweep,
+            stop_on_cycle: true,
         }
     }
 }
@@ -294,6 +304,12 @@ impl HybridChainParams {
     /// Sets when the continuous values are re-solved.
     pub fn update(mut self, update: ChainUpdate) -> Self {
         self.update = update;
+        self
+    }
+
+    /// Sets whether a run stops when its labels revisit a recent labelling.
+    pub fn stop_on_cycle(mut self, stop: bool) -> Self {
+        self.stop_on_cycle = stop;
         self
     }
 }
@@ -325,6 +341,9 @@ pub struct SweepReport {
     pub continuous_change: f64,
     /// How many labels changed in the sweep (all chains).
     pub labels_changed: usize,
+    /// Whether the labels after the sweep equal those after one of the last
+    /// [`CYCLE_MEMORY`] sweeps (or the start) although some changed in the sweep.
+    pub revisited: bool,
 }
 
 /// The outcome of [`HybridChain::run`].
@@ -346,6 +365,9 @@ pub struct HybridChainResult {
     pub continuous_change: f64,
     /// How many times the continuous values were solved.
     pub solves: usize,
+    /// Whether the run stopped in a limit cycle (see
+    /// [`HybridChainParams::stop_on_cycle`]).
+    pub cycled: bool,
 }
 
 impl HybridChainResult {
@@ -493,6 +515,9 @@ impl HybridChain {
         let mut converged = false;
         let mut change = 0.0;
         let strict = chains > 1 || self.params.update == ChainUpdate::EveryVisit;
+        let mut recent = std::collections::VecDeque::with_capacity(CYCLE_MEMORY + 1);
+        recent.push_back(labelling_hash(&buffers));
+        let mut cycled = false;
         while sweeps < self.params.max_sweeps {
             sweeps += 1;
             change = 0.0f64;
@@ -507,11 +532,23 @@ impl HybridChain {
                 solves += s;
             }
             converged = change <= self.params.tolerance && (!strict || changed == 0);
+            let hash = labelling_hash(&buffers);
+            let revisited = !converged && changed > 0 && recent.contains(&hash);
+            if recent.len() == CYCLE_MEMORY + 1 {
+                recent.pop_front();
+            }
+            recent.push_back(hash);
             let report = SweepReport {
                 sweep: sweeps,
                 continuous_change: change,
                 labels_changed: changed,
+                revisited,
             };
+            if revisited && self.params.stop_on_cycle {
+                cycled = true;
+                let _ = observer(&report);
+                break;
+            }
             if converged || observer(&report).is_break() {
                 if converged {
                     // The observer sees the converged sweep too.
@@ -537,6 +574,7 @@ impl HybridChain {
             converged,
             continuous_change: change,
             solves,
+            cycled,
         };
         for b in buffers {
             let mut mm = vec![0.0; b.chain.local_len()];
@@ -551,6 +589,16 @@ impl HybridChain {
         }
         Ok(result)
     }
+}
+
+/// A hash of every chain's labels (for [`HybridChainParams::stop_on_cycle`]).
+fn labelling_hash(buffers: &[ChainBuffers]) -> u64 {
+    use std::hash::{Hash, Hasher};
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    for b in buffers {
+        b.labels.hash(&mut h);
+    }
+    h.finish()
 }
 
 /// One exact sweep of chain `c`: tables for the current values, Viterbi, label
