@@ -1,0 +1,33 @@
+//! CRF-Matching of one simulated 361-beam pair (preset mixed, seed 1, pair 0) with the
+//! shipped weights: motion hypotheses, candidates, rounds of exact chain sweeps with
+//! motion re-solves, everything from the pair to the associations. `pruned` uses the
+//! default state space (6 candidates and the outlier state per point).
+//!
+//! Run: `cargo bench --bench matching`.
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use pgm_crf_matching::{MatchingParams, StateSpace};
+use pgm_datasets::sim::{simulate_pair, SimConfig};
+use pgm_features::ParamGuard;
+use std::time::Duration;
+
+fn matching(c: &mut Criterion) {
+    let pair = simulate_pair(&SimConfig::default().check().expect("valid"), 1, 0);
+    let mut group = c.benchmark_group("crf_matching_361_beams");
+    group
+        .sample_size(20)
+        .measurement_time(Duration::from_secs(8));
+    let matcher = MatchingParams {
+        state_space: StateSpace::Pruned(6),
+        ..MatchingParams::default()
+    }
+    .check()
+    .expect("valid");
+    group.bench_function("pruned", |b| {
+        b.iter(|| std::hint::black_box(matcher.match_pair(&pair).expect("matches")))
+    });
+    group.finish();
+}
+
+criterion_group!(benches, matching);
+criterion_main!(benches);
