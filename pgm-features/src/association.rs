@@ -170,6 +170,11 @@ pub struct SegmentParams {
     /// the angle increment), at most [`NearestParams::gate`] (1; 0.3 was measured
     /// worse on simulated pairs: V 0.71 against 0.74).
     pub association_gate: f64,
+    /// The ego-motion ICP also runs from the prior with this first correspondence
+    /// distance (m), and the run with more inliers at the final distance wins
+    /// ([`Icp::align_best`], which gives the measurement: objects moving with the
+    /// sensor pull a wide schedule off the static scene) (0.3; 0 turns it off).
+    pub tight_ego_distance: f64,
 }
 
 impl Default for SegmentParams {
@@ -186,6 +191,7 @@ impl Default for SegmentParams {
             free_space_fraction: 0.2,
             aligned_fraction: 0.5,
             association_gate: 1.0,
+            tight_ego_distance: 0.3,
         }
     }
 }
@@ -289,6 +295,11 @@ impl ParamGuard for SegmentParams {
             "free_space_margin",
             self.free_space_margin,
             "a number of metres >= 0",
+        )?;
+        InvalidParameter::non_negative(
+            "tight_ego_distance",
+            self.tight_ego_distance,
+            "a number of metres >= 0 (0: off)",
         )?;
         InvalidParameter::fraction("free_space_fraction", self.free_space_fraction)?;
         InvalidParameter::fraction("aligned_fraction", self.aligned_fraction)?;
@@ -504,9 +515,17 @@ fn segment_motions_with(
     icp: &Icp,
 ) -> Result<SegmentMotions> {
     let nearest = &params.nearest;
-    let ego = icp
-        .align(&pair.current, pair.odometry.unwrap_or_default())?
-        .motion;
+    let prior = pair.odometry.unwrap_or_default();
+    let ego = if params.tight_ego_distance > 0.0 {
+        icp.align_best(
+            &pair.current,
+            &[prior],
+            &[nearest.icp.initial_max_distance, params.tight_ego_distance],
+        )?
+    } else {
+        icp.align(&pair.current, prior)?
+    }
+    .motion;
     let (points, beams) = pair.current.points();
     let segments = segment_by_gap(&points, params.segment_gap);
     let (reference_points, _) = pair.reference.points();

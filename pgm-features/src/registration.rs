@@ -365,9 +365,69 @@ impl Icp {
         (associations, inliers, sum_d2)
     }
 
+    /// Aligns `current` from every start in `starts` with every first correspondence
+    /// distance in `initial_distances` (m; each replaces
+    /// [`IcpParams::initial_max_distance`] for its runs) and returns the run with the
+    /// most inliers at the final distance (ties: the lower RMS error, then the earlier
+    /// run). The support at the final distance is the number of current returns the
+    /// motion explains; a wrong local minimum explains fewer.
+    ///
+    /// Why several schedules: objects moving with the sensor (a car overtaking or
+    /// oncoming along a street) lie within a wide first distance of their earlier
+    /// returns while the static scene is offset by the odometry error; a wide schedule
+    /// from a good prior then locks onto them and slides along the street's walls,
+    /// where a tight one keeps to the static scene. On 30 simulated `overtaking` and
+    /// `oncoming` pairs each (seed 7), the default wide schedule ended 0.12-0.51 m
+    /// from the true ego-motion on 10 pairs; a first distance of 0.3 m ended within
+    /// 0.11 m on all ten, with more inliers at 0.1 m on nine of them.
+    ///
+    /// # Errors
+    /// As [`Icp::align`]; [`Error::InvalidParameter`] for an empty `starts` or
+    /// `initial_distances`, or a distance that is not finite and positive.
+    pub fn align_best(
+        &self,
+        current: &Scan,
+        starts: &[Pose2],
+        initial_distances: &[f64],
+    ) -> Result<IcpResult> {
+        if starts.is_empty() || initial_distances.is_empty() {
+            return Err(InvalidParameter::new(
+                "starts / initial_distances",
+                (starts.len(), initial_distances.len()),
+                "at least one start and one first distance",
+            )
+            .into());
+        }
+        let mut best: Option<IcpResult> = None;
+        for &d in initial_distances {
+            InvalidParameter::positive("initial_distances", d, "a distance in metres > 0")?;
+            let d = d.max(self.params.final_max_distance);
+            for &start in starts {
+                let r = self.align_from(current, start, d)?;
+                let better = best.as_ref().is_none_or(|b| {
+                    r.inliers > b.inliers || (r.inliers == b.inliers && r.rms_error < b.rms_error)
+                });
+                if better {
+                    best = Some(r);
+                }
+            }
+        }
+        Ok(best.expect("at least one run"))
+    }
+
     /// Aligns `current` to the reference scan starting from `initial` (for example
     /// the odometry prior, or the identity).
     pub fn align(&self, current: &Scan, initial: Pose2) -> Result<IcpResult> {
+        self.align_from(current, initial, self.params.initial_max_distance)
+    }
+
+    /// [`Icp::align`] with the schedule starting at `initial_max_distance`.
+    fn align_from(
+        &self,
+        current: &Scan,
+        initial: Pose2,
+        initial_max_distance: f64,
+    ) -> Result<IcpResult> {
         if !initial.is_finite() {
             return Err(
                 InvalidParameter::new("initial", initial, "a finite starting motion").into(),
@@ -379,7 +439,7 @@ impl Icp {
         }
         let p = self.params;
         let mut motion = initial;
-        let mut max_distance = p.initial_max_distance;
+        let mut max_distance = initial_max_distance;
         let mut iterations = 0;
         let mut converged = false;
         let mut stats = RigidAlignment::new();
