@@ -444,6 +444,31 @@ fn fit(icp: &Icp, points: &[Point2<f64>], motion: &Pose2, tau: f64) -> (f64, usi
     (cost, inliers)
 }
 
+/// [`fit`] of the points of `segment`, where a reference return that another segment
+/// explains (`explained_by`, per reference beam; `usize::MAX`: none) counts as no
+/// match.
+fn fit_unexplained(
+    icp: &Icp,
+    points: &[Point2<f64>],
+    motion: &Pose2,
+    tau: f64,
+    segment: usize,
+    explained_by: &[usize],
+) -> (f64, usize) {
+    let mut cost = 0.0;
+    let mut inliers = 0;
+    for s in points {
+        match icp.nearest_reference(&motion.transform_point(s), tau) {
+            Some((r, d2)) if explained_by[r] == usize::MAX || explained_by[r] == segment => {
+                cost += d2;
+                inliers += 1;
+            }
+            _ => cost += tau * tau,
+        }
+    }
+    (cost, inliers)
+}
+
 fn centroid(points: &[Point2<f64>]) -> Point2<f64> {
     let sum = points
         .iter()
@@ -544,13 +569,33 @@ fn segment_motions_with(
     };
     let segment_icp = Icp::new(&pair.reference, segment_params)?;
     let tau = params.inlier_distance;
+    // Which current segment explains each reference return under the ego-motion (its
+    // nearest current return within `tau`, moved back): a segment's own motion may
+    // only match reference returns that no other segment explains — a car's side
+    // matched onto a wall that is still there is not where the car came from.
+    let back = ego.inverse();
+    let current_search = Icp::new(&pair.current, nearest.icp)?;
+    let mut segment_of_beam = vec![usize::MAX; pair.current.len()];
+    for (i, &b) in beams.iter().enumerate() {
+        segment_of_beam[b] = segments[i];
+    }
+    let mut explained_by = vec![usize::MAX; pair.reference.len()];
+    let (reference_returns, reference_beams) = pair.reference.points();
+    for (g, &r) in reference_returns.iter().zip(&reference_beams) {
+        if let Some((c, _)) = current_search.nearest_reference(&back.transform_point(g), tau) {
+            explained_by[r] = segment_of_beam[c];
+        }
+    }
     let mut motion_of = vec![ego; points.len()];
     for range in segment_ranges(&segments) {
         let members = &points[range.clone()];
         if members.len() < params.min_points {
             continue;
         }
-        let (ego_cost, ego_inliers) = fit(icp, members, &ego, tau);
+        let segment = segments[range.start];
+        let fit =
+            |motion: &Pose2| fit_unexplained(icp, members, motion, tau, segment, &explained_by);
+        let (ego_cost, ego_inliers) = fit(&ego);
         if ego_inliers as f64 >= params.static_fraction * members.len() as f64 {
             continue;
         }
@@ -585,7 +630,7 @@ fn segment_motions_with(
             let Ok(result) = segment_icp.align(&sub, guess) else {
                 continue;
             };
-            let (cost, inliers) = fit(icp, members, &result.motion, tau);
+            let (cost, inliers) = fit(&result.motion);
             if best.is_none_or(|(b, _, _)| cost < b) {
                 best = Some((cost, inliers, result.motion));
             }
