@@ -427,26 +427,92 @@ fn nearest_after_icp(pair: &ScanPair, params: &NearestParams) -> Result<PointAss
     })
 }
 
-/// Truncated cost and inlier count of `points` moved by `motion` against the
-/// reference returns of `icp`.
-fn fit(icp: &Icp, points: &[Point2<f64>], motion: &Pose2, tau: f64) -> (f64, usize) {
-    let mut cost = 0.0;
-    let mut inliers = 0;
-    for s in points {
-        match icp.nearest_reference(&motion.transform_point(s), tau) {
-            Some((_, d2)) => {
-                cost += d2;
-                inliers += 1;
-            }
-            None => cost += tau * tau,
-        }
+/// Weight of a free-space violation in the choice of a segment's motion, in units of
+/// an unmatched return's truncated cost `tau²` (2: the laser saw through where the
+/// surface would be, stronger evidence than not seeing it; on simulated pairs, seed
+/// 3, 1 gave overtaking 70.6 % exact, 2 gave 72.3 %, 4 gave 72.0 %, 8 gave 72.0 %).
+const VIOLATION_WEIGHT: f64 = 2.0;
+
+/// Candidate shifts along a segment's principal axis: this many each way, this far
+/// apart (m), up to 2.4 m.
+const SLIDE_STEPS: usize = 12;
+const SLIDE_STEP: f64 = 0.2;
+
+/// The unit principal axis of `points` (the eigenvector of the larger eigenvalue of
+/// their scatter), `None` for coincident points.
+fn principal_axis(points: &[Point2<f64>]) -> Option<nalgebra::Vector2<f64>> {
+    let c = centroid(points);
+    let (mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0);
+    for p in points {
+        let d = p - c;
+        sxx += d.x * d.x;
+        sxy += d.x * d.y;
+        syy += d.y * d.y;
     }
-    (cost, inliers)
+    let half_trace = 0.5 * (sxx + syy);
+    let root = (0.25 * (sxx - syy).powi(2) + sxy * sxy).sqrt();
+    let large = half_trace + root;
+    if large <= 0.0 {
+        return None;
+    }
+    let v = if sxy.abs() > 1e-12 {
+        nalgebra::Vector2::new(large - syy, sxy)
+    } else if sxx >= syy {
+        nalgebra::Vector2::new(1.0, 0.0)
+    } else {
+        nalgebra::Vector2::new(0.0, 1.0)
+    };
+    Some(v.normalize())
 }
 
-/// [`fit`] of the points of `segment`, where a reference return that another segment
-/// explains (`explained_by`, per reference beam; `usize::MAX`: none) counts as no
-/// match.
+/// Free-space violations of a segment's candidate motion, both ways: its points
+/// moved into the reference frame that lie where the reference scan saw free space,
+/// and the returns of the reference segments it matches (a partner within `tau`)
+/// moved back into the current frame that lie where the current scan sees free space.
+/// A rigid object under its true motion violates neither: it cannot have been where
+/// the reference saw through, nor extend now where the current scan sees through (a
+/// motion slid along a car's side does the latter with the car's old ends).
+#[allow(clippy::too_many_arguments)]
+fn free_space_violations(
+    pair: &ScanPair,
+    icp: &Icp,
+    points: &[Point2<f64>],
+    motion: &Pose2,
+    tau: f64,
+    margin: f64,
+    reference_segment_of_beam: &[usize],
+    reference_ranges: &[std::ops::Range<usize>],
+    reference_points: &[Point2<f64>],
+) -> usize {
+    let mut violations = 0;
+    let mut matched: Vec<usize> = Vec::new();
+    for s in points {
+        let q = motion.transform_point(s);
+        if pair.reference.in_free_space(&q, margin) {
+            violations += 1;
+        }
+        if let Some((r, _)) = icp.nearest_reference(&q, tau) {
+            let g = reference_segment_of_beam[r];
+            if g != usize::MAX && !matched.contains(&g) {
+                matched.push(g);
+            }
+        }
+    }
+    let back = motion.inverse();
+    for g in matched {
+        for p in &reference_points[reference_ranges[g].clone()] {
+            if pair.current.in_free_space(&back.transform_point(p), margin) {
+                violations += 1;
+            }
+        }
+    }
+    violations
+}
+
+/// Truncated cost (`Σ min(d², tau²)`) and inlier count (`d ≤ tau`) of `points`
+/// (of `segment`) moved by `motion` against the reference returns of `icp`, where a
+/// reference return that another segment explains (`explained_by`, per reference
+/// beam; `usize::MAX`: none) counts as no match.
 fn fit_unexplained(
     icp: &Icp,
     points: &[Point2<f64>],
@@ -553,12 +619,17 @@ fn segment_motions_with(
     .motion;
     let (points, beams) = pair.current.points();
     let segments = segment_by_gap(&points, params.segment_gap);
-    let (reference_points, _) = pair.reference.points();
-    let reference_centroids: Vec<Point2<f64>> =
-        segment_ranges(&segment_by_gap(&reference_points, params.segment_gap))
-            .into_iter()
-            .map(|r| centroid(&reference_points[r]))
-            .collect();
+    let (reference_points, reference_beams) = pair.reference.points();
+    let reference_segments = segment_by_gap(&reference_points, params.segment_gap);
+    let reference_ranges = segment_ranges(&reference_segments);
+    let reference_centroids: Vec<Point2<f64>> = reference_ranges
+        .iter()
+        .map(|r| centroid(&reference_points[r.clone()]))
+        .collect();
+    let mut reference_segment_of_beam = vec![usize::MAX; pair.reference.len()];
+    for (&b, &g) in reference_beams.iter().zip(&reference_segments) {
+        reference_segment_of_beam[b] = g;
+    }
     let segment_params = IcpParams {
         initial_max_distance: 1.0,
         coarse_stride: 1,
@@ -580,8 +651,7 @@ fn segment_motions_with(
         segment_of_beam[b] = segments[i];
     }
     let mut explained_by = vec![usize::MAX; pair.reference.len()];
-    let (reference_returns, reference_beams) = pair.reference.points();
-    for (g, &r) in reference_returns.iter().zip(&reference_beams) {
+    for (g, &r) in reference_points.iter().zip(&reference_beams) {
         if let Some((c, _)) = current_search.nearest_reference(&back.transform_point(g), tau) {
             explained_by[r] = segment_of_beam[c];
         }
@@ -616,7 +686,6 @@ fn segment_motions_with(
             sub.valid[b] = true;
         }
         let moved = ego.transform_point(&centroid(members));
-        let mut best: Option<(f64, usize, Pose2)> = None;
         let starts = std::iter::once(ego).chain(
             reference_centroids
                 .iter()
@@ -626,16 +695,54 @@ fn segment_motions_with(
                     Pose2::new(ego.x() + shift.x, ego.y() + shift.y, ego.theta())
                 }),
         );
-        for guess in starts {
-            let Ok(result) = segment_icp.align(&sub, guess) else {
-                continue;
-            };
-            let (cost, inliers) = fit(&result.motion);
-            if best.is_none_or(|(b, _, _)| cost < b) {
-                best = Some((cost, inliers, result.motion));
+        // A candidate motion is chosen by its truncated cost plus `VIOLATION_WEIGHT ·
+        // tau²` for every free-space violation both ways (see
+        // `free_space_violations`).
+        let select = |motion: &Pose2| {
+            let (cost, inliers) = fit(motion);
+            let violations = free_space_violations(
+                pair,
+                icp,
+                members,
+                motion,
+                tau,
+                params.free_space_margin,
+                &reference_segment_of_beam,
+                &reference_ranges,
+                &reference_points,
+            );
+            let penalty = VIOLATION_WEIGHT * tau * tau * violations as f64;
+            (cost + penalty, cost, inliers)
+        };
+        let best_of = |motions: &mut dyn Iterator<Item = Pose2>| {
+            motions
+                .map(|m| {
+                    let (score, cost, inliers) = select(&m);
+                    (score, cost, inliers, m)
+                })
+                .min_by(|a, b| a.0.total_cmp(&b.0))
+        };
+        let mut best = best_of(
+            &mut starts.filter_map(|guess| segment_icp.align(&sub, guess).ok().map(|r| r.motion)),
+        );
+        // ICP lets a segment slide along its principal axis (a car's side) to where
+        // the visible extents overlap most; the ends and the free space around them
+        // decide where it belongs: shifts along the axis are candidates too. (Shifting only
+        // segments 10 times longer than wide changed no accuracy figure measurably.)
+        if let (Some(found), Some(axis)) = (best, principal_axis(members)) {
+            let motion = found.3;
+            let along = motion.isometry().rotation * axis;
+            let slid = best_of(&mut (1..=SLIDE_STEPS).flat_map(|k| {
+                [-1.0, 1.0].map(|sign| {
+                    let d = along * (sign * k as f64 * SLIDE_STEP);
+                    Pose2::new(motion.x() + d.x, motion.y() + d.y, motion.theta())
+                })
+            }));
+            if let Some(s) = slid.filter(|s| s.0 < found.0) {
+                best = Some(s);
             }
         }
-        if let Some((cost, inliers, motion)) = best {
+        if let Some((_, cost, inliers, motion)) = best {
             let fraction = inliers as f64 / members.len() as f64;
             // The reverse test: the reference returns the segment aligns to, moved
             // into the current frame, lie where the current scan sees free space
