@@ -1,13 +1,14 @@
 //! The hybrid chain solver (`pgm_core::hybrid::chain`) against brute force, against
 //! the generic `HybridInference`, and its coordinate-ascent and fixed-point
-//! properties on one and two chains with positions of varying state counts.
+//! properties on one and two chains with positions of varying state counts, and
+//! sparse pairwise tables (`PairPattern`) against the same model written densely.
 
-use pgm_core::exact::{brute_force, BruteForceLimit};
+use pgm_core::exact::{brute_force, BruteForceLimit, PairPattern};
 use pgm_core::hybrid::chain::{
     chain_instance, ChainUpdate, FeatureSink, HybridChainModel, HybridChainParams, WeightedTable,
 };
 use pgm_core::hybrid::{ClusterMeans, HybridInference, UpdatePolicy};
-use pgm_core::learning::FeatureSet;
+use pgm_core::learning::{FeatureSet, LabelledInstance};
 use pgm_core::{BeliefPropagation, FactorGraph, Mode, ParamGuard, Sequential, TableFactor};
 use proptest::prelude::*;
 use proptest::test_runner::FileFailurePersistence;
@@ -172,13 +173,22 @@ impl HybridChainModel for Means {
 
 /// One or two chains of 1-8 observations, 1-3 clusters, varying state counts.
 fn problem(max_chains: usize) -> impl Strategy<Value = (Means, Vec<Vec<usize>>)> {
-    (1usize..=max_chains, 1usize..9, 1usize..4).prop_flat_map(|(chains, n, k)| {
+    problem_with(max_chains, 3)
+}
+
+/// One or `max_chains` chains of 1-8 observations, 1 to `max_clusters` clusters,
+/// varying state counts.
+fn problem_with(
+    max_chains: usize,
+    max_clusters: usize,
+) -> impl Strategy<Value = (Means, Vec<Vec<usize>>)> {
+    (1usize..=max_chains, 1usize..9, 1usize..=max_clusters).prop_flat_map(|(chains, n, k)| {
         (
             proptest::collection::vec(proptest::collection::vec(-5.0..5.0f64, n), chains),
             proptest::collection::vec(proptest::collection::vec(1usize..=k, n), chains),
             proptest::collection::vec(-5.0..5.0f64, k),
             (0.1..2.0f64, -1.0..2.0f64, -1.0..2.0f64),
-            proptest::collection::vec(proptest::collection::vec(0usize..3, n), chains),
+            proptest::collection::vec(proptest::collection::vec(0usize..k.max(3), n), chains),
         )
             .prop_map(|(y, states, means, (w0, w1, w2), start)| {
                 let initial: Vec<Vec<usize>> = start
@@ -397,4 +407,215 @@ fn limit_cycles_stop_early_and_are_reported() {
     let endless = run(false);
     assert!(!endless.cycled && !endless.converged);
     assert_eq!(endless.sweeps, 20);
+}
+
+/// [`Means`] with a fourth weight and a banded pairwise feature, like the association
+/// chain of CRF-Matching: besides feature 1 on equal neighbours (as `Means`), feature 3
+/// is −0.5 on the band `|a − b| = 1`, 0.25 on the last row and column (an "outlier"
+/// state) and 1 everywhere else (the far pairs). Written densely, or (`sparse`) over
+/// the pattern listing the diagonal, the band and the last row and column, with the
+/// far pairs as the default entry.
+#[derive(Clone, Debug)]
+struct Banded {
+    inner: Means,
+    weights: Vec<f64>,
+    sparse: bool,
+}
+
+impl Banded {
+    fn listed(a: usize, b: usize, s: usize, t: usize) -> bool {
+        a.abs_diff(b) <= 1 || a + 1 == s || b + 1 == t
+    }
+
+    /// The features of the pair `(a, b)` of an `s × t` table.
+    fn features(a: usize, b: usize, s: usize, t: usize) -> Vec<(usize, f64)> {
+        if a == b {
+            vec![(1, 1.0)]
+        } else if a.abs_diff(b) == 1 {
+            vec![(3, -0.5)]
+        } else if a + 1 == s || b + 1 == t {
+            vec![(3, 0.25)]
+        } else {
+            vec![(3, 1.0)]
+        }
+    }
+
+    fn shape(&self, chain: usize, i: usize) -> (usize, usize) {
+        let s = &self.inner.states[chain];
+        (s[i], s[i + 1])
+    }
+}
+
+impl HybridChainModel for Banded {
+    fn weights(&self) -> &[f64] {
+        &self.weights
+    }
+    fn num_chains(&self) -> usize {
+        self.inner.num_chains()
+    }
+    fn chain_len(&self, chain: usize) -> usize {
+        self.inner.chain_len(chain)
+    }
+    fn num_states(&self, chain: usize, i: usize) -> usize {
+        self.inner.num_states(chain, i)
+    }
+    fn write_local<S: FeatureSink>(&self, chain: usize, i: usize, sink: &mut S) {
+        self.inner.write_local(chain, i, sink);
+    }
+    fn write_pair<S: FeatureSink>(&self, chain: usize, i: usize, sink: &mut S) {
+        let (s, t) = self.shape(chain, i);
+        match self.pair_pattern(chain, i) {
+            None => {
+                for a in 0..s {
+                    for b in 0..t {
+                        for (f, v) in Self::features(a, b, s, t) {
+                            sink.add(a * t + b, f, v);
+                        }
+                    }
+                }
+            }
+            Some(pattern) => {
+                for (p, (a, b)) in pattern.entries().enumerate() {
+                    for (f, v) in Self::features(a, b, s, t) {
+                        sink.add(p, f, v);
+                    }
+                }
+                sink.add(pattern.default_entry(), 3, 1.0);
+            }
+        }
+    }
+    fn pair_pattern(&self, chain: usize, i: usize) -> Option<Arc<PairPattern>> {
+        let (s, t) = self.shape(chain, i);
+        self.sparse
+            .then(|| Arc::new(PairPattern::from_fn(s, t, |a, b| Self::listed(a, b, s, t))))
+    }
+    fn set_label(&mut self, chain: usize, i: usize, old: Option<usize>, new: usize) {
+        self.inner.set_label(chain, i, old, new);
+    }
+    fn solve(&mut self) -> f64 {
+        self.inner.solve()
+    }
+}
+
+/// The two instances hold the same variables, labels and cliques with the same
+/// features at every joint state.
+fn same_instance(a: &LabelledInstance, b: &LabelledInstance) -> Result<(), TestCaseError> {
+    prop_assert_eq!(&a.labels, &b.labels);
+    let (a, b) = (&a.model, &b.model);
+    prop_assert_eq!(a.cardinalities(), b.cardinalities());
+    prop_assert_eq!(a.num_cliques(), b.num_cliques());
+    for c in 0..a.num_cliques() {
+        prop_assert_eq!(a.clique_template(c), b.clique_template(c));
+        let width = a
+            .feature_set()
+            .template(a.clique_template(c).unwrap())
+            .unwrap()
+            .width();
+        let (x, y) = (a.clique(c).unwrap(), b.clique(c).unwrap());
+        prop_assert_eq!(x.scope(), y.scope());
+        prop_assert_eq!(x.shape(), y.shape());
+        let shape = x.shape();
+        let joint: usize = shape.iter().product();
+        for e in 0..joint {
+            let mut states = vec![0; shape.len()];
+            let mut rest = e;
+            for (k, &n) in shape.iter().enumerate().rev() {
+                states[k] = rest % n;
+                rest /= n;
+            }
+            let (mut fx, mut fy) = (vec![0.0; width], vec![0.0; width]);
+            x.features(&states, &mut fx);
+            y.features(&states, &mut fy);
+            prop_assert_eq!(fx, fy, "clique {} at {:?}", c, states);
+        }
+    }
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig {
+        cases: 256,
+        failure_persistence: Some(Box::new(FileFailurePersistence::Direct("proptest-regressions/hybrid_chain.txt"))),
+        ..ProptestConfig::default()
+    })]
+
+    /// A model declaring sparse pairs runs exactly as the same model written densely
+    /// (labels, max-marginals, sweeps, solves, under both update policies, on one or
+    /// two chains) and gives the same learning instance.
+    #[test]
+    fn sparse_pairs_agree_with_dense(
+        (means, initial) in problem_with(2, 6),
+        far in -1.0..2.0f64,
+        every_visit in any::<bool>(),
+    ) {
+        let mut weights = means.weights.clone();
+        weights.push(far);
+        let mut dense = Banded { inner: means, weights, sparse: false };
+        let mut sparse = Banded { sparse: true, ..dense.clone() };
+        let update = if every_visit { ChainUpdate::EveryVisit } else { ChainUpdate::EverySweep };
+        let solver = HybridChainParams::default().max_sweeps(50).update(update).check().unwrap();
+        let ours = solver.run(&mut sparse, &initial).unwrap();
+        let theirs = solver.run(&mut dense, &initial).unwrap();
+        prop_assert_eq!(&ours, &theirs);
+        prop_assert_eq!(&sparse.inner.means, &dense.inner.means);
+
+        // The learning instance at the final labels and means.
+        let mut features = FeatureSet::new("banded means", 1);
+        features.add_template("distance", &["squared"]).unwrap();
+        features.add_template("neighbour", &["same"]).unwrap();
+        features.add_template("other_chain", &["same"]).unwrap();
+        features.add_template("band", &["far"]).unwrap();
+        let features = Arc::new(features);
+        let a = chain_instance(&sparse, &features, &ours.labels).unwrap();
+        let b = chain_instance(&dense, &features, &ours.labels).unwrap();
+        same_instance(&a, &b)?;
+    }
+}
+
+#[test]
+fn patterns_of_the_wrong_shape_are_refused() {
+    /// Declares a 2 × 2 pattern for every pair, whatever the states.
+    struct Wrong(Means);
+    impl HybridChainModel for Wrong {
+        fn weights(&self) -> &[f64] {
+            self.0.weights()
+        }
+        fn num_chains(&self) -> usize {
+            1
+        }
+        fn chain_len(&self, chain: usize) -> usize {
+            self.0.chain_len(chain)
+        }
+        fn num_states(&self, chain: usize, i: usize) -> usize {
+            self.0.num_states(chain, i)
+        }
+        fn write_local<S: FeatureSink>(&self, chain: usize, i: usize, sink: &mut S) {
+            self.0.write_local(chain, i, sink);
+        }
+        fn write_pair<S: FeatureSink>(&self, _chain: usize, _i: usize, _sink: &mut S) {}
+        fn pair_pattern(&self, _chain: usize, _i: usize) -> Option<Arc<PairPattern>> {
+            Some(Arc::new(PairPattern::from_fn(2, 2, |a, b| a == b)))
+        }
+        fn set_label(&mut self, chain: usize, i: usize, old: Option<usize>, new: usize) {
+            self.0.set_label(chain, i, old, new);
+        }
+        fn solve(&mut self) -> f64 {
+            self.0.solve()
+        }
+    }
+    let means = Means::new(
+        vec![vec![0.0, 1.0]],
+        vec![vec![2, 3]],
+        vec![0.0, 1.0, 2.0],
+        vec![1.0, 1.0, 0.0],
+    );
+    let mut model = Wrong(means);
+    let solver = HybridChainParams::default().check().unwrap();
+    let error = solver.run(&mut model, &[vec![0, 0]]).unwrap_err();
+    assert!(error.to_string().contains("2 x 2 pattern"), "{error}");
+    let mut features = FeatureSet::new("means", 1);
+    features.add_template("distance", &["squared"]).unwrap();
+    features.add_template("neighbour", &["same"]).unwrap();
+    features.add_template("other_chain", &["same"]).unwrap();
+    assert!(chain_instance(&model, &Arc::new(features), &[vec![0, 0]]).is_err());
 }

@@ -30,7 +30,11 @@
 //! [`FeatureTable`] records them for pseudo-likelihood learning, see
 //! [`chain_instance`]), and keeps the sufficient statistics of its continuous nodes up
 //! to date from label changes. Positions may have different numbers of states (pruned
-//! association candidates).
+//! association candidates), and a pairwise table may be *sparse*: one default entry
+//! plus the entries a [`PairPattern`] lists ([`HybridChainModel::pair_pattern`]), for
+//! large state spaces whose pairwise potential is constant almost everywhere (the full
+//! association state space of CRF-Matching); its messages then cost at most
+//! `O(s log s + nnz)` instead of `O(s_i · s_{i+1})` (see [`FlatChain`]).
 //!
 //! ```
 //! use pgm_core::hybrid::chain::{ChainUpdate, FeatureSink, HybridChainModel, HybridChainParams};
@@ -81,7 +85,7 @@
 //! ```
 
 use crate::error::{Error, Result};
-use crate::exact::FlatChain;
+use crate::exact::{FlatChain, PairPattern};
 use crate::graph::VariableId;
 use crate::learning::{DenseFeatures, FeatureSet, LabelledInstance, LogLinearModel, TemplateId};
 use crate::param::{InvalidParameter, ParamGuard};
@@ -90,10 +94,14 @@ use std::sync::Arc;
 
 /// Receives the log-linear features of one table, entry by entry.
 ///
-/// A table of position `i` has one entry per state (`a`); a table of the pair
-/// `(i, i + 1)` has `s_i · s_{i+1}` entries in row-major order (`a · s_{i+1} + b`).
-/// Features are indices into the model's weight vector; an entry's log-potential is
-/// `Σ w[feature] · value` over everything added to it.
+/// A table of position `i` has one entry per state (`a`). A dense table of the pair
+/// `(i, i + 1)` has `s_i · s_{i+1}` entries in row-major order (`a · s_{i+1} + b`); a
+/// sparse one (over the [`PairPattern`] `P` of [`HybridChainModel::pair_pattern`]) has
+/// `P.len() + 1` entries: entry `p < P.len()` is the listed pair `P.entry(p)` (pattern
+/// positions, row-major), entry `P.len()` ([`PairPattern::default_entry`]) is the
+/// default, whose features every unlisted pair has. Features are indices into the
+/// model's weight vector; an entry's log-potential is `Σ w[feature] · value` over
+/// everything added to it.
 pub trait FeatureSink {
     /// Adds `value` of feature `feature` to entry `entry`.
     fn add(&mut self, entry: usize, feature: usize, value: f64);
@@ -102,7 +110,8 @@ pub trait FeatureSink {
     /// `value` of feature `same` to the entries of equal states and of feature
     /// `different` to the others (the shape of Potts-like features such as eqs. 4 and
     /// 5 of CRF-Clustering). The same as calling [`FeatureSink::add`] per entry;
-    /// sinks may do it faster.
+    /// sinks may do it faster. For dense tables only (it addresses entries
+    /// `a · states + b`).
     fn add_agreement(&mut self, states: usize, same: usize, different: usize, value: f64) {
         for a in 0..states {
             for b in 0..states {
@@ -115,7 +124,8 @@ pub trait FeatureSink {
     /// states `a < rows`, `b < columns` the value `value(a, b)` of feature `same` when
     /// `a == b` and of feature `different` otherwise, to entry `a · stride + b` (the
     /// shape of eq. 6 of CRF-Clustering, split by whether the clusters agree). The
-    /// same as calling [`FeatureSink::add`] per entry; sinks may do it faster.
+    /// same as calling [`FeatureSink::add`] per entry; sinks may do it faster. For
+    /// dense tables only.
     fn add_agreement_with(
         &mut self,
         (rows, columns, stride): (usize, usize, usize),
@@ -233,8 +243,30 @@ pub trait HybridChainModel {
     /// Writes the local features of position `i` of `chain` (entry = state).
     fn write_local<S: FeatureSink>(&self, chain: usize, i: usize, sink: &mut S);
 
-    /// Writes the features of the pair `(i, i + 1)` of `chain` (entry `a · s_{i+1} + b`).
+    /// Writes the features of the pair `(i, i + 1)` of `chain`. Dense table
+    /// ([`HybridChainModel::pair_pattern`] `None`): entry `a · s_{i+1} + b` for states
+    /// `a` at `i` and `b` at `i + 1`. Sparse table over the pattern `P`: entry `p`
+    /// (`p < P.len()`) for the listed pair `P.entry(p)`, whose features are all that
+    /// pair gets (the default's are *not* added to it), and entry `P.len()` for the
+    /// default, the features of every unlisted pair (see [`FeatureSink`]).
     fn write_pair<S: FeatureSink>(&self, chain: usize, i: usize, sink: &mut S);
+
+    /// The sparsity pattern of the pair `(i, i + 1)` of `chain`, or `None` (the
+    /// default) for a dense table. With a pattern, [`HybridChainModel::write_pair`]
+    /// writes `P.len() + 1` entries (the listed pairs in pattern order, then the
+    /// default) and the solver's messages over the pair cost at most
+    /// `O(s log s + P.len())` instead of `O(s_i · s_{i+1})` (see [`FlatChain`]). The pattern must have
+    /// `num_states(chain, i)` rows and `num_states(chain, i + 1)` columns.
+    ///
+    /// Asked once per pair when [`HybridChain::run`] builds its buffers (so it must
+    /// not change during a run; share one `Arc` between the pairs with the same
+    /// pattern) and once per pair by [`chain_instance`], which expands sparse tables
+    /// to dense ones (learning instances are dense: `s_i · s_{i+1}` feature vectors
+    /// per pair).
+    fn pair_pattern(&self, chain: usize, i: usize) -> Option<Arc<PairPattern>> {
+        let _ = (chain, i);
+        None
+    }
 
     /// The label of position `i` of `chain` changed from `old` (`None` the first time)
     /// to `new`: update the sufficient statistics of the continuous nodes in O(1).
@@ -388,17 +420,22 @@ struct ChainBuffers {
 }
 
 impl ChainBuffers {
-    fn new<M: HybridChainModel>(model: &M, c: usize) -> Self {
+    /// # Errors
+    /// When a pair's pattern does not fit its states.
+    fn new<M: HybridChainModel>(model: &M, c: usize) -> Result<Self> {
         let n = model.chain_len(c);
         let states: Vec<usize> = (0..n).map(|i| model.num_states(c, i)).collect();
-        let chain = FlatChain::with_states(&states);
-        Self {
+        let patterns = (0..n.saturating_sub(1))
+            .map(|i| checked_pattern(model, c, i))
+            .collect::<Result<Vec<_>>>()?;
+        let chain = FlatChain::with_patterns(&states, patterns)?;
+        Ok(Self {
             local: vec![0.0; chain.local_len()],
             pair: vec![0.0; chain.pair_len()],
             chain,
             labels: vec![0; n],
             next: vec![0; n],
-        }
+        })
     }
 
     fn write_local<M: HybridChainModel>(&mut self, model: &M, c: usize, i: usize) {
@@ -409,9 +446,8 @@ impl ChainBuffers {
     }
 
     fn write_pair<M: HybridChainModel>(&mut self, model: &M, c: usize, i: usize) {
-        let s = self.chain.states();
         let o = self.chain.pair_offset(i);
-        let table = &mut self.pair[o..o + s[i] * s[i + 1]];
+        let table = &mut self.pair[o..o + self.chain.pair_table_len(i)];
         table.fill(0.0);
         model.write_pair(c, i, &mut WeightedTable::new(model.weights(), table));
     }
@@ -451,7 +487,9 @@ impl HybridChain {
     ///
     /// # Errors
     /// [`Error::InvalidParameter`] when `initial` does not have one label per position
-    /// of every chain, a label is out of range, or a position has no state.
+    /// of every chain, a label is out of range, a position has no state, or a pair's
+    /// [pattern](HybridChainModel::pair_pattern) does not have the shape of its
+    /// states.
     pub fn run<M: HybridChainModel>(
         &self,
         model: &mut M,
@@ -500,7 +538,7 @@ impl HybridChain {
                     .into());
                 }
             }
-            let mut b = ChainBuffers::new(model, c);
+            let mut b = ChainBuffers::new(model, c)?;
             b.labels.copy_from_slice(start);
             buffers.push(b);
         }
@@ -685,9 +723,14 @@ fn sweep_visits<M: HybridChainModel>(
 /// learned with the coupling fixed at the truth, as pseudo-likelihood conditions on the
 /// Markov blanket.
 ///
+/// A sparse pair ([`HybridChainModel::pair_pattern`]) is expanded to its dense
+/// table: every unlisted pair gets the default entry's features, so the instance is
+/// the one of the equivalent dense model (and takes `s_i · s_{i+1}` feature vectors
+/// per pair: meant for learning-size state spaces).
+///
 /// # Errors
-/// When `labels` does not fit the chains, or the feature set disagrees with the
-/// model's weight count.
+/// When `labels` does not fit the chains, a pair's pattern does not have the shape of
+/// its states, or the feature set disagrees with the model's weight count.
 pub fn chain_instance<M: HybridChainModel>(
     model: &M,
     features: &Arc<FeatureSet>,
@@ -735,6 +778,7 @@ pub fn chain_instance<M: HybridChainModel>(
     }
     let mut model_out = LogLinearModel::new(Arc::clone(features), &cardinalities)?;
     let mut buffer = Vec::new();
+    let mut sparse = Vec::new();
     for (c, &base) in first.iter().enumerate() {
         let n = model.chain_len(c);
         for i in 0..n {
@@ -747,7 +791,15 @@ pub fn chain_instance<M: HybridChainModel>(
                 let t = model.num_states(c, i + 1);
                 buffer.clear();
                 buffer.resize(s * t * width, 0.0);
-                model.write_pair(c, i, &mut FeatureTable::new(width, &mut buffer));
+                match checked_pattern(model, c, i)? {
+                    None => model.write_pair(c, i, &mut FeatureTable::new(width, &mut buffer)),
+                    Some(pattern) => {
+                        sparse.clear();
+                        sparse.resize(pattern.table_len() * width, 0.0);
+                        model.write_pair(c, i, &mut FeatureTable::new(width, &mut sparse));
+                        pattern.expand(&sparse, width, &mut buffer);
+                    }
+                }
                 add_feature_cliques(
                     &mut model_out,
                     vec![VariableId(base + i), VariableId(base + i + 1)],
@@ -758,6 +810,32 @@ pub fn chain_instance<M: HybridChainModel>(
         }
     }
     Ok(LabelledInstance::new(model_out, all_labels))
+}
+
+/// The pattern of the pair `(i, i + 1)` of chain `c`, checked against the states.
+fn checked_pattern<M: HybridChainModel>(
+    model: &M,
+    c: usize,
+    i: usize,
+) -> Result<Option<Arc<PairPattern>>> {
+    let pattern = model.pair_pattern(c, i);
+    if let Some(p) = &pattern {
+        let (s, t) = (model.num_states(c, i), model.num_states(c, i + 1));
+        if (p.rows(), p.columns()) != (s, t) {
+            return Err(InvalidParameter::new(
+                "pair pattern",
+                format!(
+                    "a {} x {} pattern for positions {i} and {} of chain {c}, which have {s} and {t} states",
+                    p.rows(),
+                    p.columns(),
+                    i + 1
+                ),
+                "one row per state of the first position and one column per state of the second",
+            )
+            .into());
+        }
+    }
+    Ok(pattern)
 }
 
 /// Adds to `model` the cliques over `scope` (with `shape`) whose features were
