@@ -1,7 +1,9 @@
 //! CRF-Matching of one simulated 361-beam pair (preset mixed, seed 1, pair 0) with the
 //! shipped weights: motion hypotheses, candidates, rounds of exact chain sweeps with
 //! motion re-solves, everything from the pair to the associations. `pruned` uses the
-//! default state space (6 candidates and the outlier state per point).
+//! default state space (6 candidates and the outlier state per point), `full` every
+//! reference return and the outlier state (sparse pairwise tables: the band and the
+//! outlier row and column, see `pgm_crf_matching::model::band_pattern`).
 //!
 //! Run: `cargo bench --bench matching`.
 
@@ -17,15 +19,20 @@ fn matching(c: &mut Criterion) {
     group
         .sample_size(20)
         .measurement_time(Duration::from_secs(8));
-    let matcher = MatchingParams {
-        state_space: StateSpace::Pruned(6),
-        ..MatchingParams::default()
+    for (name, space) in [
+        ("pruned", StateSpace::Pruned(6)),
+        ("full", StateSpace::Full),
+    ] {
+        let matcher = MatchingParams {
+            state_space: space,
+            ..MatchingParams::default()
+        }
+        .check()
+        .expect("valid");
+        group.bench_function(name, |b| {
+            b.iter(|| std::hint::black_box(matcher.match_pair(&pair).expect("matches")))
+        });
     }
-    .check()
-    .expect("valid");
-    group.bench_function("pruned", |b| {
-        b.iter(|| std::hint::black_box(matcher.match_pair(&pair).expect("matches")))
-    });
     group.finish();
 }
 

@@ -9,9 +9,11 @@
 //! are held out. The paper's figures come from 31 hand-labelled pairs of a car-mounted
 //! laser on a campus, with leave-one-out training; ours are simulated street scenes.
 //!
-//! Run: `cargo run --release --example table1_matching [-- --pairs N --seed S]`.
+//! Run: `cargo run --release --example table1_matching [-- --pairs N --seed S]
+//! [--candidates K|full]` (CRF-Matching's state space, default 6 candidates).
 
 use pgm::methods::{association_source, MethodOptions};
+use pgm_crf_matching::StateSpace;
 use pgm_datasets::metrics::{
     association_accuracy_within, association_edit_distance, outlier_stats,
 };
@@ -29,8 +31,9 @@ const PAPER: [(&str, f64, f64, f64, f64); 2] = [
 
 /// Mean exact accuracy, accuracy within one beam, SED, predicted, true and found
 /// outlier percentages, and milliseconds per pair.
-fn score(pairs: &[ScanPair], method: &str) -> Result<[f64; 7], String> {
-    let options = MethodOptions::default();
+fn score(pairs: &[ScanPair], method: &str, space: StateSpace) -> Result<[f64; 7], String> {
+    let mut options = MethodOptions::default();
+    options.matching.state_space = space;
     let source = association_source(method, &options).map_err(|e| e.to_string())?;
     let start = Instant::now();
     let rows: Vec<[f64; 6]> = pairs
@@ -86,9 +89,26 @@ fn arg(name: &str, default: u64) -> u64 {
 fn main() -> ExitCode {
     let n = arg("--pairs", 30) as usize;
     let seed = arg("--seed", 7);
+    let args: Vec<String> = std::env::args().collect();
+    let space = match args
+        .iter()
+        .position(|a| a == "--candidates")
+        .and_then(|i| args.get(i + 1))
+        .map(String::as_str)
+    {
+        None => StateSpace::Pruned(6),
+        Some("full") => StateSpace::Full,
+        Some(k) => match k.parse() {
+            Ok(k) if (1..=64).contains(&k) => StateSpace::Pruned(k),
+            _ => {
+                eprintln!("table1_matching: --candidates {k}: expected `full` or 1..=64");
+                return ExitCode::from(2);
+            }
+        },
+    };
     println!(
         "Table I (association), held-out simulated pairs: {n} per preset, seed {seed} \
-         (CRF-Matching trained on seed 1000, preset mixed)"
+         (CRF-Matching trained on seed 1000, preset mixed; state space {space:?})"
     );
     println!(
         "{:<14} {:<14} {:>9} {:>9} {:>7} {:>22} {:>8}",
@@ -124,7 +144,7 @@ fn main() -> ExitCode {
         };
         let pairs = simulate_pairs(&config, seed, n);
         for (label, method) in [("ICP", "icp"), ("CRF-Matching", "crf-matching")] {
-            match score(&pairs, method) {
+            match score(&pairs, method, space) {
                 Ok(r) => println!(
                     "{:<14} {:<14} {:>9.2} {:>9.2} {:>7.2} {:>22} {:>8.2}",
                     preset.name(),

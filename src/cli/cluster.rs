@@ -77,10 +77,9 @@ pub struct CrfArgs {
     /// bound of its range-dependent gate).
     #[arg(long, default_value_t = MethodOptions::default().nearest.gate)]
     pub gate: f64,
-    /// CRF-Matching associations: weights and boosters written by `pgm train
-    /// matching` (default: the shipped ones).
-    #[arg(long)]
-    pub matching_weights: Option<PathBuf>,
+    /// CRF-Matching associations.
+    #[command(flatten)]
+    pub matching: super::matching::MatchingOptionArgs,
 }
 
 impl CrfArgs {
@@ -90,11 +89,7 @@ impl CrfArgs {
         if let Some(path) = &self.weights {
             o = o.with_crf_weights(path).map_err(CliError::from_display)?;
         }
-        if let Some(path) = &self.matching_weights {
-            o = o
-                .with_matching_weights(path)
-                .map_err(CliError::from_display)?;
-        }
+        o = self.matching.apply(o)?;
         o.crf.max_clusters = self.max_clusters;
         o.crf.knn = self.knn;
         o.crf.outlier_distance = self.outlier_distance;

@@ -92,9 +92,9 @@ pub struct MatchingArgs {
     /// ICP: fewest matched returns for a rigid fit (fewer: the prior is kept).
     #[arg(long, default_value_t = IcpParams::default().min_correspondences)]
     pub icp_min_correspondences: usize,
-    /// CRF-Matching: weights and boosters written by `pgm train matching`.
-    #[arg(long)]
-    pub matching_weights: Option<PathBuf>,
+    /// CRF-Matching options.
+    #[command(flatten)]
+    pub matching: super::matching::MatchingOptionArgs,
     /// Print one JSON object.
     #[arg(long)]
     pub json: bool,
@@ -133,7 +133,7 @@ fn run_matching(args: MatchingArgs) -> CliResult {
     if pairs.iter().any(|p| p.odometry.is_none()) {
         eprintln!("note: pairs without an odometry prior start from the identity");
     }
-    let mut options = MethodOptions {
+    let options = MethodOptions {
         icp: IcpParams {
             initial_max_distance: args.icp_initial_distance,
             final_max_distance: args.icp_final_distance,
@@ -146,11 +146,7 @@ fn run_matching(args: MatchingArgs) -> CliResult {
         },
         ..MethodOptions::default()
     };
-    if let Some(path) = &args.matching_weights {
-        options = options
-            .with_matching_weights(path)
-            .map_err(CliError::from_display)?;
-    }
+    let options = args.matching.apply(options)?;
     let matcher = scan_matcher(&args.method, &options).map_err(CliError::from_display)?;
     let near = matches!(loaded.kind, SourceKind::Relations | SourceKind::Stored)
         .then_some(args.near_seconds);

@@ -20,6 +20,7 @@ use super::{CliError, CliResult};
 use clap::Args;
 use pgm::methods::{association_source, MethodOptions};
 use pgm::plot::PairPicture;
+use pgm_crf_matching::StateSpace;
 use pgm_datasets::metrics::{
     association_accuracy_within, association_edit_distance, outlier_stats,
 };
@@ -29,15 +30,55 @@ use serde::Serialize;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+/// The CRF-Matching options every command that runs it takes.
+#[derive(Args, Debug, Clone)]
+pub struct MatchingOptionArgs {
+    /// CRF-Matching: weights and boosters written by `pgm train matching` (default:
+    /// the shipped ones).
+    #[arg(long)]
+    pub matching_weights: Option<PathBuf>,
+    /// CRF-Matching: the states of a point: `K` (its K nearest reference returns under
+    /// its motion estimate, plus the outlier state; 1-64) or `full` (every reference
+    /// return and the outlier state).
+    #[arg(long, default_value = "6", value_parser = parse_state_space)]
+    pub candidates: StateSpace,
+}
+
+/// Parses `--candidates`.
+fn parse_state_space(value: &str) -> Result<StateSpace, String> {
+    if value == "full" {
+        return Ok(StateSpace::Full);
+    }
+    match value.parse::<usize>() {
+        Ok(k) if (1..=64).contains(&k) => Ok(StateSpace::Pruned(k)),
+        _ => Err(format!(
+            "`{value}` is neither `full` nor a number of candidates in 1..=64"
+        )),
+    }
+}
+
+impl MatchingOptionArgs {
+    /// `options` with these CRF-Matching settings.
+    pub fn apply(&self, mut options: MethodOptions) -> Result<MethodOptions, CliError> {
+        if let Some(path) = &self.matching_weights {
+            options = options
+                .with_matching_weights(path)
+                .map_err(CliError::from_display)?;
+        }
+        options.matching.state_space = self.candidates;
+        Ok(options)
+    }
+}
+
 /// `pgm match`.
 #[derive(Args, Debug)]
 pub struct MatchArgs {
     /// The pair.
     #[command(flatten)]
     pub source: OnePairArgs,
-    /// Weights and boosters written by `pgm train matching` (default: the shipped ones).
-    #[arg(long)]
-    pub matching_weights: Option<PathBuf>,
+    /// CRF-Matching options.
+    #[command(flatten)]
+    pub matching: MatchingOptionArgs,
     /// Draw the associations into this SVG file.
     #[arg(long)]
     pub svg: Option<PathBuf>,
@@ -53,12 +94,7 @@ struct MatchOutput<'a> {
 /// Runs `pgm match`.
 pub fn run_match(args: MatchArgs) -> CliResult {
     let pair = args.source.load()?;
-    let mut options = MethodOptions::default();
-    if let Some(path) = &args.matching_weights {
-        options = options
-            .with_matching_weights(path)
-            .map_err(CliError::from_display)?;
-    }
+    let options = args.matching.apply(MethodOptions::default())?;
     let matcher = options
         .matching
         .clone()
@@ -104,9 +140,9 @@ pub struct AssociationEvalArgs {
     /// Input logs (rarely useful: real logs have no true associations).
     #[command(flatten)]
     pub source: SourceArgs,
-    /// Weights and boosters written by `pgm train matching` (crf-matching).
-    #[arg(long)]
-    pub matching_weights: Option<PathBuf>,
+    /// CRF-Matching options (crf-matching).
+    #[command(flatten)]
+    pub matching: MatchingOptionArgs,
     /// Print one JSON object.
     #[arg(long)]
     pub json: bool,
@@ -164,12 +200,7 @@ pub fn run_eval_association(args: AssociationEvalArgs) -> CliResult {
             pairs.len()
         );
     }
-    let mut options = MethodOptions::default();
-    if let Some(path) = &args.matching_weights {
-        options = options
-            .with_matching_weights(path)
-            .map_err(CliError::from_display)?;
-    }
+    let options = args.matching.apply(MethodOptions::default())?;
     let method = association_source(&args.method, &options).map_err(CliError::from_display)?;
     let rows: Vec<[f64; 6]> = scored
         .par_iter()

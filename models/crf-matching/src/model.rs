@@ -34,6 +34,7 @@
 
 use crate::weights::{index, MatchingWeights};
 use crate::Result;
+use pgm_core::exact::PairPattern;
 use pgm_core::hybrid::chain::{FeatureSink, HybridChainModel};
 use pgm_features::boosting::{Booster, StepFunction};
 use pgm_features::clustering::association_variance;
@@ -44,6 +45,7 @@ use pgm_features::matching::{
 use pgm_features::registration::Icp;
 use pgm_features::{Pose2, RigidAlignment, Scan, ScanPair};
 use std::cell::RefCell;
+use std::sync::Arc;
 
 /// Which reference returns are states of a node.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
@@ -248,6 +250,20 @@ pub struct MatchingModel<'a> {
     labels: Vec<Option<usize>>,
     version: u64,
     cache: RefCell<LocalCache>,
+    /// The pairwise sparsity pattern shared by every pair when every node has the
+    /// same candidates `0..M` (the full state space): the band of reference steps
+    /// with geometric features and the outlier row and column; `None`: dense tables.
+    pattern: Option<Arc<PairPattern>>,
+    /// Per entry of `pattern`: its transition feature and, within the band, the
+    /// reference step `g_k − g_j` with its length.
+    pattern_entries: Vec<PatternEntry>,
+}
+
+/// One listed entry of the full state space's pairwise pattern.
+#[derive(Clone, Copy, Debug)]
+struct PatternEntry {
+    feature: usize,
+    step: Option<(nalgebra::Vector2<f64>, f64)>,
 }
 
 impl std::fmt::Debug for MatchingModel<'_> {
@@ -257,6 +273,22 @@ impl std::fmt::Debug for MatchingModel<'_> {
             .field("motions", &self.motions)
             .finish()
     }
+}
+
+/// The pairwise pattern of the full state space over `m` reference returns: states
+/// `0..m` (reference indices) and `m` (outlier); listed are the pairs `(j, k)` with
+/// `|k − j − 1| ≤ band` (their geometric features are evaluated) and the outlier row
+/// and column. Every other pair carries only `sequence.far`, the default entry.
+pub fn band_pattern(m: usize, band: usize) -> PairPattern {
+    let mut entries = Vec::with_capacity(m * (2 * band + 2) + m + 1);
+    for j in 0..m {
+        let lo = (j + 1).saturating_sub(band);
+        let hi = (j + 1 + band).min(m - 1);
+        entries.extend((lo..=hi).map(|k| (j, k)));
+        entries.push((j, m));
+    }
+    entries.extend((0..=m).map(|k| (m, k)));
+    PairPattern::new(m + 1, m + 1, &entries).expect("sorted entries within the table")
 }
 
 /// Fewest associated points a motion group is solved from; fewer keep its motion.
@@ -316,10 +348,40 @@ impl<'a> MatchingModel<'a> {
                 problem.outlier.score(&f)
             })
             .collect();
+        let m = problem.reference.len();
+        let full = candidates.iter().all(|c| c.len() == m);
+        let pattern = full.then(|| Arc::new(band_pattern(m, band)));
+        let pattern_entries = pattern.as_ref().map_or_else(Vec::new, |pattern| {
+            let reference = &problem.reference.points;
+            pattern
+                .entries()
+                .map(|(j, k)| {
+                    if j == m || k == m {
+                        let feature = match (j == m, k == m) {
+                            (true, true) => index::OUTLIER_STAY,
+                            (true, false) => index::OUTLIER_ENTER,
+                            _ => index::OUTLIER_LEAVE,
+                        };
+                        return PatternEntry {
+                            feature,
+                            step: None,
+                        };
+                    }
+                    let d = k as isize - j as isize;
+                    let step = reference[k] - reference[j];
+                    PatternEntry {
+                        feature: sequence_feature(d, band as isize),
+                        step: Some((step, step.norm())),
+                    }
+                })
+                .collect()
+        });
         Self {
+            pattern_entries,
             problem,
             weights: weights.to_vec(),
             band,
+            pattern,
             candidates,
             offsets,
             data_rest,
@@ -335,6 +397,19 @@ impl<'a> MatchingModel<'a> {
                 outlier,
             }),
         }
+    }
+
+    /// The same model with dense pairwise tables (no sparsity pattern): the reference
+    /// the sparse full state space is tested against; `O(M²)` memory per pair.
+    pub fn dense(mut self) -> Self {
+        self.pattern = None;
+        self.pattern_entries.clear();
+        self
+    }
+
+    /// The pairwise sparsity pattern (the full state space), if any.
+    pub fn pattern(&self) -> Option<&Arc<PairPattern>> {
+        self.pattern.as_ref()
     }
 
     /// The current motion of every group (group 0: the ego-motion).
@@ -401,54 +476,102 @@ impl<'a> MatchingModel<'a> {
         sink.add(out, index::OUTLIER_BIAS, 1.0);
     }
 
-    /// Writes the features of the pair `(i, i + 1)` (entry `a · states(i + 1) + b`).
+    /// Writes the features of the pair `(i, i + 1)`: entry `a · states(i + 1) + b` for
+    /// states `a` and `b`, or, with a pairwise sparsity pattern
+    /// ([`MatchingModel::pattern`], the full state space), the pattern's entries and
+    /// then its default entry (the `sequence.far` transition of every unlisted pair;
+    /// see [`HybridChainModel::write_pair`]).
     pub fn write_pair_features<S: FeatureSink>(&self, i: usize, sink: &mut S) {
         let p = self.problem;
         let (ci, cj) = (&self.candidates[i], &self.candidates[i + 1]);
-        let columns = cj.len() + 1;
         let (si, sj) = (p.current.points[i], p.current.points[i + 1]);
         let step = sj - si;
-        let length = step.norm();
-        let rotation = self.motions[self.group_of[i]].isometry().rotation;
-        let turned = rotation * step;
-        let inverse_variance = 1.0 / (p.variances[i] + p.variances[i + 1]);
-        let band = self.band as isize;
-        for (a, &j) in ci.iter().enumerate() {
-            let gj = p.reference.points[j];
-            let row = a * columns;
-            for (b, &k) in cj.iter().enumerate() {
-                let d = k as isize - j as isize;
-                let feature = match d {
-                    0 => index::SEQUENCE_SAME,
-                    1 => index::SEQUENCE_NEXT,
-                    2 => index::SEQUENCE_SKIP,
-                    -1 => index::SEQUENCE_BACK,
-                    _ if (d - 1).abs() <= band => index::SEQUENCE_NEAR,
-                    _ => index::SEQUENCE_FAR,
-                };
-                sink.add(row + b, feature, 1.0);
-                if (d - 1).abs() <= band {
-                    let gk = p.reference.points[k];
-                    let reference_step = gk - gj;
-                    let dd = (reference_step.norm() - length).powi(2);
-                    sink.add(row + b, index::DISTANCE_SQUARED, dd);
-                    sink.add(row + b, index::DISTANCE_NORMALISED, dd * inverse_variance);
-                    let dt = (reference_step - turned).norm_squared();
-                    sink.add(row + b, index::TRANSLATION_SQUARED, dt);
-                    sink.add(
-                        row + b,
-                        index::TRANSLATION_NORMALISED,
-                        dt * inverse_variance,
-                    );
+        let pair = PairGeometry {
+            length: step.norm(),
+            turned: self.motions[self.group_of[i]].isometry().rotation * step,
+            inverse_variance: 1.0 / (p.variances[i] + p.variances[i + 1]),
+            band: self.band as isize,
+        };
+        match &self.pattern {
+            None => {
+                let columns = cj.len() + 1;
+                for a in 0..=ci.len() {
+                    for b in 0..=cj.len() {
+                        self.write_pair_entry(ci, cj, &pair, a, b, a * columns + b, sink);
+                    }
                 }
             }
-            sink.add(row + cj.len(), index::OUTLIER_LEAVE, 1.0);
+            Some(pattern) => {
+                // Every pair shares the pattern and its reference steps.
+                for (entry, e) in self.pattern_entries.iter().enumerate() {
+                    sink.add(entry, e.feature, 1.0);
+                    if let Some((reference_step, norm)) = e.step {
+                        let dd = (norm - pair.length).powi(2);
+                        sink.add(entry, index::DISTANCE_SQUARED, dd);
+                        sink.add(
+                            entry,
+                            index::DISTANCE_NORMALISED,
+                            dd * pair.inverse_variance,
+                        );
+                        let dt = (reference_step - pair.turned).norm_squared();
+                        sink.add(entry, index::TRANSLATION_SQUARED, dt);
+                        sink.add(
+                            entry,
+                            index::TRANSLATION_NORMALISED,
+                            dt * pair.inverse_variance,
+                        );
+                    }
+                }
+                sink.add(pattern.default_entry(), index::SEQUENCE_FAR, 1.0);
+            }
         }
-        let row = ci.len() * columns;
-        for b in 0..cj.len() {
-            sink.add(row + b, index::OUTLIER_ENTER, 1.0);
+    }
+
+    /// The features of states `a` (of `ci`, or the outlier state `ci.len()`) and `b`
+    /// (of `cj`, or `cj.len()`) of a pair, into `entry`.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn write_pair_entry<S: FeatureSink>(
+        &self,
+        ci: &[usize],
+        cj: &[usize],
+        pair: &PairGeometry,
+        a: usize,
+        b: usize,
+        entry: usize,
+        sink: &mut S,
+    ) {
+        let (outlier_a, outlier_b) = (a == ci.len(), b == cj.len());
+        if outlier_a || outlier_b {
+            let feature = match (outlier_a, outlier_b) {
+                (true, true) => index::OUTLIER_STAY,
+                (true, false) => index::OUTLIER_ENTER,
+                _ => index::OUTLIER_LEAVE,
+            };
+            sink.add(entry, feature, 1.0);
+            return;
         }
-        sink.add(row + cj.len(), index::OUTLIER_STAY, 1.0);
+        let (j, k) = (ci[a], cj[b]);
+        let d = k as isize - j as isize;
+        sink.add(entry, sequence_feature(d, pair.band), 1.0);
+        if (d - 1).abs() <= pair.band {
+            let reference = &self.problem.reference.points;
+            let reference_step = reference[k] - reference[j];
+            let dd = (reference_step.norm() - pair.length).powi(2);
+            sink.add(entry, index::DISTANCE_SQUARED, dd);
+            sink.add(
+                entry,
+                index::DISTANCE_NORMALISED,
+                dd * pair.inverse_variance,
+            );
+            let dt = (reference_step - pair.turned).norm_squared();
+            sink.add(entry, index::TRANSLATION_SQUARED, dt);
+            sink.add(
+                entry,
+                index::TRANSLATION_NORMALISED,
+                dt * pair.inverse_variance,
+            );
+        }
     }
 
     /// Records node `i`'s new state (the statistics are rebuilt at each solve).
@@ -515,6 +638,31 @@ impl<'a> MatchingModel<'a> {
     }
 }
 
+/// The sequence feature of a reference index step `d = k − j` between consecutive
+/// candidates.
+fn sequence_feature(d: isize, band: isize) -> usize {
+    match d {
+        0 => index::SEQUENCE_SAME,
+        1 => index::SEQUENCE_NEXT,
+        2 => index::SEQUENCE_SKIP,
+        -1 => index::SEQUENCE_BACK,
+        _ if (d - 1).abs() <= band => index::SEQUENCE_NEAR,
+        _ => index::SEQUENCE_FAR,
+    }
+}
+
+/// What the features of one pair `(i, i + 1)` share.
+struct PairGeometry {
+    /// `‖s_{i+1} − s_i‖` (m).
+    length: f64,
+    /// `s_{i+1} − s_i` turned by the pair's motion.
+    turned: nalgebra::Vector2<f64>,
+    /// `1 / (σ_i² + σ_{i+1}²)`.
+    inverse_variance: f64,
+    /// [`MatchingModel`]'s band.
+    band: isize,
+}
+
 /// Associations farther than this many association standard deviations `σ_i` from
 /// their group's motion do not enter its solve (see [`MatchingModel::solve_motions`]).
 pub const INLIER_SIGMAS: f64 = 2.0;
@@ -550,6 +698,10 @@ impl HybridChainModel for MatchingModel<'_> {
 
     fn set_label(&mut self, _chain: usize, i: usize, _old: Option<usize>, new: usize) {
         self.relabel(i, new);
+    }
+
+    fn pair_pattern(&self, _chain: usize, _i: usize) -> Option<Arc<PairPattern>> {
+        self.pattern.clone()
     }
 
     fn solve(&mut self) -> f64 {

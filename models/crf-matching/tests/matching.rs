@@ -107,3 +107,69 @@ fn training_learns_usable_weights_and_refuses_unlabelled_pairs() {
         .to_string();
     assert!(err.contains("no ground-truth"), "{err}");
 }
+
+/// A simulated pair with a coarse laser (61 beams), small enough for dense tables of
+/// the full state space.
+fn coarse_pair(seed: u64) -> pgm_datasets::ScanPair {
+    let config = SimConfig {
+        beams: 61,
+        ..SimConfig::default()
+    }
+    .check()
+    .unwrap();
+    simulate_pairs(&config, seed, 1).remove(0)
+}
+
+#[test]
+fn full_state_space_sparse_tables_solve_like_dense_ones() {
+    use pgm_core::hybrid::chain::HybridChainParams;
+    use pgm_crf_matching::model::{MatchingModel, MatchingProblem};
+    let weights = MatchingWeights::default();
+    for seed in [3, 4] {
+        let pair = coarse_pair(seed);
+        let problem = MatchingProblem::new(&pair, &weights).unwrap();
+        let (n, m) = (problem.len(), problem.reference.len());
+        let ego = pair.odometry.unwrap();
+        let build = || {
+            MatchingModel::new(
+                &problem,
+                vec![(0..m).collect(); n],
+                vec![0; n],
+                vec![ego],
+                &weights.weights,
+                8,
+            )
+        };
+        let mut sparse = build();
+        assert!(sparse.pattern().is_some());
+        let mut dense = build().dense();
+        assert!(dense.pattern().is_none());
+        let solver = HybridChainParams::default().check().unwrap();
+        let start = vec![vec![m; n]];
+        let a = solver.run(&mut sparse, &start).unwrap();
+        let b = solver.run(&mut dense, &start).unwrap();
+        assert_eq!(a.labels, b.labels, "seed {seed}");
+        assert_eq!(a.sweeps, b.sweeps);
+        for (x, y) in a.max_marginals[0].iter().zip(&b.max_marginals[0]) {
+            assert!((x - y).abs() < 1e-9, "{x} vs {y}");
+        }
+        assert_eq!(sparse.motions(), dense.motions());
+    }
+}
+
+#[test]
+fn full_state_space_matches_about_as_well_as_pruned() {
+    let pairs = simulate_pairs(&SimConfig::default().check().unwrap(), 7, 3);
+    let full = MatchingParams {
+        state_space: StateSpace::Full,
+        ..MatchingParams::default()
+    }
+    .check()
+    .unwrap();
+    let (f, p) = (
+        accuracy(&pairs, &full),
+        accuracy(&pairs, &Matcher::default()),
+    );
+    eprintln!("exact association accuracy: full {f:.3}, pruned {p:.3}");
+    assert!(f >= p - 0.05 && f >= 0.7, "full {f} vs pruned {p}");
+}
