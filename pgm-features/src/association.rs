@@ -656,6 +656,19 @@ fn segment_motions_with(
             explained_by[r] = segment_of_beam[c];
         }
     }
+    // Per reference segment: how many of its returns each current segment explains.
+    let mut reference_explained: Vec<Vec<(usize, usize)>> =
+        vec![Vec::new(); reference_ranges.len()];
+    for (&r, &g) in reference_beams.iter().zip(&reference_segments) {
+        let by = explained_by[r];
+        if by == usize::MAX {
+            continue;
+        }
+        match reference_explained[g].iter_mut().find(|(s, _)| *s == by) {
+            Some((_, count)) => *count += 1,
+            None => reference_explained[g].push((by, 1)),
+        }
+    }
     let mut motion_of = vec![ego; points.len()];
     for range in segment_ranges(&segments) {
         let members = &points[range.clone()];
@@ -686,11 +699,24 @@ fn segment_motions_with(
             sub.valid[b] = true;
         }
         let moved = ego.transform_point(&centroid(members));
+        // Starts: the ego-motion, and a shift onto every nearby reference segment that
+        // the other current segments do not explain under the ego-motion (where an
+        // object can have come from; a wall that is still there is not).
         let starts = std::iter::once(ego).chain(
             reference_centroids
                 .iter()
-                .filter(|c| (*c - moved).norm() <= params.search_radius)
-                .map(|c| {
+                .zip(&reference_explained)
+                .zip(&reference_ranges)
+                .filter(|((c, explained), range)| {
+                    let by_others: usize = explained
+                        .iter()
+                        .filter(|(g, _)| *g != segment)
+                        .map(|(_, count)| count)
+                        .sum();
+                    (*c - moved).norm() <= params.search_radius
+                        && (by_others as f64) < params.static_fraction * range.len() as f64
+                })
+                .map(|((c, _), _)| {
                     let shift = c - moved;
                     Pose2::new(ego.x() + shift.x, ego.y() + shift.y, ego.theta())
                 }),
@@ -698,8 +724,12 @@ fn segment_motions_with(
         // A candidate motion is chosen by its truncated cost plus `VIOLATION_WEIGHT ·
         // tau²` for every free-space violation both ways (see
         // `free_space_violations`).
-        let select = |motion: &Pose2| {
+        let select = |motion: &Pose2, bound: f64| {
             let (cost, inliers) = fit(motion);
+            if cost >= bound {
+                // The violations can only add to it.
+                return (f64::INFINITY, cost, inliers);
+            }
             let violations = free_space_violations(
                 pair,
                 icp,
@@ -714,16 +744,19 @@ fn segment_motions_with(
             let penalty = VIOLATION_WEIGHT * tau * tau * violations as f64;
             (cost + penalty, cost, inliers)
         };
-        let best_of = |motions: &mut dyn Iterator<Item = Pose2>| {
-            motions
-                .map(|m| {
-                    let (score, cost, inliers) = select(&m);
-                    (score, cost, inliers, m)
-                })
-                .min_by(|a, b| a.0.total_cmp(&b.0))
+        let best_of = |motions: &mut dyn Iterator<Item = Pose2>, bound: f64| {
+            let mut best: Option<(f64, f64, usize, Pose2)> = None;
+            for m in motions {
+                let (score, cost, inliers) = select(&m, best.map_or(bound, |b| b.0));
+                if score < best.map_or(bound, |b| b.0) {
+                    best = Some((score, cost, inliers, m));
+                }
+            }
+            best
         };
         let mut best = best_of(
             &mut starts.filter_map(|guess| segment_icp.align(&sub, guess).ok().map(|r| r.motion)),
+            f64::INFINITY,
         );
         // ICP lets a segment slide along its principal axis (a car's side) to where
         // the visible extents overlap most; the ends and the free space around them
@@ -732,14 +765,17 @@ fn segment_motions_with(
         if let (Some(found), Some(axis)) = (best, principal_axis(members)) {
             let motion = found.3;
             let along = motion.isometry().rotation * axis;
-            let slid = best_of(&mut (1..=SLIDE_STEPS).flat_map(|k| {
-                [-1.0, 1.0].map(|sign| {
-                    let d = along * (sign * k as f64 * SLIDE_STEP);
-                    Pose2::new(motion.x() + d.x, motion.y() + d.y, motion.theta())
-                })
-            }));
-            if let Some(s) = slid.filter(|s| s.0 < found.0) {
-                best = Some(s);
+            let slid = best_of(
+                &mut (1..=SLIDE_STEPS).flat_map(|k| {
+                    [-1.0, 1.0].map(|sign| {
+                        let d = along * (sign * k as f64 * SLIDE_STEP);
+                        Pose2::new(motion.x() + d.x, motion.y() + d.y, motion.theta())
+                    })
+                }),
+                found.0,
+            );
+            if slid.is_some() {
+                best = slid;
             }
         }
         if let Some((_, cost, inliers, motion)) = best {

@@ -184,7 +184,6 @@ fn true_candidates(
         &group_of,
         &group_motions,
         options.candidate_gate,
-        None,
     );
     let mut states = Vec::with_capacity(problem.len());
     for (i, c) in candidates.iter_mut().enumerate() {

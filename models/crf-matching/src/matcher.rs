@@ -54,9 +54,6 @@ pub struct MatchingParams {
     /// Whether moving segments get motion groups of their own (true; false: one
     /// motion, the ego-motion, as the paper's CRF-Matching).
     pub segment_motions: bool,
-    /// In the first round, the points of a moving segment also get this many
-    /// candidates found by shape within the segment search radius (6; 0: none).
-    pub shape_candidates: usize,
     /// Whether the ego-motion ends with ICP from the CRF's estimate on the returns the
     /// CRF associates under it (group 0, not outlier), first correspondence distance
     /// [`POLISH_DISTANCE`] (true). Eq. 6 on the MAP associations pins each return to
@@ -85,7 +82,6 @@ impl Default for MatchingParams {
             update: ChainUpdate::EverySweep,
             max_rounds: 5,
             segment_motions: true,
-            shape_candidates: 6,
             polish_ego: true,
             segments: SegmentParams::default(),
             weights: MatchingWeights::default(),
@@ -234,11 +230,8 @@ impl Matcher {
         loop {
             rounds += 1;
             let chosen_under = motions.clone();
-            // The first round also searches moving segments' partners by shape.
-            let shape = (rounds == 1 && p.shape_candidates > 0)
-                .then_some((p.segments.search_radius, p.shape_candidates));
             let candidates =
-                problem.candidates(p.state_space, &group_of, &motions, p.candidate_gate, shape);
+                problem.candidates(p.state_space, &group_of, &motions, p.candidate_gate);
             model = MatchingModel::new(
                 &problem,
                 candidates,
