@@ -43,7 +43,11 @@ pub struct MatchingParams {
     /// Largest number of sweeps of one round (30).
     pub max_sweeps: usize,
     /// Motions count as converged when no parameter changes by more than this
-    /// (1e-4: 0.1 mm, 0.1 mrad).
+    /// (1e-3: 1 mm, 1 mrad; a thirtieth of the range noise, and the final ICP of
+    /// [`MatchingParams::polish_ego`] refines the ego-motion further). Measured on
+    /// simulated pairs (seed 3, 30 per preset) against 1e-4: the same or higher
+    /// accuracy on every preset (mixed 78.28 % both, oncoming 80.92 -> 81.75 %), 25 %
+    /// fewer sweeps; mit-csail near pairs 0.0214 m / 0.00397 rad.
     pub tolerance: f64,
     /// When the motions are re-solved (every sweep, default, or every visit).
     pub update: ChainUpdate,
@@ -78,7 +82,7 @@ impl Default for MatchingParams {
             candidate_gate: 1.0,
             band: 8,
             max_sweeps: 30,
-            tolerance: 1e-4,
+            tolerance: 1e-3,
             update: ChainUpdate::EverySweep,
             max_rounds: 5,
             segment_motions: true,
