@@ -4,10 +4,10 @@
 //! the full ±1 m, ±30° window.
 //!
 //! - `grid`: the lookup grid and its max-pooled copies of the reference scan;
-//! - `search`: grid and branch-and-bound search, the three best distinct hypotheses;
-//! - `search+icp`: search, then ICP from every hypothesis, the best refined motion
-//!   (`CorrelativeMatcher::align`);
-//! - `icp`: ICP alone from the perturbed prior, for scale (it fails on most of them);
+//! - `search`: grid and branch-and-bound search, up to three distinct hypotheses;
+//! - `search+icp`: search, then ICP (0.5 m first correspondence distance) from every
+//!   hypothesis, the best refined motion (`CorrelativeIcpMatcher::default()`);
+//! - `icp`: ICP alone (default parameters) from the perturbed prior, for scale;
 //! - `mit-csail-near/search`: grid and search on the first 100 mit-csail pairs less
 //!   than 1.5 s apart, priors perturbed the same way (skipped, with a note, without
 //!   ../shared/data).
@@ -21,7 +21,7 @@ use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use pgm_datasets::builders::{relation_pairs, RelationPairOptions};
 use pgm_datasets::sim::{simulate_pair, SimConfig};
 use pgm_datasets::{carmen, relations, testdata, ScanPair};
-use pgm_features::correlative::CorrelativeMatcher;
+use pgm_features::correlative::{CorrelativeIcpMatcher, CorrelativeMatcher};
 use pgm_features::registration::IcpMatcher;
 use pgm_features::{ParamGuard, Pose2};
 use rand::{Rng, SeedableRng};
@@ -61,6 +61,7 @@ fn bench_correlative(c: &mut Criterion) {
     let odometry = pair.odometry.unwrap_or_default();
     let priors: Vec<Pose2> = (0..16).map(|_| perturb(odometry, &mut rng)).collect();
     let matcher = CorrelativeMatcher::default();
+    let refine = CorrelativeIcpMatcher::default();
     let icp = IcpMatcher::default();
     let mut group = c.benchmark_group("correlative");
     group
@@ -90,7 +91,7 @@ fn bench_correlative(c: &mut Criterion) {
             for prior in &priors {
                 black_box(
                     matcher
-                        .align(&pair.reference, &pair.current, *prior, &icp)
+                        .align(&pair.reference, &pair.current, *prior, &refine.icp)
                         .expect("valid scans"),
                 );
             }
