@@ -394,17 +394,17 @@ impl CorrelativeMatcher {
     /// clutter cannot outweigh the static scene; ICP's inlier count (returns within its
     /// final correspondence distance) can. On 2000 simulated pairs (preset mixed) from
     /// priors up to 1 m and 30 degrees off, choosing by the correlative score ended
-    /// within 0.1 m and 0.02 rad of the truth on 99.2 %, by inliers on 97.6 %; on the
-    /// 1044 mit-csail pairs less than 1.5 s apart both reached 96.1 %. Refining the
-    /// best hypothesis alone did as well as either on those sets (99.2 %, 96.1 %):
-    /// the runners-up are insurance for scenes with several near-equal modes (a
-    /// corridor, a repeated facade), at one ICP run each.
+    /// within 0.1 m and 0.02 rad of the truth on 99.2 %, by inliers on 98.5 %; on the
+    /// 1044 mit-csail pairs less than 1.5 s apart on 96.2 % and 96.3 %. Refining the
+    /// best hypothesis alone did about as well on those sets (99.2 %, 96.1 %): the
+    /// runners-up are insurance for scenes with several near-equal modes (a corridor,
+    /// a repeated facade), at one ICP run each.
     ///
     /// ICP should start with a short correspondence distance: a hypothesis lies within
     /// a cell or two of the optimum, and the 2 m of [`IcpParams`]'s default let moving
     /// cars drag the estimate (started at the *true* motion, default ICP ends within
     /// 0.1 m and 0.02 rad on 90.7 % of those simulated pairs, with 0.5 m on 99.9 %;
-    /// search then default ICP: 91.0 %). [`CorrelativeIcpMatcher::default`] uses
+    /// search then default ICP: 90.1 %). [`CorrelativeIcpMatcher::default`] uses
     /// 0.5 m ([`CorrelativeIcpMatcher::refinement_icp`]).
     ///
     /// # Errors
@@ -869,7 +869,7 @@ impl CorrelativeGrid {
         sort_nodes(&mut nodes);
         search.branch(&nodes, top, &mut best);
         Ok(best
-            .kept
+            .into_leaves()
             .iter()
             .map(|n| Hypothesis {
                 motion: search.motion(n, prior),
@@ -949,15 +949,26 @@ struct Best {
 impl Best {
     /// A node must score above this to change the result.
     fn threshold(&self) -> u64 {
-        let relative = self
-            .kept
-            .first()
-            .map_or(0, |b| (b.score as f64 * self.relative).ceil() as u64);
-        if self.kept.len() == self.capacity {
+        let worst = if self.kept.len() == self.capacity {
             self.kept[self.capacity - 1].score
         } else {
-            (self.floor - 1).max(relative.saturating_sub(1))
-        }
+            self.floor - 1
+        };
+        worst.max(self.relative_floor().saturating_sub(1))
+    }
+
+    /// Lowest score a hypothesis may have relative to the best kept so far.
+    fn relative_floor(&self) -> u64 {
+        self.kept
+            .first()
+            .map_or(0, |b| (b.score as f64 * self.relative).ceil() as u64)
+    }
+
+    /// The kept leaves, best first, without those that fell below the relative floor
+    /// when a better leaf came after them.
+    fn into_leaves(self) -> Vec<Node> {
+        let floor = self.relative_floor();
+        self.kept.into_iter().filter(|k| k.score >= floor).collect()
     }
 
     fn same_mode(&self, a: &Node, b: &Node) -> bool {
