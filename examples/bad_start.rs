@@ -1,9 +1,11 @@
 //! Scan matching from a bad start: the odometry prior of every pair is perturbed by a
 //! random translation of up to 1 m and a random rotation of up to 30 degrees (uniform,
 //! seeded), and each scan matcher runs from there. Printed: the share of pairs that end
-//! within 0.1 m and 0.02 rad of the true ego-motion, for ICP and CRF-Matching side by
-//! side, on held-out simulated pairs (preset mixed, seed 7) and on the mit-csail pairs
-//! less than 1.5 s apart (skipped without the shared data folder).
+//! within 0.1 m and 0.02 rad of the true ego-motion, for ICP, CRF-Matching and
+//! `icp+csm` (correlative scan matching over the whole ±1 m, ±30° window, then ICP from
+//! its hypotheses: `pgm_features::correlative::CorrelativeIcpMatcher`) side by side, on
+//! held-out simulated pairs (preset mixed, seed 7) and on the mit-csail pairs less than
+//! 1.5 s apart (skipped without the shared data folder).
 //!
 //! Run: `cargo run --release --example bad_start [-- --pairs N --seed S]`.
 
@@ -11,6 +13,8 @@ use pgm::methods::{scan_matcher, MethodOptions};
 use pgm_datasets::builders::{relation_pairs, RelationPairOptions};
 use pgm_datasets::sim::{simulate_pairs, SimConfig};
 use pgm_datasets::{carmen, relations, testdata, ParamGuard, ScanPair};
+use pgm_features::correlative::CorrelativeIcpMatcher;
+use pgm_features::methods::ScanMatcher;
 use pgm_features::Pose2;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -39,9 +43,17 @@ fn perturbed(pairs: &[ScanPair], seed: u64, translation: f64, rotation: f64) -> 
         .collect()
 }
 
+/// The matcher called `method`: a registered one, or `icp+csm`.
+fn matcher(method: &str) -> Result<Box<dyn ScanMatcher>, String> {
+    if method == "icp+csm" {
+        return Ok(Box::new(CorrelativeIcpMatcher::default()));
+    }
+    scan_matcher(method, &MethodOptions::default()).map_err(|e| e.to_string())
+}
+
 /// Share of pairs whose estimate lies within 0.1 m and 0.02 rad of the truth.
 fn success(pairs: &[ScanPair], method: &str) -> Result<f64, String> {
-    let matcher = scan_matcher(method, &MethodOptions::default()).map_err(|e| e.to_string())?;
+    let matcher = matcher(method)?;
     let ok: usize = pairs
         .par_iter()
         .map(|p| {
@@ -108,7 +120,7 @@ fn main() -> ExitCode {
     for (name, pairs) in &sets {
         let bad = perturbed(pairs, seed, 1.0, 30f64.to_radians());
         let mut row = format!("{name:<45}");
-        for method in ["icp", "crf-matching"] {
+        for method in ["icp", "crf-matching", "icp+csm"] {
             match success(&bad, method) {
                 Ok(s) => row += &format!("  {method} {:.1} %", 100.0 * s),
                 Err(e) => {

@@ -12,8 +12,9 @@
 //!   reader works on (readers and writers live in `pgm-datasets`).
 //! - Rigid motions: the closed-form weighted alignment of eq. (3) of the
 //!   CRF-Clustering paper with O(1) updates ([`alignment`]), per-cluster motions as
-//!   observed-continuous nodes ([`motion_nodes`]), and registration by ICP
-//!   ([`registration`]).
+//!   observed-continuous nodes ([`motion_nodes`]), registration by ICP
+//!   ([`registration`]), and the global search that starts ICP from a bad prior,
+//!   correlative scan matching with branch and bound ([`correlative`]).
 //! - Correspondences: the [`association`] sources (ground truth, nearest neighbour
 //!   after ICP, segment-wise ICP) behind one trait that CRF-Matching also implements.
 //! - The papers' feature functions: CRF-Clustering's ([`clustering`]) and
@@ -36,13 +37,15 @@
 //! assert!(stats.solve().unwrap().motion.translation_error(&truth) < 1e-12);
 //! ```
 //!
-//! **Current state.** Geometry, pairs, registration, association sources, and the
-//! features of CRF-Clustering and CRF-Matching are complete.
+//! **Current state.** Geometry, pairs, registration (ICP and its correlative
+//! initialisation), association sources, and the features of CRF-Clustering and
+//! CRF-Matching are complete.
 
 pub mod alignment;
 pub mod association;
 pub mod boosting;
 pub mod clustering;
+pub mod correlative;
 mod error;
 pub mod matching;
 pub mod methods;
@@ -54,6 +57,7 @@ pub mod scan;
 
 pub use alignment::{Alignment, RigidAlignment};
 pub use association::{AssociationSource, PointAssociations};
+pub use correlative::{CorrelativeMatcher, CorrelativeParams, Hypothesis};
 pub use error::{Error, Result};
 pub use methods::{MotionClusterer, ScanMatcher};
 pub use motion_nodes::{ClusterMotions, RigidMotionNodes};
