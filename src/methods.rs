@@ -183,6 +183,10 @@ pub const SCAN_MATCHERS: &[(&str, &str)] = &[
     ),
     ("icp", "point-to-point ICP from the odometry prior"),
     (
+        "icp+csm",
+        "correlative search around the prior (±1 m, ±30°), refined by ICP",
+    ),
+    (
         "crf-matching",
         "CRF-Matching: the ego-motion of its MAP associations",
     ),
@@ -196,6 +200,7 @@ pub fn scan_matcher(
     Ok(match name {
         "odometry" => Box::new(Odometry),
         "icp" => Box::new(options.icp.check().map_err(invalid)?),
+        "icp+csm" => Box::new(pgm_features::correlative::CorrelativeIcpMatcher::default()),
         "crf-matching" => Box::new(options.matching.clone().check().map_err(invalid)?),
         _ => return Err(unknown("scan-matching method", name, SCAN_MATCHERS)),
     })

@@ -8,6 +8,7 @@
 //! apart, ICP from odometry: rotation median ≤ 0.005 rad (odometry alone: about
 //! 0.032) and translation median ≤ 0.025 m; intel-lab consecutive pairs, ICP from the
 //! identity (the log has no independent odometry): ≤ 0.025 m and ≤ 0.006 rad.
+//! CRF-Matching (issue 14): medians no worse than ICP's on both sets.
 
 use pgm_datasets::builders::{consecutive_pairs, relation_pairs, RelationPairOptions};
 use pgm_datasets::evaluation::evaluate_matching;
@@ -22,6 +23,13 @@ fn icp_errors(pairs: &[ScanPair]) -> ErrorSummary {
         report.outcomes.iter().filter(|o| !o.converged).count()
     );
     report.all
+}
+
+/// CRF-Matching's ego-motion errors (issue 14: no worse than ICP's medians).
+fn crf_matching_errors(pairs: &[ScanPair]) -> ErrorSummary {
+    evaluate_matching(pairs, &pgm_crf_matching::Matcher::default(), None)
+        .expect("pairs")
+        .all
 }
 
 fn odometry_errors(pairs: &[ScanPair]) -> ErrorSummary {
@@ -65,6 +73,10 @@ fn mit_csail_near_pairs_meet_the_targets() {
     eprintln!("mit-csail near, ICP: {icp:?}");
     assert!(icp.rotation_median <= 0.005, "{icp:?}");
     assert!(icp.translation_median <= 0.025, "{icp:?}");
+    let crf = crf_matching_errors(&near);
+    eprintln!("mit-csail near, CRF-Matching: {crf:?}");
+    assert!(crf.translation_median <= icp.translation_median, "{crf:?}");
+    assert!(crf.rotation_median <= icp.rotation_median, "{crf:?}");
 }
 
 #[test]
@@ -80,4 +92,8 @@ fn intel_lab_consecutive_pairs_meet_the_targets() {
     eprintln!("intel-lab consecutive, ICP: {icp:?}");
     assert!(icp.translation_median <= 0.025, "{icp:?}");
     assert!(icp.rotation_median <= 0.006, "{icp:?}");
+    let crf = crf_matching_errors(&built.pairs);
+    eprintln!("intel-lab consecutive, CRF-Matching: {crf:?}");
+    assert!(crf.translation_median <= icp.translation_median, "{crf:?}");
+    assert!(crf.rotation_median <= icp.rotation_median, "{crf:?}");
 }

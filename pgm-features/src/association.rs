@@ -38,6 +38,7 @@
 //! assert_eq!(source.name(), "icp");
 //! ```
 
+use crate::correlative::CorrelativeParams;
 use crate::pair::{Association, ScanPair};
 use crate::registration::{Icp, IcpParams};
 use crate::scan::{segment_by_gap, segment_ranges};
@@ -175,6 +176,11 @@ pub struct SegmentParams {
     /// ([`Icp::align_best`], which gives the measurement: objects moving with the
     /// sensor pull a wide schedule off the static scene) (0.3; 0 turns it off).
     pub tight_ego_distance: f64,
+    /// A correlative search for the ego-motion within a window around the prior
+    /// ([`crate::correlative`]; default: ±1 m, ±30°), whose best motion starts one
+    /// more ICP run; `None`: ICP from the prior only. With it the ego-motion survives
+    /// a prior that is off by up to the window (see the `bad_start` example).
+    pub global_search: Option<CorrelativeParams>,
 }
 
 impl Default for SegmentParams {
@@ -192,6 +198,7 @@ impl Default for SegmentParams {
             aligned_fraction: 0.5,
             association_gate: 1.0,
             tight_ego_distance: 0.3,
+            global_search: Some(CorrelativeParams::default()),
         }
     }
 }
@@ -296,6 +303,9 @@ impl ParamGuard for SegmentParams {
             self.free_space_margin,
             "a number of metres >= 0",
         )?;
+        if let Some(search) = &self.global_search {
+            search.check_ref()?;
+        }
         InvalidParameter::non_negative(
             "tight_ego_distance",
             self.tight_ego_distance,
@@ -607,16 +617,26 @@ fn segment_motions_with(
 ) -> Result<SegmentMotions> {
     let nearest = &params.nearest;
     let prior = pair.odometry.unwrap_or_default();
-    let ego = if params.tight_ego_distance > 0.0 {
-        icp.align_best(
-            &pair.current,
-            &[prior],
-            &[nearest.icp.initial_max_distance, params.tight_ego_distance],
-        )?
-    } else {
-        icp.align(&pair.current, prior)?
+    let mut runs = vec![(prior, nearest.icp.initial_max_distance)];
+    if params.tight_ego_distance > 0.0 {
+        runs.push((prior, params.tight_ego_distance));
     }
-    .motion;
+    if let Some(search) = params.global_search {
+        // The best motion of a correlative search around the prior, refined by the
+        // tight schedule (the search's grid is finer than its first distance).
+        let hypotheses = search
+            .check()?
+            .search(&pair.reference, &pair.current, prior)?;
+        if let Some(best) = hypotheses.first() {
+            let first = if params.tight_ego_distance > 0.0 {
+                params.tight_ego_distance
+            } else {
+                nearest.icp.initial_max_distance
+            };
+            runs.push((best.motion, first));
+        }
+    }
+    let ego = icp.align_best(&pair.current, &runs)?.motion;
     let (points, beams) = pair.current.points();
     let segments = segment_by_gap(&points, params.segment_gap);
     let (reference_points, reference_beams) = pair.reference.points();

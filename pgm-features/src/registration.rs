@@ -365,12 +365,12 @@ impl Icp {
         (associations, inliers, sum_d2)
     }
 
-    /// Aligns `current` from every start in `starts` with every first correspondence
-    /// distance in `initial_distances` (m; each replaces
-    /// [`IcpParams::initial_max_distance`] for its runs) and returns the run with the
-    /// most inliers at the final distance (ties: the lower RMS error, then the earlier
-    /// run). The support at the final distance is the number of current returns the
-    /// motion explains; a wrong local minimum explains fewer.
+    /// Aligns `current` once per run `(start, first correspondence distance in m)` of
+    /// `runs` (the distance replaces [`IcpParams::initial_max_distance`] for that run)
+    /// and returns the run with the most inliers at the final distance (ties: the
+    /// lower RMS error, then the earlier run). The support at the final distance is
+    /// the number of current returns the motion explains; a wrong local minimum
+    /// explains fewer.
     ///
     /// Why several schedules: objects moving with the sensor (a car overtaking or
     /// oncoming along a street) lie within a wide first distance of their earlier
@@ -382,34 +382,21 @@ impl Icp {
     /// 0.11 m on all ten, with more inliers at 0.1 m on nine of them.
     ///
     /// # Errors
-    /// As [`Icp::align`]; [`Error::InvalidParameter`] for an empty `starts` or
-    /// `initial_distances`, or a distance that is not finite and positive.
-    pub fn align_best(
-        &self,
-        current: &Scan,
-        starts: &[Pose2],
-        initial_distances: &[f64],
-    ) -> Result<IcpResult> {
-        if starts.is_empty() || initial_distances.is_empty() {
-            return Err(InvalidParameter::new(
-                "starts / initial_distances",
-                (starts.len(), initial_distances.len()),
-                "at least one start and one first distance",
-            )
-            .into());
+    /// As [`Icp::align`]; [`Error::InvalidParameter`] for no run, or a distance that
+    /// is not finite and positive.
+    pub fn align_best(&self, current: &Scan, runs: &[(Pose2, f64)]) -> Result<IcpResult> {
+        if runs.is_empty() {
+            return Err(InvalidParameter::new("runs", 0, "at least one ICP run").into());
         }
         let mut best: Option<IcpResult> = None;
-        for &d in initial_distances {
-            InvalidParameter::positive("initial_distances", d, "a distance in metres > 0")?;
-            let d = d.max(self.params.final_max_distance);
-            for &start in starts {
-                let r = self.align_from(current, start, d)?;
-                let better = best.as_ref().is_none_or(|b| {
-                    r.inliers > b.inliers || (r.inliers == b.inliers && r.rms_error < b.rms_error)
-                });
-                if better {
-                    best = Some(r);
-                }
+        for &(start, d) in runs {
+            InvalidParameter::positive("first distance", d, "a distance in metres > 0")?;
+            let r = self.align_from(current, start, d.max(self.params.final_max_distance))?;
+            let better = best.as_ref().is_none_or(|b| {
+                r.inliers > b.inliers || (r.inliers == b.inliers && r.rms_error < b.rms_error)
+            });
+            if better {
+                best = Some(r);
             }
         }
         Ok(best.expect("at least one run"))

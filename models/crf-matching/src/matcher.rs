@@ -281,7 +281,7 @@ impl Matcher {
             }
             if let Ok(r) = problem
                 .search
-                .align_best(&seen, &[motions[0]], &[POLISH_DISTANCE])
+                .align_best(&seen, &[(motions[0], POLISH_DISTANCE)])
             {
                 if r.status != IcpStatus::TooFewCorrespondences {
                     motions[0] = r.motion;
