@@ -20,7 +20,9 @@
 //! - The papers' feature functions: CRF-Clustering's ([`clustering`]) and
 //!   CRF-Matching's shape, translation and outlier features ([`matching`]), with the
 //!   AdaBoost booster over decision stumps that turns them into CRF features
-//!   ([`boosting`]).
+//!   ([`boosting`]), and the association chain that CRF-Matching and the joint model
+//!   share, its candidates and its 18 features written as CRF tables
+//!   ([`association_chain`]).
 //! - The interfaces evaluation runs methods through ([`methods`]: [`ScanMatcher`],
 //!   [`MotionClusterer`]).
 //!
@@ -43,6 +45,7 @@
 
 pub mod alignment;
 pub mod association;
+pub mod association_chain;
 pub mod boosting;
 pub mod clustering;
 pub mod correlative;

@@ -18,17 +18,16 @@
 //!    true associations is maximised. Splitting the pairs keeps the boosters' margins
 //!    on the second half as they will be on new pairs, not overconfident.
 
-use crate::model::{MatchingModel, MatchingProblem, StateSpace};
+use crate::model::MatchingModel;
 use crate::weights::{feature_set, MatchingWeights, WEIGHTS};
 use crate::{Error, Result};
 use pgm_core::hybrid::chain::chain_instance;
 use pgm_core::learning::{LabelledInstance, LearnerParams, LearningObserver, LearningResult};
 use pgm_core::param::InvalidParameter;
 use pgm_core::ParamGuard;
+use pgm_features::association_chain::{AssociationBoosters, AssociationProblem, StateSpace};
 use pgm_features::boosting::{Booster, BoosterParams, TrainingSet};
-use pgm_features::matching::{
-    association_features, outlier_features, ASSOCIATION_FEATURES, OUTLIER_FEATURES,
-};
+use pgm_features::matching::{ASSOCIATION_FEATURES, OUTLIER_FEATURES};
 use pgm_features::{Association, Pose2, ScanPair};
 use rayon::prelude::*;
 
@@ -169,7 +168,7 @@ fn groups(labels: &[u32], motions: &[Pose2]) -> (Vec<usize>, Vec<Pose2>) {
 /// The candidates (reference indices, sorted) of every return of `pair` under its true
 /// motion, with its true partner always included, and the true state of each.
 fn true_candidates(
-    problem: &MatchingProblem,
+    problem: &AssociationProblem,
     pair: &ScanPair,
     options: &TrainingOptions,
 ) -> Result<TrueStates> {
@@ -179,10 +178,11 @@ fn true_candidates(
         labels,
     } = truth_of(pair)?;
     let (group_of, group_motions) = groups(&labels, &motions);
+    let ego = vec![group_motions[0]; problem.len()];
     let mut candidates = problem.candidates(
         StateSpace::Pruned(options.candidates),
-        &group_of,
-        &group_motions,
+        &motions,
+        &ego,
         options.candidate_gate,
     );
     let mut states = Vec::with_capacity(problem.len());
@@ -221,46 +221,18 @@ fn true_candidates(
 /// Booster samples of one pair: (data samples, outlier samples).
 fn booster_samples(
     pair: &ScanPair,
-    weights: &MatchingWeights,
+    boosters: &AssociationBoosters,
     options: &TrainingOptions,
 ) -> Result<(TrainingSet, TrainingSet)> {
-    let problem = MatchingProblem::new(pair, weights)?;
+    let problem = AssociationProblem::new(pair, boosters)?;
     let TrueStates {
         candidates,
         states,
         group_of,
         motions,
     } = true_candidates(&problem, pair, options)?;
-    let mut data = TrainingSet::new(ASSOCIATION_FEATURES);
-    let mut outliers = TrainingSet::new(OUTLIER_FEATURES);
-    let mut f = [0.0; ASSOCIATION_FEATURES];
-    let mut o = [0.0; OUTLIER_FEATURES];
-    for (i, c) in candidates.iter().enumerate() {
-        let motion = motions[group_of[i]];
-        for (k, &j) in c.iter().enumerate() {
-            association_features(
-                &problem.current,
-                i,
-                &problem.reference,
-                j,
-                &motion,
-                problem.reference_increment,
-                &mut f,
-            );
-            data.push(&f, k == states[i])?;
-        }
-        outlier_features(
-            &problem.current,
-            i,
-            &problem.reference_scan,
-            problem.reference_increment,
-            &problem.search,
-            &motion,
-            &mut o,
-        );
-        outliers.push(&o, states[i] == c.len())?;
-    }
-    Ok((data, outliers))
+    let per_node: Vec<Pose2> = group_of.iter().map(|&g| motions[g]).collect();
+    Ok(problem.booster_samples(&candidates, &states, &per_node)?)
 }
 
 /// The two trained boosters and their sample counts.
@@ -279,7 +251,7 @@ pub struct TrainedBoosters {
 /// Trains the two boosters on `pairs` (see the module docs).
 pub fn train_boosters(pairs: &[ScanPair], options: &TrainingOptions) -> Result<TrainedBoosters> {
     // The samples need only the problem's geometry, not boosters.
-    let placeholder = MatchingWeights::untrained();
+    let placeholder = AssociationBoosters::untrained();
     let sets: Vec<(TrainingSet, TrainingSet)> = pairs
         .par_iter()
         .map(|p| booster_samples(p, &placeholder, options))
@@ -308,7 +280,7 @@ pub fn training_instance(
     weights: &MatchingWeights,
     options: &TrainingOptions,
 ) -> Result<Option<LabelledInstance>> {
-    let problem = MatchingProblem::new(pair, weights)?;
+    let problem = AssociationProblem::new(pair, &weights.boosters)?;
     if problem.len() < 2 {
         return Ok(None);
     }
@@ -358,8 +330,7 @@ pub fn train(
     } = train_boosters(booster_pairs, options)?;
     let mut weights = MatchingWeights {
         weights: vec![0.0; WEIGHTS],
-        data,
-        outlier,
+        boosters: AssociationBoosters { data, outlier },
     };
     let instances: Vec<LabelledInstance> = weight_pairs
         .par_iter()

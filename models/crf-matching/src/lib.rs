@@ -10,8 +10,10 @@
 //! along the chain, and the motion as an observed-continuous node re-solved from the
 //! MAP associations.
 //!
-//! **Big picture.** [`model`] is the CRF (states, features written once for
-//! inference and learning, motion groups); [`matcher`] runs it on a pair (motion
+//! **Big picture.** The association chain itself (candidates, the 18 features written
+//! as CRF tables for inference and learning) lives in
+//! [`pgm_features::association_chain`], shared with the joint model; [`model`] adds
+//! the motion groups and makes it a model of the core's hybrid chain solver; [`matcher`] runs it on a pair (motion
 //! hypotheses, rounds of candidates and exact chain sweeps on the core's hybrid chain
 //! solver); [`weights`] names the 18 weights and holds the boosters; [`learning`]
 //! trains both from labelled pairs. A [`Matcher`] is an
@@ -41,5 +43,5 @@ pub mod weights;
 
 pub use error::{Error, Result};
 pub use matcher::{Matcher, Matching, MatchingParams};
-pub use model::StateSpace;
+pub use pgm_features::association_chain::StateSpace;
 pub use weights::MatchingWeights;

@@ -17,12 +17,13 @@
 //!    outlier) with its max-marginal confidence, the ego-motion (group 0) and every
 //!    group's motion.
 
-use crate::model::{MatchingModel, MatchingProblem, StateSpace};
+use crate::model::MatchingModel;
 use crate::weights::MatchingWeights;
 use crate::{Error, Result};
 use pgm_core::hybrid::chain::{ChainUpdate, HybridChainParams};
 use pgm_core::param::{InvalidParameter, ParamGuard};
 use pgm_features::association::{segment_motions, AssociationSource, SegmentIcp, SegmentParams};
+use pgm_features::association_chain::{AssociationProblem, StateSpace};
 use pgm_features::methods::{EgoMotionEstimate, ScanMatcher};
 use pgm_features::registration::IcpStatus;
 use pgm_features::{Association, PointAssociations, Pose2, ScanPair};
@@ -188,7 +189,7 @@ impl Matcher {
     /// Errors name the pair.
     pub fn match_pair(&self, pair: &ScanPair) -> Result<Matching> {
         let p = &self.params;
-        let problem = MatchingProblem::new(pair, &p.weights)?;
+        let problem = AssociationProblem::new(pair, &p.weights.boosters)?;
         let n = problem.len();
         let beams = pair.current.len();
         if n == 0 {
@@ -234,8 +235,9 @@ impl Matcher {
         loop {
             rounds += 1;
             let chosen_under = motions.clone();
-            let candidates =
-                problem.candidates(p.state_space, &group_of, &motions, p.candidate_gate);
+            let own: Vec<Pose2> = group_of.iter().map(|&g| motions[g]).collect();
+            let ego = vec![motions[0]; n];
+            let candidates = problem.candidates(p.state_space, &own, &ego, p.candidate_gate);
             model = MatchingModel::new(
                 &problem,
                 candidates,
@@ -247,7 +249,7 @@ impl Matcher {
             let initial: Vec<usize> = (0..n)
                 .map(|i| {
                     let keep = chosen[i].and_then(|j| model.state_of(i, j));
-                    keep.unwrap_or_else(|| nearest_state(&problem, &model, i, &motions, &group_of))
+                    keep.unwrap_or_else(|| model.tables().nearest_state(i, &motions[group_of[i]]))
                 })
                 .collect();
             let result = solver.run(&mut model, &[initial])?;
@@ -311,27 +313,6 @@ impl Matcher {
             converged,
         })
     }
-}
-
-/// The state of node `i` whose candidate lies nearest to the point under its group's
-/// motion (the outlier state without candidates).
-fn nearest_state(
-    problem: &MatchingProblem,
-    model: &MatchingModel<'_>,
-    i: usize,
-    motions: &[Pose2],
-    group_of: &[usize],
-) -> usize {
-    let q = motions[group_of[i]].transform_point(&problem.current.points[i]);
-    model.candidates()[i]
-        .iter()
-        .enumerate()
-        .min_by(|a, b| {
-            let da = (problem.reference.points[*a.1] - q).norm_squared();
-            let db = (problem.reference.points[*b.1] - q).norm_squared();
-            da.total_cmp(&db)
-        })
-        .map_or(model.candidates()[i].len(), |(k, _)| k)
 }
 
 impl AssociationSource for Matcher {

@@ -17,9 +17,10 @@
 
 use crate::{Error, Result};
 use pgm_core::learning::{FeatureSet, Weights};
-use pgm_core::param::InvalidParameter;
+use pgm_features::association_chain::{
+    check_association_weights, AssociationBoosters, ASSOCIATION_TEMPLATES, ASSOCIATION_WEIGHTS,
+};
 use pgm_features::boosting::Booster;
-use pgm_features::matching::{ASSOCIATION_FEATURES, OUTLIER_FEATURES};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 use std::sync::Arc;
@@ -31,46 +32,14 @@ pub const MODEL_VERSION: u32 = 1;
 /// The default weights and boosters as JSON (`weights/default.json`).
 pub const DEFAULT_WEIGHTS_JSON: &str = include_str!("../weights/default.json");
 
-/// Index of each weight in the weight vector of [`feature_set`].
-pub(crate) mod index {
-    pub const DATA_SCORE: usize = 0;
-    pub const OUTLIER_SCORE: usize = 1;
-    pub const OUTLIER_BIAS: usize = 2;
-    pub const REGISTERED_SQUARED: usize = 3;
-    pub const REGISTERED_NORMALISED: usize = 4;
-    pub const SEQUENCE_SAME: usize = 5;
-    pub const SEQUENCE_NEXT: usize = 6;
-    pub const SEQUENCE_SKIP: usize = 7;
-    pub const SEQUENCE_BACK: usize = 8;
-    pub const SEQUENCE_NEAR: usize = 9;
-    pub const SEQUENCE_FAR: usize = 10;
-    pub const OUTLIER_LEAVE: usize = 11;
-    pub const OUTLIER_ENTER: usize = 12;
-    pub const OUTLIER_STAY: usize = 13;
-    pub const DISTANCE_SQUARED: usize = 14;
-    pub const DISTANCE_NORMALISED: usize = 15;
-    pub const TRANSLATION_SQUARED: usize = 16;
-    pub const TRANSLATION_NORMALISED: usize = 17;
-}
-
 /// Number of weights.
-pub const WEIGHTS: usize = 18;
+pub const WEIGHTS: usize = ASSOCIATION_WEIGHTS;
 
-/// The 18 named weights of CRF-Matching (see the module table).
+/// The 18 named weights of CRF-Matching (see the module table and
+/// [`ASSOCIATION_TEMPLATES`]).
 pub fn feature_set() -> Arc<FeatureSet> {
     let mut f = FeatureSet::new(MODEL_NAME, MODEL_VERSION);
-    for (name, features) in [
-        ("data_boosting", &["score"][..]),
-        ("outlier_boosting", &["score", "bias"][..]),
-        ("registered_translation", &["squared", "normalised"][..]),
-        (
-            "sequence",
-            &["same", "next", "skip", "back", "near", "far"][..],
-        ),
-        ("pairwise_outlier", &["leave", "enter", "stay"][..]),
-        ("pairwise_distance", &["squared", "normalised"][..]),
-        ("pairwise_translation", &["squared", "normalised"][..]),
-    ] {
+    for (name, features) in ASSOCIATION_TEMPLATES {
         f.add_template(name, features)
             .expect("fixed template names are valid");
     }
@@ -83,10 +52,8 @@ pub fn feature_set() -> Arc<FeatureSet> {
 pub struct MatchingWeights {
     /// The 18 weights in [`feature_set`] order.
     pub weights: Vec<f64>,
-    /// The data booster (reads [`ASSOCIATION_FEATURES`] values).
-    pub data: Booster,
-    /// The outlier booster (reads [`OUTLIER_FEATURES`] values).
-    pub outlier: Booster,
+    /// The data and outlier boosters.
+    pub boosters: AssociationBoosters,
 }
 
 /// The on-disk form: the named weights (the core's weight format) and the boosters.
@@ -103,36 +70,8 @@ impl MatchingWeights {
     /// Checks the sizes: 18 finite weights, boosters over the right feature counts
     /// with finite stumps.
     pub fn check_ref(&self) -> Result<()> {
-        if self.weights.len() != WEIGHTS || !self.weights.iter().all(|w| w.is_finite()) {
-            return Err(InvalidParameter::new(
-                "weights",
-                format!("{} weights", self.weights.len()),
-                "18 finite weights",
-            )
-            .into());
-        }
-        for (name, booster, features) in [
-            ("data booster", &self.data, ASSOCIATION_FEATURES),
-            ("outlier booster", &self.outlier, OUTLIER_FEATURES),
-        ] {
-            if booster.features != features
-                || booster
-                    .stumps
-                    .iter()
-                    .any(|s| s.feature >= features || !s.alpha.is_finite() || s.threshold.is_nan())
-            {
-                return Err(InvalidParameter::new(
-                    name,
-                    format!(
-                        "{} features, {} stumps",
-                        booster.features,
-                        booster.stumps.len()
-                    ),
-                    "a booster over the model's features with finite stumps",
-                )
-                .into());
-            }
-        }
+        check_association_weights(&self.weights)?;
+        self.boosters.check_ref()?;
         Ok(())
     }
 
@@ -156,8 +95,10 @@ impl MatchingWeights {
         let w = Weights::from_json(feature_set(), &named.to_string())?;
         let weights = Self {
             weights: w.values().to_vec(),
-            data: file.data_booster,
-            outlier: file.outlier_booster,
+            boosters: AssociationBoosters {
+                data: file.data_booster,
+                outlier: file.outlier_booster,
+            },
         };
         weights.check_ref()?;
         Ok(weights)
@@ -174,8 +115,8 @@ impl MatchingWeights {
             model: MODEL_NAME.into(),
             version: MODEL_VERSION,
             weights: named["weights"].clone(),
-            data_booster: self.data.clone(),
-            outlier_booster: self.outlier.clone(),
+            data_booster: self.boosters.data.clone(),
+            outlier_booster: self.boosters.outlier.clone(),
         };
         serde_json::to_string_pretty(&file).map_err(|e| Error::BadPair {
             pair: "weights".into(),
@@ -209,14 +150,9 @@ impl MatchingWeights {
     /// All-zero weights and boosters without stumps (scores 0): the starting point of
     /// training, not a usable model.
     pub fn untrained() -> Self {
-        let empty = |features| Booster {
-            features,
-            stumps: Vec::new(),
-        };
         Self {
             weights: vec![0.0; WEIGHTS],
-            data: empty(ASSOCIATION_FEATURES),
-            outlier: empty(OUTLIER_FEATURES),
+            boosters: AssociationBoosters::untrained(),
         }
     }
 

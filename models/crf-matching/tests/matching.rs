@@ -123,11 +123,12 @@ fn coarse_pair(seed: u64) -> pgm_datasets::ScanPair {
 #[test]
 fn full_state_space_sparse_tables_solve_like_dense_ones() {
     use pgm_core::hybrid::chain::HybridChainParams;
-    use pgm_crf_matching::model::{MatchingModel, MatchingProblem};
+    use pgm_crf_matching::model::MatchingModel;
+    use pgm_features::association_chain::AssociationProblem;
     let weights = MatchingWeights::default();
     for seed in [3, 4] {
         let pair = coarse_pair(seed);
-        let problem = MatchingProblem::new(&pair, &weights).unwrap();
+        let problem = AssociationProblem::new(&pair, &weights.boosters).unwrap();
         let (n, m) = (problem.len(), problem.reference.len());
         let ego = pair.odometry.unwrap();
         let build = || {
