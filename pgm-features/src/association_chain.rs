@@ -2,7 +2,7 @@
 //! van de Ven, Ramos and Tipaldi): a chain over the current scan's returns in beam
 //! order whose states are candidate partners in the reference scan plus an outlier
 //! state, with its 18 named features written through the core's
-//! [`FeatureSink`](pgm_core::hybrid::chain::FeatureSink). Both models compose it: in
+//! [`FeatureSink`]. Both models compose it: in
 //! CRF-Matching a return's motion is its motion group's, in the joint model its
 //! cluster's.
 //!

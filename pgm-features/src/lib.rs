@@ -22,7 +22,8 @@
 //!   AdaBoost booster over decision stumps that turns them into CRF features
 //!   ([`boosting`]), and the association chain that CRF-Matching and the joint model
 //!   share, its candidates and its 18 features written as CRF tables
-//!   ([`association_chain`]).
+//!   ([`association_chain`]), and the joint model's clustering chain with its 12
+//!   features ([`clustering_chain`]).
 //! - The interfaces evaluation runs methods through ([`methods`]: [`ScanMatcher`],
 //!   [`MotionClusterer`]).
 //!
@@ -48,6 +49,7 @@ pub mod association;
 pub mod association_chain;
 pub mod boosting;
 pub mod clustering;
+pub mod clustering_chain;
 pub mod correlative;
 mod error;
 pub mod matching;

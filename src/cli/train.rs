@@ -33,9 +33,11 @@ pub enum TrainCommand {
     Clustering(TrainClusteringArgs),
     /// CRF-Matching boosters and weights (pseudo-likelihood).
     Matching(TrainMatchingArgs),
+    /// The joint model's boosters and 30 weights (pseudo-likelihood).
+    Joint(TrainMatchingArgs),
 }
 
-/// `pgm train matching`.
+/// `pgm train matching` and `pgm train joint`.
 #[derive(Args, Debug)]
 pub struct TrainMatchingArgs {
     /// Labelled scan-pair data set with ground-truth associations (the simulator's).
@@ -111,6 +113,7 @@ pub fn run(args: TrainArgs) -> CliResult {
     match args.command {
         TrainCommand::Clustering(a) => run_clustering(a),
         TrainCommand::Matching(a) => run_matching(a),
+        TrainCommand::Joint(a) => run_joint(a),
     }
 }
 
@@ -223,20 +226,9 @@ fn run_matching(args: TrainMatchingArgs) -> CliResult {
         prior_variance: args.prior_variance,
         ..TrainingOptions::default()
     };
-    let bar = indicatif::ProgressBar::new_spinner();
-    bar.set_style(
-        indicatif::ProgressStyle::with_template("{spinner} L-BFGS {msg} [{elapsed}]")
-            .map_err(CliError::from_display)?,
-    );
-    let mut observer = |p: &pgm_core::learning::Progress| {
-        bar.set_message(format!(
-            "iteration {}: objective {:.4}, |gradient| {:.2e}",
-            p.iteration, p.objective, p.gradient_norm
-        ));
-        bar.tick();
-        std::ops::ControlFlow::Continue(())
-    };
+    let (bar, mut observer) = learning_progress()?;
     let trained = train_matching(&pairs, &options, &mut observer);
+    drop(observer);
     bar.finish_and_clear();
     let (weights, report) = trained.map_err(CliError::from_display)?;
     weights
@@ -244,6 +236,68 @@ fn run_matching(args: TrainMatchingArgs) -> CliResult {
         .map_err(|e| CliError(format!("{}: {e}", args.out.display())))?;
     let summary = serde_json::json!({
         "model": "crf-matching",
+        "out": args.out.display().to_string(),
+        "booster_pairs": report.booster_pairs,
+        "data_samples": report.data_samples.0,
+        "data_positives": report.data_samples.1,
+        "outlier_samples": report.outlier_samples.0,
+        "outlier_positives": report.outlier_samples.1,
+        "weight_pairs": report.weight_pairs,
+        "iterations": report.learning.iterations,
+        "converged": report.learning.converged,
+        "objective": report.learning.objective,
+        "weights": serde_json::from_str::<serde_json::Value>(
+            &weights.named().map_err(CliError::from_display)?.to_json()
+        )
+        .map_err(CliError::from_display)?["weights"],
+    });
+    println!("{summary}");
+    Ok(ExitCode::SUCCESS)
+}
+
+/// A spinner and the L-BFGS observer that drives it.
+fn learning_progress() -> Result<
+    (
+        indicatif::ProgressBar,
+        impl FnMut(&pgm_core::learning::Progress) -> std::ops::ControlFlow<()>,
+    ),
+    CliError,
+> {
+    let bar = indicatif::ProgressBar::new_spinner();
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{spinner} L-BFGS {msg} [{elapsed}]")
+            .map_err(CliError::from_display)?,
+    );
+    let shown = bar.clone();
+    let observer = move |p: &pgm_core::learning::Progress| {
+        shown.set_message(format!(
+            "iteration {}: objective {:.4}, |gradient| {:.2e}",
+            p.iteration, p.objective, p.gradient_norm
+        ));
+        shown.tick();
+        std::ops::ControlFlow::Continue(())
+    };
+    Ok((bar, observer))
+}
+
+fn run_joint(args: TrainMatchingArgs) -> CliResult {
+    let pairs = training_pairs(args.data.as_deref(), args.simulate, args.seed, &args.preset)?;
+    let options = pgm_joint::learning::TrainingOptions {
+        candidates: args.candidates,
+        stumps: args.stumps,
+        prior_variance: args.prior_variance,
+        ..pgm_joint::learning::TrainingOptions::default()
+    };
+    let (bar, mut observer) = learning_progress()?;
+    let trained = pgm_joint::learning::train(&pairs, &options, &mut observer);
+    drop(observer);
+    bar.finish_and_clear();
+    let (weights, report) = trained.map_err(CliError::from_display)?;
+    weights
+        .save(&args.out)
+        .map_err(|e| CliError(format!("{}: {e}", args.out.display())))?;
+    let summary = serde_json::json!({
+        "model": "joint",
         "out": args.out.display().to_string(),
         "booster_pairs": report.booster_pairs,
         "data_samples": report.data_samples.0,

@@ -1,0 +1,438 @@
+//! The joint model on one scan pair, end to end.
+//!
+//! 1. **Motion hypotheses** (`InitialiseRT`, Algorithm 1 line 1): the ego-motion and
+//!    the motions of moving gap segments from segment-wise ICP
+//!    ([`pgm_features::association::segment_motions`], which starts from the
+//!    odometry prior, a tight ICP schedule and a correlative search around the
+//!    prior). Cluster 0 takes the ego-motion; moving segments whose motions agree
+//!    (within [`JointParams::merge_translation`] at their centroids and
+//!    [`JointParams::merge_rotation`]) share a cluster; the largest groups get the
+//!    motion clusters there are ([`Clusters`]), the rest start in the background.
+//!    Every return starts in its segment's cluster, associated to its nearest
+//!    candidate under that cluster's motion.
+//! 2. **Rounds.** Candidates are chosen under each return's cluster motion
+//!    ([`StateSpace`]); the two chains run on the core's hybrid chain solver
+//!    ([`pgm_core::hybrid::chain`]), every cluster's motion re-solved after each
+//!    chain's exact sweep ([`ChainUpdate::EverySweep`], the default) or after every
+//!    node visit whose label changed ([`ChainUpdate::EveryVisit`], Algorithm 1's
+//!    schedule), then the final decoding of lines 16-21; candidates are chosen again
+//!    under the new motions and clusters until the motions settle
+//!    ([`JointParams::max_rounds`]).
+//! 3. **Output.** Vacuous clusters are discarded (section IV-A); the background is
+//!    the cluster the ego-motion hypothesis started (cluster 0), or, if it emptied,
+//!    the largest. (The paper picks the cluster nearest to the odometry in
+//!    Mahalanobis distance; here the ego-motion hypothesis has already weighed the
+//!    odometry against the scans, and a prior off by a metre would pick a mover.)
+//!    The ego-motion ends with ICP from the background's motion on the background
+//!    returns with a partner, as CRF-Matching's.
+
+use crate::model::{JointModel, ASSOCIATION_CHAIN, CLUSTERING_CHAIN};
+use crate::weights::JointWeights;
+use crate::{Error, Result};
+use pgm_core::hybrid::chain::{ChainUpdate, HybridChainParams};
+use pgm_core::param::{InvalidParameter, ParamGuard};
+use pgm_features::association::{segment_motions, SegmentIcp, SegmentParams};
+use pgm_features::association_chain::{AssociationProblem, StateSpace};
+use pgm_features::clustering_chain::MAX_MOTION_CLUSTERS;
+use pgm_features::registration::IcpStatus;
+use pgm_features::{Association, Pose2, ScanPair};
+use serde::Serialize;
+
+/// How many clusters the clustering chain has.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Clusters {
+    /// Exactly `D` cluster states (the last the outlier cluster; `D ≥ 2`), as the
+    /// paper's experiments (`D = 5`). Moving hypotheses beyond the `D − 2` largest
+    /// start in the background.
+    Fixed(usize),
+    /// One motion cluster for the background and one per group of moving segments,
+    /// at most `max` cluster states in all (the outlier cluster included): the paper
+    /// lets `D` be as large as needed and discards vacuous clusters.
+    Adaptive {
+        /// Most cluster states.
+        max: usize,
+    },
+}
+
+/// Parameters of the joint model, unchecked; [`ParamGuard::check`] makes a [`Joint`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct JointParams {
+    /// The association states of a return (default: its 6 nearest candidates under
+    /// its cluster's motion, plus the outlier state).
+    pub state_space: StateSpace,
+    /// Candidates lie within this many metres, plus three beam spacings, of the
+    /// return moved by its cluster's motion (1).
+    pub candidate_gate: f64,
+    /// Largest reference index step `|j' − j − 1|` with geometric pairwise features
+    /// (8).
+    pub band: usize,
+    /// The cluster states (adaptive, at most 8).
+    pub clusters: Clusters,
+    /// Moving segments whose motions move their centroids within this many metres
+    /// of each other share a cluster (0.3).
+    pub merge_translation: f64,
+    /// ... and whose rotations differ by at most this many radians (0.1).
+    pub merge_rotation: f64,
+    /// Largest number of sweeps of one round (30).
+    pub max_sweeps: usize,
+    /// Motions count as converged when no parameter changes by more than this (1e-3:
+    /// 1 mm, 1 mrad, as CRF-Matching).
+    pub tolerance: f64,
+    /// When the motions are re-solved.
+    pub update: ChainUpdate,
+    /// Largest number of rounds (candidates chosen again under the new motions; 5).
+    pub max_rounds: usize,
+    /// Whether the ego-motion ends with ICP on the background's returns (true).
+    pub polish_ego: bool,
+    /// Segment-wise ICP for the motion hypotheses.
+    pub segments: SegmentParams,
+    /// The learned weights and boosters (default: the shipped ones).
+    pub weights: JointWeights,
+}
+
+impl Default for JointParams {
+    fn default() -> Self {
+        Self {
+            state_space: StateSpace::Pruned(6),
+            candidate_gate: 1.0,
+            band: 8,
+            clusters: Clusters::Adaptive { max: 8 },
+            merge_translation: 0.3,
+            merge_rotation: 0.1,
+            max_sweeps: 30,
+            tolerance: 1e-3,
+            update: ChainUpdate::EverySweep,
+            max_rounds: 5,
+            polish_ego: true,
+            segments: SegmentParams::default(),
+            weights: JointWeights::default(),
+        }
+    }
+}
+
+impl ParamGuard for JointParams {
+    type Checked = Joint;
+    type Error = Error;
+
+    fn check_ref(&self) -> Result<()> {
+        if let StateSpace::Pruned(k) = self.state_space {
+            if !(1..=64).contains(&k) {
+                return Err(InvalidParameter::new("candidates", k, "1..=64 candidates").into());
+            }
+        }
+        let d = match self.clusters {
+            Clusters::Fixed(d) => d,
+            Clusters::Adaptive { max } => max,
+        };
+        if !(2..=MAX_MOTION_CLUSTERS + 1).contains(&d) {
+            return Err(InvalidParameter::new(
+                "clusters",
+                d,
+                "2..=32 cluster states (the outlier cluster included)",
+            )
+            .into());
+        }
+        for (name, value) in [
+            ("candidate_gate", self.candidate_gate),
+            ("merge_translation", self.merge_translation),
+            ("merge_rotation", self.merge_rotation),
+            ("tolerance", self.tolerance),
+        ] {
+            InvalidParameter::non_negative(name, value, "a number >= 0")?;
+        }
+        if self.max_sweeps == 0 || self.max_rounds == 0 {
+            return Err(InvalidParameter::new(
+                "max_sweeps / max_rounds",
+                (self.max_sweeps, self.max_rounds),
+                "at least 1 each",
+            )
+            .into());
+        }
+        self.segments.check_ref()?;
+        self.weights.check_ref()
+    }
+
+    fn check(self) -> Result<Joint> {
+        self.check_ref()?;
+        let segment_icp = self.segments.check()?;
+        Ok(Joint {
+            params: self,
+            segment_icp,
+        })
+    }
+}
+
+/// The joint model with checked parameters.
+#[derive(Clone, Debug)]
+pub struct Joint {
+    params: JointParams,
+    segment_icp: SegmentIcp,
+}
+
+impl Default for Joint {
+    fn default() -> Self {
+        JointParams::default().check_unwrap()
+    }
+}
+
+/// A return's cluster in a [`JointResult`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ClusterLabel {
+    /// A motion cluster (an index into [`JointResult::motions`]).
+    Object(usize),
+    /// The outlier cluster.
+    Outlier,
+}
+
+impl Serialize for ClusterLabel {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        match self {
+            ClusterLabel::Object(k) => s.serialize_u64(*k as u64),
+            ClusterLabel::Outlier => s.serialize_i64(-1),
+        }
+    }
+}
+
+/// The result of the joint model on one pair.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct JointResult {
+    /// Per beam of the current scan: the MAP association (a reference beam or
+    /// outlier), `None` for beams without a return.
+    pub associations: Vec<Option<Association>>,
+    /// Per beam: the normalised max-marginal of the MAP association (in (0, 1]).
+    pub confidence: Vec<Option<f64>>,
+    /// Per beam: the MAP cluster (serialised as the cluster index, `-1` for the
+    /// outlier cluster), `None` for beams without a return.
+    pub clusters: Vec<Option<ClusterLabel>>,
+    /// The motion of every non-vacuous motion cluster (maps its current points onto
+    /// the reference scan).
+    pub motions: Vec<Pose2>,
+    /// The background cluster (index into `motions`).
+    pub background: usize,
+    /// The ego-motion (the background's motion, refined).
+    pub ego_motion: Pose2,
+    /// Sweeps over all rounds.
+    pub sweeps: usize,
+    /// Rounds run.
+    pub rounds: usize,
+    /// Whether the last round converged.
+    pub converged: bool,
+}
+
+/// A group of moving segments that start as one cluster.
+struct Group {
+    motion: Pose2,
+    size: usize,
+    segments: Vec<usize>,
+}
+
+impl Joint {
+    /// The parameters.
+    pub fn params(&self) -> &JointParams {
+        &self.params
+    }
+
+    /// The starting motions (cluster 0: the ego-motion) and each return's starting
+    /// cluster (see the module docs, step 1).
+    fn initial_clusters(&self, pair: &ScanPair, n: usize) -> Result<(Vec<Pose2>, Vec<usize>)> {
+        let p = &self.params;
+        let h = segment_motions(pair, &self.segment_icp)?;
+        let (points, _) = pair.current.points();
+        let mut groups: Vec<Group> = Vec::new();
+        let mut size = vec![0usize; h.moved.len()];
+        let mut centroid = vec![nalgebra::Vector2::zeros(); h.moved.len()];
+        let mut motion = vec![h.ego; h.moved.len()];
+        for (i, p) in points.iter().enumerate().take(n) {
+            let s = h.segment_of[i];
+            size[s] += 1;
+            centroid[s] += p.coords;
+            motion[s] = h.motion_of[i];
+        }
+        for s in (0..h.moved.len()).filter(|&s| h.moved[s]) {
+            let c = nalgebra::Point2::from(centroid[s] / size[s] as f64);
+            let same = groups.iter_mut().find(|g| {
+                (g.motion.transform_point(&c) - motion[s].transform_point(&c)).norm()
+                    <= p.merge_translation
+                    && g.motion.rotation_error(&motion[s]) <= p.merge_rotation
+            });
+            match same {
+                Some(g) => {
+                    g.size += size[s];
+                    g.segments.push(s);
+                }
+                None => groups.push(Group {
+                    motion: motion[s],
+                    size: size[s],
+                    segments: vec![s],
+                }),
+            }
+        }
+        groups.sort_by_key(|g| std::cmp::Reverse(g.size));
+        let moving = match p.clusters {
+            Clusters::Fixed(d) => d.saturating_sub(2),
+            Clusters::Adaptive { max } => groups.len().min(max.saturating_sub(2)),
+        };
+        let mut motions = vec![h.ego];
+        let mut cluster_of_segment = vec![0usize; h.moved.len()];
+        for (k, g) in groups.iter().take(moving).enumerate() {
+            motions.push(g.motion);
+            for &s in &g.segments {
+                cluster_of_segment[s] = k + 1;
+            }
+        }
+        // A fixed D keeps its empty motion clusters (at the ego-motion): they are
+        // discarded as vacuous at the end unless returns join them.
+        if let Clusters::Fixed(d) = p.clusters {
+            motions.resize(d - 1, h.ego);
+        }
+        let clusters = (0..n)
+            .map(|i| cluster_of_segment[h.segment_of[i]])
+            .collect();
+        Ok((motions, clusters))
+    }
+
+    /// Runs the joint model on `pair` (see the module docs). Errors name the pair.
+    pub fn estimate(&self, pair: &ScanPair) -> Result<JointResult> {
+        let p = &self.params;
+        let problem = AssociationProblem::new(pair, &p.weights.boosters)?;
+        let n = problem.len();
+        let beams = pair.current.len();
+        if n == 0 {
+            let ego = pair.odometry.unwrap_or_default();
+            return Ok(JointResult {
+                associations: vec![None; beams],
+                confidence: vec![None; beams],
+                clusters: vec![None; beams],
+                motions: vec![ego],
+                background: 0,
+                ego_motion: ego,
+                sweeps: 0,
+                rounds: 0,
+                converged: true,
+            });
+        }
+        let (mut motions, mut clusters) = self.initial_clusters(pair, n)?;
+        let outlier_cluster = motions.len();
+        let background = 0;
+        let solver = HybridChainParams::default()
+            .max_sweeps(p.max_sweeps)
+            .tolerance(p.tolerance)
+            .update(p.update)
+            .check()?;
+        let mut chosen: Vec<Option<usize>> = vec![None; n];
+        let (mut sweeps, mut rounds) = (0, 0);
+        let (mut confidence, mut converged);
+        loop {
+            rounds += 1;
+            let chosen_under = motions.clone();
+            let own: Vec<Pose2> = clusters
+                .iter()
+                .map(|&c| motions.get(c).copied().unwrap_or(motions[background]))
+                .collect();
+            let ego = vec![motions[background]; n];
+            let candidates = problem.candidates(p.state_space, &own, &ego, p.candidate_gate);
+            let mut model = JointModel::new(
+                &problem,
+                candidates,
+                motions.clone(),
+                background,
+                &p.weights.weights,
+                p.band,
+                &clusters,
+            );
+            let start_association: Vec<usize> = (0..n)
+                .map(|i| {
+                    let keep = chosen[i].and_then(|j| model.tables().state_of(i, j));
+                    keep.unwrap_or_else(|| model.tables().nearest_state(i, &own[i]))
+                })
+                .collect();
+            let result = solver.run(&mut model, &[start_association, clusters.clone()])?;
+            sweeps += result.sweeps;
+            converged = result.converged;
+            let labels = &result.labels[ASSOCIATION_CHAIN];
+            confidence = (0..n)
+                .map(|i| result.max_marginal(ASSOCIATION_CHAIN, i)[labels[i]])
+                .collect::<Vec<f64>>();
+            for (i, &l) in labels.iter().enumerate() {
+                chosen[i] = model.tables().partner(i, l);
+            }
+            clusters.clone_from(&result.labels[CLUSTERING_CHAIN]);
+            motions = model.motions().to_vec();
+            let settled = chosen_under
+                .iter()
+                .zip(&motions)
+                .all(|(a, b)| a.translation_error(b) <= 0.01 && a.rotation_error(b) <= 0.005);
+            if settled || rounds >= p.max_rounds || matches!(p.state_space, StateSpace::Full) {
+                break;
+            }
+        }
+        // Discard vacuous clusters; the background is cluster 0 unless it emptied.
+        let mut count = vec![0usize; outlier_cluster];
+        for &c in &clusters {
+            if c < outlier_cluster {
+                count[c] += 1;
+            }
+        }
+        let background = if count[background] > 0 {
+            background
+        } else {
+            (0..outlier_cluster).max_by_key(|&c| count[c]).unwrap_or(0)
+        };
+        let mut renumber = vec![None; outlier_cluster];
+        let mut kept = Vec::new();
+        for c in
+            std::iter::once(background).chain((0..outlier_cluster).filter(|&c| c != background))
+        {
+            if count[c] > 0 || c == background {
+                renumber[c] = Some(kept.len());
+                kept.push(motions[c]);
+            }
+        }
+        let mut ego = motions[background];
+        if p.polish_ego {
+            let mut seen = pair.current.clone();
+            seen.valid.fill(false);
+            for i in 0..n {
+                if clusters[i] == background && chosen[i].is_some() {
+                    seen.valid[problem.current.beams[i]] = true;
+                }
+            }
+            if let Ok(r) = problem.search.align_best(&seen, &[(ego, POLISH_DISTANCE)]) {
+                if r.status != IcpStatus::TooFewCorrespondences {
+                    ego = r.motion;
+                }
+            }
+        }
+        let mut associations = vec![None; beams];
+        let mut confidences = vec![None; beams];
+        let mut labels = vec![None; beams];
+        for i in 0..n {
+            let beam = problem.current.beams[i];
+            associations[beam] = Some(match chosen[i] {
+                Some(j) => Association::Point(problem.reference.beams[j]),
+                None => Association::Outlier,
+            });
+            confidences[beam] = Some(confidence[i]);
+            labels[beam] = Some(match renumber.get(clusters[i]).copied().flatten() {
+                Some(k) => ClusterLabel::Object(k),
+                None => ClusterLabel::Outlier,
+            });
+        }
+        kept[0] = ego;
+        Ok(JointResult {
+            associations,
+            confidence: confidences,
+            clusters: labels,
+            motions: kept,
+            background: 0,
+            ego_motion: ego,
+            sweeps,
+            rounds,
+            converged,
+        })
+    }
+}
+
+/// First correspondence distance (m) of the final ego-motion ICP.
+pub const POLISH_DISTANCE: f64 = 0.3;

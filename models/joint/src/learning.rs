@@ -1,0 +1,319 @@
+//! Learning the joint model from labelled pairs: the two association boosters (as
+//! CRF-Matching's), then the 30 weights by pseudo-likelihood (L-BFGS,
+//! [`pgm_core::learning`]).
+//!
+//! A labelled pair has ground-truth associations, labels and per-object motions (the
+//! simulator has all of them). The motions are observed during learning, as the
+//! paper treats `x^RT`: cluster 0 is the background (label 0) with the true
+//! ego-motion, each labelled object a motion cluster with its true motion, and the
+//! outlier cluster holds exactly the returns whose true association is the outlier
+//! state (the joint paper's clustering accuracy asks outliers to be outliers in both
+//! chains).
+//!
+//! 1. **Boosters** (on the first half of the pairs): every return's candidates under
+//!    its true motion, its true partner always among them, are data samples; the
+//!    return is an outlier sample.
+//! 2. **Weights** (on the second half): each pair is the two-chain CRF of
+//!    [`JointModel`] written by the same code as at inference with the boosters of
+//!    step 1, both chains at their true labels (each chain's local tables condition on
+//!    the other's true labels), and the pseudo-likelihood of the true associations and
+//!    clusters is maximised.
+
+use crate::model::JointModel;
+use crate::weights::{feature_set, JointWeights, WEIGHTS};
+use crate::{Error, Result};
+use pgm_core::hybrid::chain::{chain_instance, HybridChainModel};
+use pgm_core::learning::{LabelledInstance, LearnerParams, LearningObserver, LearningResult};
+use pgm_core::param::InvalidParameter;
+use pgm_core::ParamGuard;
+use pgm_features::association_chain::{AssociationBoosters, AssociationProblem, StateSpace};
+use pgm_features::boosting::{BoosterParams, TrainingSet};
+use pgm_features::matching::{ASSOCIATION_FEATURES, OUTLIER_FEATURES};
+use pgm_features::{Association, Pose2, ScanPair};
+use rayon::prelude::*;
+
+/// Options of [`train`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TrainingOptions {
+    /// Candidates per return (pruned state space) (6).
+    pub candidates: usize,
+    /// Candidate gate (m) (1).
+    pub candidate_gate: f64,
+    /// Geometric band (8).
+    pub band: usize,
+    /// Stumps per booster (50, as the paper).
+    pub stumps: usize,
+    /// Variance of the Gaussian prior on each weight (10).
+    pub prior_variance: f64,
+}
+
+impl Default for TrainingOptions {
+    fn default() -> Self {
+        Self {
+            candidates: 6,
+            candidate_gate: 1.0,
+            band: 8,
+            stumps: 50,
+            prior_variance: 10.0,
+        }
+    }
+}
+
+/// What [`train`] learned and from what.
+#[derive(Clone, Debug)]
+pub struct TrainingReport {
+    /// Pairs the boosters were trained on.
+    pub booster_pairs: usize,
+    /// Data-booster samples (all, positive).
+    pub data_samples: (usize, usize),
+    /// Outlier-booster samples (all, positive).
+    pub outlier_samples: (usize, usize),
+    /// Pairs the weights were learned from.
+    pub weight_pairs: usize,
+    /// The pseudo-likelihood optimisation.
+    pub learning: LearningResult,
+}
+
+/// A labelled pair's nodes at their true states.
+struct Truth {
+    candidates: Vec<Vec<usize>>,
+    association: Vec<usize>,
+    cluster: Vec<usize>,
+    /// The true motion of each motion cluster (0: the background).
+    motions: Vec<Pose2>,
+}
+
+/// The true states of `pair`'s returns (see the module docs), or an error naming the
+/// pair when it lacks ground truth.
+fn truth_of(
+    problem: &AssociationProblem,
+    pair: &ScanPair,
+    options: &TrainingOptions,
+) -> Result<Truth> {
+    let missing = |what: &str| Error::BadPair {
+        pair: pair.name.clone(),
+        problem: format!("no ground-truth {what} to learn from"),
+    };
+    let truth = pair.truth.as_ref().ok_or_else(|| missing("at all"))?;
+    let associations = truth
+        .associations
+        .as_ref()
+        .ok_or_else(|| missing("associations"))?;
+    let ego = truth
+        .ego_motion
+        .or(pair.odometry)
+        .ok_or_else(|| missing("ego-motion"))?;
+    let beams = &problem.current.beams;
+    let mut ids: Vec<u32> = vec![0];
+    let mut motions = vec![ego];
+    let mut object = Vec::with_capacity(beams.len());
+    for &b in beams {
+        let label = truth
+            .labels
+            .as_ref()
+            .and_then(|l| l.get(b).copied().flatten())
+            .unwrap_or(0);
+        let motion = truth
+            .motions
+            .iter()
+            .find(|m| m.label == label && label != 0)
+            .map(|m| m.motion);
+        let c = match (label, motion) {
+            (0, _) | (_, None) => 0,
+            (l, Some(m)) => match ids.iter().position(|&x| x == l) {
+                Some(c) => c,
+                None => {
+                    ids.push(l);
+                    motions.push(m);
+                    ids.len() - 1
+                }
+            },
+        };
+        object.push(c);
+    }
+    let n = beams.len();
+    let own: Vec<Pose2> = object.iter().map(|&c| motions[c]).collect();
+    let mut candidates = problem.candidates(
+        StateSpace::Pruned(options.candidates),
+        &own,
+        &vec![ego; n],
+        options.candidate_gate,
+    );
+    let outlier_cluster = motions.len();
+    let mut association = Vec::with_capacity(n);
+    let mut cluster = Vec::with_capacity(n);
+    for (i, c) in candidates.iter_mut().enumerate() {
+        let partner = match associations.get(beams[i]).copied().flatten() {
+            Some(Association::Point(b)) => problem.reference_index.get(b).copied().flatten(),
+            _ => None,
+        };
+        match partner {
+            Some(j) => {
+                let at = c.binary_search(&j).unwrap_or_else(|at| {
+                    c.insert(at, j);
+                    at
+                });
+                association.push(at);
+                cluster.push(object[i]);
+            }
+            None => {
+                association.push(usize::MAX);
+                cluster.push(outlier_cluster);
+            }
+        }
+    }
+    for (i, a) in association.iter_mut().enumerate() {
+        if *a == usize::MAX {
+            *a = candidates[i].len();
+        }
+    }
+    Ok(Truth {
+        candidates,
+        association,
+        cluster,
+        motions,
+    })
+}
+
+/// The pseudo-likelihood instance of one labelled pair with the boosters of
+/// `weights` (see the module docs); `None` for a pair with fewer than two returns.
+///
+/// # Errors
+/// When the pair lacks ground truth (named).
+pub fn training_instance(
+    pair: &ScanPair,
+    weights: &JointWeights,
+    options: &TrainingOptions,
+) -> Result<Option<LabelledInstance>> {
+    let problem = AssociationProblem::new(pair, &weights.boosters)?;
+    if problem.len() < 2 {
+        return Ok(None);
+    }
+    let Truth {
+        candidates,
+        association,
+        cluster,
+        motions,
+    } = truth_of(&problem, pair, options)?;
+    let mut model = JointModel::new(
+        &problem,
+        candidates,
+        motions,
+        0,
+        &weights.weights,
+        options.band,
+        &cluster,
+    );
+    for i in 0..problem.len() {
+        model.set_label(0, i, None, association[i]);
+        model.set_label(1, i, None, cluster[i]);
+    }
+    Ok(Some(chain_instance(
+        &model,
+        &feature_set(),
+        &[association, cluster],
+    )?))
+}
+
+/// Sample counts (all, positive).
+pub type SampleCounts = (usize, usize);
+
+/// Trains the two association boosters on `pairs` (returns them with the data and
+/// outlier sample counts).
+///
+/// # Errors
+/// When a pair lacks ground truth or a booster cannot be trained.
+pub fn train_boosters(
+    pairs: &[ScanPair],
+    options: &TrainingOptions,
+) -> Result<(AssociationBoosters, SampleCounts, SampleCounts)> {
+    let placeholder = AssociationBoosters::untrained();
+    let sets: Vec<(TrainingSet, TrainingSet)> = pairs
+        .par_iter()
+        .map(|pair| -> Result<(TrainingSet, TrainingSet)> {
+            let problem = AssociationProblem::new(pair, &placeholder)?;
+            let t = truth_of(&problem, pair, options)?;
+            let outlier_cluster = t.motions.len();
+            let per_node: Vec<Pose2> = t
+                .cluster
+                .iter()
+                .map(|&c| {
+                    if c == outlier_cluster {
+                        t.motions[0]
+                    } else {
+                        t.motions[c]
+                    }
+                })
+                .collect();
+            Ok(problem.booster_samples(&t.candidates, &t.association, &per_node)?)
+        })
+        .collect::<Result<_>>()?;
+    let mut data = TrainingSet::new(ASSOCIATION_FEATURES);
+    let mut outliers = TrainingSet::new(OUTLIER_FEATURES);
+    for (d, o) in &sets {
+        data.extend(d)?;
+        outliers.extend(o)?;
+    }
+    let boost = BoosterParams::default().stumps(options.stumps).check()?;
+    let boosters = AssociationBoosters {
+        data: boost.train(&data)?,
+        outlier: boost.train(&outliers)?,
+    };
+    Ok((
+        boosters,
+        (data.len(), data.positives()),
+        (outliers.len(), outliers.positives()),
+    ))
+}
+
+/// Trains the joint model on labelled `pairs`: boosters on the first half, weights on
+/// the second (both on all pairs when there are fewer than two); the observer sees
+/// every L-BFGS iteration (`&mut ()` for none).
+///
+/// # Errors
+/// When a pair lacks ground truth (named), a booster cannot be trained, or learning
+/// fails.
+pub fn train(
+    pairs: &[ScanPair],
+    options: &TrainingOptions,
+    observer: &mut dyn LearningObserver,
+) -> Result<(JointWeights, TrainingReport)> {
+    if pairs.is_empty() {
+        return Err(InvalidParameter::new("pairs", 0, "at least one labelled pair").into());
+    }
+    let half = if pairs.len() >= 2 { pairs.len() / 2 } else { 1 };
+    let (booster_pairs, weight_pairs) = if pairs.len() >= 2 {
+        (&pairs[..half], &pairs[half..])
+    } else {
+        (pairs, pairs)
+    };
+    let (boosters, data_samples, outlier_samples) = train_boosters(booster_pairs, options)?;
+    let mut weights = JointWeights {
+        weights: vec![0.0; WEIGHTS],
+        boosters,
+    };
+    let instances: Vec<LabelledInstance> = weight_pairs
+        .par_iter()
+        .map(|p| training_instance(p, &weights, options))
+        .collect::<Result<Vec<_>>>()?
+        .into_iter()
+        .flatten()
+        .collect();
+    let learner = LearnerParams::default()
+        .prior_variance(options.prior_variance)
+        .max_iterations(3000)
+        .check()?;
+    let learning = learner.learn(&feature_set(), &instances, observer)?;
+    weights.weights = learning.weights.values().to_vec();
+    weights.check_ref()?;
+    Ok((
+        weights,
+        TrainingReport {
+            booster_pairs: booster_pairs.len(),
+            data_samples,
+            outlier_samples,
+            weight_pairs: weight_pairs.len(),
+            learning,
+        },
+    ))
+}

@@ -1,0 +1,261 @@
+//! The joint CRF of one scan pair (section IV-A of van de Ven, Ramos and Tipaldi, Fig.
+//! 1): two chains over the current scan's returns and the rigid motions that couple
+//! them.
+//!
+//! - Chain 0, association (`x^a`): node `i` takes a candidate partner among the
+//!   reference returns or the outlier state ([`AssociationTables`]).
+//! - Chain 1, clustering (`x^c`): node `i` takes one of `D` clusters, the last one the
+//!   outlier cluster ([`pgm_features::clustering_chain`]).
+//! - `x^RT`: one rigid motion per motion cluster (`D − 1`), observed-continuous:
+//!   re-solved in closed form (eq. 6, each pair weighted by `1 / σ_i²`) from the
+//!   current associations of the cluster's returns.
+//!
+//! The chains are linked through the motions only, as the paper's Fig. 1 draws them
+//! ("the x^a and x^c nodes are indirectly linked through the motion estimate node"):
+//! a node's association features use the motion of its cluster (the background's when
+//! it is in the outlier cluster), and the clustering features read each return's
+//! current association (its partner, or none for the outlier state) as the evidence
+//! the motions were solved from. The clustering chain's `cluster_distance` and
+//! `cluster_inlier` are local features of the clustering chain only. (Writing them
+//! into the association chain's tables too, as factors shared by both chains, was
+//! tried: pseudo-likelihood then learns `cluster_inlier` as a near-hard constraint
+//! (weight 15.5) that leaves the association chain's outlier evidence unused, and the
+//! alternation cannot move a return into the outlier state of either chain first.)
+
+use crate::weights::{ASSOCIATION_BASE, CLUSTERING_BASE};
+use pgm_core::exact::PairPattern;
+use pgm_core::hybrid::chain::{FeatureSink, HybridChainModel};
+use pgm_features::association_chain::{AssociationProblem, AssociationTables};
+use pgm_features::clustering_chain;
+use pgm_features::{Pose2, RigidAlignment};
+use std::sync::Arc;
+
+/// The association chain's index.
+pub const ASSOCIATION_CHAIN: usize = 0;
+/// The clustering chain's index.
+pub const CLUSTERING_CHAIN: usize = 1;
+
+/// Fewest associated returns a cluster's motion is solved from; fewer keep it.
+pub const MIN_CLUSTER_POINTS: usize = 3;
+
+/// Associations farther than this many association standard deviations from their
+/// cluster's motion do not enter its solve (as CRF-Matching's groups).
+pub const INLIER_SIGMAS: f64 = 2.0;
+
+/// Most solve-and-trim iterations of one cluster's motion.
+pub const TRIM_ITERATIONS: usize = 6;
+
+/// The joint CRF of one pair (see the module docs): a two-chain [`HybridChainModel`]
+/// for the core's chain solver.
+pub struct JointModel<'a> {
+    tables: AssociationTables<'a>,
+    weights: Vec<f64>,
+    /// One motion per motion cluster (the outlier cluster has none).
+    motions: Vec<Pose2>,
+    /// The cluster whose motion the outlier cluster's returns are associated under.
+    background: usize,
+    /// Each node's current association state and cluster.
+    association: Vec<Option<usize>>,
+    cluster: Vec<Option<usize>>,
+    stats: RigidAlignment,
+}
+
+impl std::fmt::Debug for JointModel<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("JointModel")
+            .field("tables", &self.tables)
+            .field("motions", &self.motions)
+            .finish()
+    }
+}
+
+impl<'a> JointModel<'a> {
+    /// The model over `problem` with `candidates` per node (reference indices,
+    /// sorted), the motion clusters' starting `motions` (`D − 1` of them), the
+    /// `background` cluster, the 30 `weights`, the geometric `band`, and each node's
+    /// starting cluster `clusters` (for the outlier booster's motions; the solver is
+    /// told the starting labels separately).
+    ///
+    /// # Panics
+    /// If a starting cluster is out of range, or there are more than
+    /// [`clustering_chain::MAX_MOTION_CLUSTERS`] motions.
+    pub fn new(
+        problem: &'a AssociationProblem,
+        candidates: Vec<Vec<usize>>,
+        motions: Vec<Pose2>,
+        background: usize,
+        weights: &[f64],
+        band: usize,
+        clusters: &[usize],
+    ) -> Self {
+        assert!(motions.len() <= clustering_chain::MAX_MOTION_CLUSTERS);
+        let per_node: Vec<Pose2> = clusters
+            .iter()
+            .map(|&c| motions.get(c).copied().unwrap_or(motions[background]))
+            .collect();
+        let tables = AssociationTables::new(problem, candidates, band, &per_node);
+        let n = problem.len();
+        Self {
+            tables,
+            weights: weights.to_vec(),
+            motions,
+            background,
+            association: vec![None; n],
+            cluster: vec![None; n],
+            stats: RigidAlignment::new(),
+        }
+    }
+
+    /// The same model with dense association pairwise tables.
+    pub fn dense(mut self) -> Self {
+        self.tables = self.tables.dense();
+        self
+    }
+
+    /// The association tables.
+    pub fn tables(&self) -> &AssociationTables<'a> {
+        &self.tables
+    }
+
+    /// The motion clusters' current motions.
+    pub fn motions(&self) -> &[Pose2] {
+        &self.motions
+    }
+
+    /// Number of cluster states `D` (the motion clusters and the outlier cluster).
+    pub fn clusters(&self) -> usize {
+        self.motions.len() + 1
+    }
+
+    /// The motion node `i`'s association features use: its cluster's, or the
+    /// background's for the outlier cluster (and before a cluster is known).
+    fn node_motion(&self, i: usize) -> &Pose2 {
+        match self.cluster[i] {
+            Some(c) if c < self.motions.len() => &self.motions[c],
+            _ => &self.motions[self.background],
+        }
+    }
+
+    /// Node `i`'s current partner (a reference point), if its association is not the
+    /// outlier state.
+    fn partner(&self, i: usize) -> Option<&nalgebra::Point2<f64>> {
+        let j = self.association[i].and_then(|a| self.tables.partner(i, a))?;
+        Some(&self.tables.problem().reference.points[j])
+    }
+
+    /// Re-solves every motion cluster's motion from its returns' current associations
+    /// (trimmed as CRF-Matching's groups); returns the largest change.
+    pub fn solve_motions(&mut self) -> f64 {
+        let p = self.tables.problem();
+        let mut change = 0.0f64;
+        let mut pairs = Vec::new();
+        for c in 0..self.motions.len() {
+            pairs.clear();
+            for i in 0..self.cluster.len() {
+                if self.cluster[i] != Some(c) {
+                    continue;
+                }
+                if let Some(g) = self.partner(i) {
+                    pairs.push((p.current.points[i], *g, p.variances[i]));
+                }
+            }
+            let mut motion = self.motions[c];
+            for round in 0..TRIM_ITERATIONS {
+                let before = pairs.len();
+                pairs.retain(|(s, g, var)| {
+                    (motion.transform_point(s) - g).norm_squared()
+                        <= INLIER_SIGMAS * INLIER_SIGMAS * var
+                });
+                if pairs.len() < MIN_CLUSTER_POINTS || (round > 0 && pairs.len() == before) {
+                    break;
+                }
+                self.stats.clear();
+                for (s, g, var) in &pairs {
+                    self.stats.add(s, g, 1.0 / var);
+                }
+                if let Some(a) = self.stats.solve() {
+                    motion = a.motion;
+                }
+            }
+            let m = &mut self.motions[c];
+            change = change
+                .max(motion.translation_error(m))
+                .max(motion.rotation_error(m));
+            *m = motion;
+        }
+        change
+    }
+}
+
+impl HybridChainModel for JointModel<'_> {
+    fn weights(&self) -> &[f64] {
+        &self.weights
+    }
+
+    fn num_chains(&self) -> usize {
+        2
+    }
+
+    fn chain_len(&self, _chain: usize) -> usize {
+        self.cluster.len()
+    }
+
+    fn num_states(&self, chain: usize, i: usize) -> usize {
+        if chain == ASSOCIATION_CHAIN {
+            self.tables.states(i)
+        } else {
+            self.clusters()
+        }
+    }
+
+    fn write_local<S: FeatureSink>(&self, chain: usize, i: usize, sink: &mut S) {
+        let p = self.tables.problem();
+        if chain == ASSOCIATION_CHAIN {
+            self.tables
+                .write_local(i, self.node_motion(i), ASSOCIATION_BASE, sink);
+        } else {
+            clustering_chain::write_local(
+                &p.current.points[i],
+                p.variances[i],
+                self.partner(i),
+                &self.motions,
+                CLUSTERING_BASE,
+                sink,
+            );
+        }
+    }
+
+    fn write_pair<S: FeatureSink>(&self, chain: usize, i: usize, sink: &mut S) {
+        if chain == ASSOCIATION_CHAIN {
+            self.tables
+                .write_pair(i, self.node_motion(i), ASSOCIATION_BASE, sink);
+        } else {
+            let p = self.tables.problem();
+            clustering_chain::write_pair(
+                [&p.current.points[i], &p.current.points[i + 1]],
+                [self.partner(i), self.partner(i + 1)],
+                &self.motions,
+                CLUSTERING_BASE,
+                sink,
+            );
+        }
+    }
+
+    fn set_label(&mut self, chain: usize, i: usize, _old: Option<usize>, new: usize) {
+        if chain == ASSOCIATION_CHAIN {
+            self.association[i] = Some(new);
+        } else {
+            self.cluster[i] = Some(new);
+        }
+    }
+
+    fn pair_pattern(&self, chain: usize, _i: usize) -> Option<Arc<PairPattern>> {
+        (chain == ASSOCIATION_CHAIN)
+            .then(|| self.tables.pattern().cloned())
+            .flatten()
+    }
+
+    fn solve(&mut self) -> f64 {
+        self.solve_motions()
+    }
+}

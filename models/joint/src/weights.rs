@@ -1,0 +1,200 @@
+//! The joint model's 30 named weights and its two boosters.
+//!
+//! Weights 0-17 are the association chain's
+//! ([`pgm_features::association_chain`]: data and outlier boosting, registered
+//! translation, sequence, pairwise outlier, pairwise distance, pairwise translation),
+//! weights 18-29 the clustering chain's ([`pgm_features::clustering_chain`]: cluster
+//! distance, cluster outlier, cluster inlier, cluster sequence, neighbour weight,
+//! neighbour stiffness, neighbour distance, cluster pairwise outlier); the module
+//! docs of those two name every weight. The paper counts 18 + 12 = 30 as well.
+//!
+//! The default weights and boosters (`weights/default.json`, compiled in with
+//! `include_str!`) were learned from simulated pairs; the command that produced them
+//! is in the workspace README.
+
+use crate::{Error, Result};
+use pgm_core::learning::{FeatureSet, Weights};
+use pgm_core::param::InvalidParameter;
+use pgm_features::association_chain::{
+    AssociationBoosters, ASSOCIATION_TEMPLATES, ASSOCIATION_WEIGHTS,
+};
+use pgm_features::boosting::Booster;
+use pgm_features::clustering_chain::{CLUSTERING_TEMPLATES, CLUSTERING_WEIGHTS};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+use std::sync::Arc;
+
+/// Name of the model in weight files.
+pub const MODEL_NAME: &str = "joint";
+/// Version of the feature set (bump when features change meaning).
+pub const MODEL_VERSION: u32 = 1;
+/// The default weights and boosters as JSON (`weights/default.json`).
+pub const DEFAULT_WEIGHTS_JSON: &str = include_str!("../weights/default.json");
+
+/// Index of the first association weight.
+pub const ASSOCIATION_BASE: usize = 0;
+/// Index of the first clustering weight.
+pub const CLUSTERING_BASE: usize = ASSOCIATION_WEIGHTS;
+/// Number of weights.
+pub const WEIGHTS: usize = ASSOCIATION_WEIGHTS + CLUSTERING_WEIGHTS;
+
+/// The 30 named weights of the joint model.
+pub fn feature_set() -> Arc<FeatureSet> {
+    let mut f = FeatureSet::new(MODEL_NAME, MODEL_VERSION);
+    for (name, features) in ASSOCIATION_TEMPLATES
+        .into_iter()
+        .chain(CLUSTERING_TEMPLATES)
+    {
+        f.add_template(name, features)
+            .expect("fixed template names are valid and distinct");
+    }
+    Arc::new(f)
+}
+
+/// The learned parameters of the joint model: the 30 log-linear weights and the two
+/// association boosters.
+#[derive(Clone, Debug, PartialEq)]
+pub struct JointWeights {
+    /// The 30 weights in [`feature_set`] order.
+    pub weights: Vec<f64>,
+    /// The data and outlier boosters of the association chain.
+    pub boosters: AssociationBoosters,
+}
+
+/// The on-disk form: the named weights (the core's weight format) and the boosters.
+#[derive(Serialize, Deserialize)]
+struct WeightFile {
+    model: String,
+    version: u32,
+    weights: serde_json::Value,
+    data_booster: Booster,
+    outlier_booster: Booster,
+}
+
+impl JointWeights {
+    /// Checks the sizes: 30 finite weights, boosters over the right feature counts
+    /// with finite stumps.
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] naming what is wrong.
+    pub fn check_ref(&self) -> Result<()> {
+        if self.weights.len() != WEIGHTS || !self.weights.iter().all(|w| w.is_finite()) {
+            return Err(InvalidParameter::new(
+                "weights",
+                format!("{} weights", self.weights.len()),
+                "30 finite weights",
+            )
+            .into());
+        }
+        self.boosters.check_ref()?;
+        Ok(())
+    }
+
+    /// The weights as named [`Weights`].
+    ///
+    /// # Errors
+    /// When the count does not match the feature set.
+    pub fn named(&self) -> Result<Weights> {
+        Ok(Weights::new(feature_set(), self.weights.clone())?)
+    }
+
+    /// Parses the JSON written by [`JointWeights::to_json`]; `origin` names the source
+    /// in errors.
+    ///
+    /// # Errors
+    /// When the text is not a joint-model weight file or its values are invalid.
+    pub fn from_json(json: &str, origin: &str) -> Result<Self> {
+        let file: WeightFile = serde_json::from_str(json).map_err(|e| Error::BadPair {
+            pair: origin.to_string(),
+            problem: format!("not a joint-model weight file: {e}"),
+        })?;
+        let named = serde_json::json!({
+            "model": file.model,
+            "version": file.version,
+            "weights": file.weights,
+        });
+        let w = Weights::from_json(feature_set(), &named.to_string())?;
+        let weights = Self {
+            weights: w.values().to_vec(),
+            boosters: AssociationBoosters {
+                data: file.data_booster,
+                outlier: file.outlier_booster,
+            },
+        };
+        weights.check_ref()?;
+        Ok(weights)
+    }
+
+    /// The JSON form (named weights and the boosters' stumps).
+    ///
+    /// # Errors
+    /// When the weights do not fit the feature set.
+    pub fn to_json(&self) -> Result<String> {
+        let named: serde_json::Value =
+            serde_json::from_str(&self.named()?.to_json()).map_err(|e| Error::BadPair {
+                pair: "weights".into(),
+                problem: e.to_string(),
+            })?;
+        let file = WeightFile {
+            model: MODEL_NAME.into(),
+            version: MODEL_VERSION,
+            weights: named["weights"].clone(),
+            data_booster: self.boosters.data.clone(),
+            outlier_booster: self.boosters.outlier.clone(),
+        };
+        serde_json::to_string_pretty(&file).map_err(|e| Error::BadPair {
+            pair: "weights".into(),
+            problem: e.to_string(),
+        })
+    }
+
+    /// Loads weights written by `pgm train joint`.
+    ///
+    /// # Errors
+    /// When the file cannot be read or is not a valid weight file (both named).
+    pub fn load(path: impl AsRef<Path>) -> Result<Self> {
+        let path = path.as_ref();
+        let text = std::fs::read_to_string(path).map_err(|e| Error::BadPair {
+            pair: path.display().to_string(),
+            problem: e.to_string(),
+        })?;
+        Self::from_json(&text, &path.display().to_string())
+    }
+
+    /// Writes the weights atomically (a temporary sibling, then a rename).
+    ///
+    /// # Errors
+    /// When the file cannot be written (named).
+    pub fn save(&self, path: impl AsRef<Path>) -> Result<()> {
+        let path = path.as_ref();
+        let json = self.to_json()?;
+        let tmp = path.with_extension("json.tmp");
+        std::fs::write(&tmp, json)
+            .and_then(|()| std::fs::rename(&tmp, path))
+            .map_err(|e| Error::BadPair {
+                pair: path.display().to_string(),
+                problem: e.to_string(),
+            })
+    }
+
+    /// All-zero weights and boosters without stumps: the starting point of training,
+    /// not a usable model.
+    pub fn untrained() -> Self {
+        Self {
+            weights: vec![0.0; WEIGHTS],
+            boosters: AssociationBoosters::untrained(),
+        }
+    }
+
+    /// The shipped default weights.
+    pub fn default_weights() -> Self {
+        Self::from_json(DEFAULT_WEIGHTS_JSON, "the shipped default weights")
+            .expect("the shipped default weights are valid (checked by a test)")
+    }
+}
+
+impl Default for JointWeights {
+    fn default() -> Self {
+        Self::default_weights()
+    }
+}

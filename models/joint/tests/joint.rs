@@ -1,0 +1,94 @@
+//! The joint model on simulated pairs (the shipped weights were trained on seed 1000;
+//! these pairs are seed 7): outputs fit the pair, the weights round-trip, bad
+//! parameters are refused, training runs and refuses unlabelled pairs.
+
+use pgm_datasets::sim::{simulate_pairs, SimConfig};
+use pgm_features::{Association, ParamGuard};
+use pgm_joint::learning::{train, TrainingOptions};
+use pgm_joint::{ClusterLabel, Clusters, Joint, JointParams, JointWeights};
+
+#[test]
+fn outputs_fit_the_pair() {
+    let pairs = simulate_pairs(&SimConfig::default().check().unwrap(), 7, 2);
+    for pair in &pairs {
+        let r = Joint::default().estimate(pair).unwrap();
+        assert_eq!(r.associations.len(), pair.current.len());
+        assert_eq!(r.clusters.len(), pair.current.len());
+        for k in 0..pair.current.len() {
+            assert_eq!(r.associations[k].is_some(), pair.current.valid[k]);
+            assert_eq!(r.clusters[k].is_some(), pair.current.valid[k]);
+            if let Some(Association::Point(b)) = r.associations[k] {
+                assert!(pair.reference.valid[b]);
+            }
+            if let Some(ClusterLabel::Object(c)) = r.clusters[k] {
+                assert!(c < r.motions.len());
+            }
+        }
+        // Every reported motion cluster holds a return (vacuous ones are discarded),
+        // the background aside.
+        for c in 1..r.motions.len() {
+            assert!(
+                r.clusters.contains(&Some(ClusterLabel::Object(c))),
+                "cluster {c}"
+            );
+        }
+        let truth = pair.truth.as_ref().unwrap().ego_motion.unwrap();
+        assert!(
+            r.ego_motion.translation_error(&truth) < 0.1,
+            "{}",
+            pair.name
+        );
+        assert_eq!(r.ego_motion, r.motions[r.background]);
+    }
+}
+
+#[test]
+fn weights_round_trip_and_bad_parameters_are_refused() {
+    let w = JointWeights::default();
+    assert_eq!(w.weights.len(), 30);
+    let back = JointWeights::from_json(&w.to_json().unwrap(), "test").unwrap();
+    assert_eq!(back, w);
+    assert!(JointWeights::from_json("{}", "nonsense").is_err());
+    for bad in [
+        JointParams {
+            clusters: Clusters::Fixed(1),
+            ..JointParams::default()
+        },
+        JointParams {
+            clusters: Clusters::Adaptive { max: 40 },
+            ..JointParams::default()
+        },
+        JointParams {
+            max_rounds: 0,
+            ..JointParams::default()
+        },
+        JointParams {
+            tolerance: f64::NAN,
+            ..JointParams::default()
+        },
+    ] {
+        let e = bad.check().unwrap_err().to_string();
+        assert!(e.contains("expected"), "{e}");
+    }
+}
+
+#[test]
+fn training_learns_usable_weights_and_refuses_unlabelled_pairs() {
+    let pairs = simulate_pairs(&SimConfig::default().check().unwrap(), 1001, 6);
+    let (weights, report) = train(&pairs, &TrainingOptions::default(), &mut ()).unwrap();
+    assert_eq!(weights.weights.len(), 30);
+    assert!(report.data_samples.1 > 0 && report.outlier_samples.1 > 0);
+    let joint = JointParams {
+        weights,
+        ..JointParams::default()
+    }
+    .check()
+    .unwrap();
+    joint.estimate(&pairs[0]).unwrap();
+    let mut unlabelled = pairs[0].clone();
+    unlabelled.truth = None;
+    let e = train(&[unlabelled], &TrainingOptions::default(), &mut ())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("ground-truth"), "{e}");
+}
