@@ -39,6 +39,7 @@ enum Command {
 }
 
 fn main() -> ExitCode {
+    quiet_on_closed_stdout();
     let cli = Cli::parse();
     let outcome = match cli.command {
         Command::Map(args) => cli::infer::run(args, cli::infer::Task::Map),
@@ -59,4 +60,23 @@ fn main() -> ExitCode {
             ExitCode::from(2)
         }
     }
+}
+
+/// Rust ignores SIGPIPE, so printing to a closed pipe (`pgm … | head`) panics with
+/// "failed printing to stdout: Broken pipe". The reader has what it wanted: end
+/// quietly (status 0), as Unix filters do, and keep every other panic's report.
+fn quiet_on_closed_stdout() {
+    let report = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let payload = info.payload();
+        let message = payload
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| payload.downcast_ref::<&str>().copied())
+            .unwrap_or("");
+        if message.starts_with("failed printing to stdout") && message.contains("Broken pipe") {
+            std::process::exit(0);
+        }
+        report(info);
+    }));
 }

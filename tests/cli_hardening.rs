@@ -550,3 +550,42 @@ fn plot_view_takes_negative_numbers() {
         assert!(err.contains("--view"), "{err}");
     }
 }
+
+/// `pgm … | head`: the reader closes the pipe early; pgm ends quietly with status 0
+/// instead of panicking on the closed stdout (the output, marginals of 20000
+/// variables, is far larger than a pipe's buffer).
+#[test]
+fn a_closed_stdout_ends_quietly() {
+    use std::fmt::Write as _;
+    use std::io::Read;
+    use std::process::Stdio;
+    let n = 20_000;
+    let mut uai = format!("MARKOV\n{n}\n");
+    uai += &"2 ".repeat(n);
+    let _ = write!(uai, "\n{n}\n");
+    for i in 0..n {
+        let _ = writeln!(uai, "1 {i}");
+    }
+    for _ in 0..n {
+        uai += "2\n0.3 0.7\n";
+    }
+    let dir = std::env::temp_dir().join(format!("pgm-closed-stdout-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let model = dir.join("wide.uai");
+    std::fs::write(&model, uai).unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_pgm"))
+        .args(["marginals", model.to_str().unwrap()])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stdout = child.stdout.take().unwrap();
+    let mut first = [0u8; 16];
+    stdout.read_exact(&mut first).unwrap();
+    drop(stdout);
+    let out = child.wait_with_output().unwrap();
+    let _ = std::fs::remove_dir_all(&dir);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert_eq!(out.status.code(), Some(0), "{stderr}");
+}
