@@ -28,6 +28,7 @@
 //! # }
 //! ```
 
+pub mod bag;
 pub mod builders;
 pub mod carmen;
 pub mod error;
