@@ -323,11 +323,60 @@ pub struct LeighPairOptions {
     pub annotated_sector: bool,
     /// Prefix of the pair names (`<prefix>:<i>-<j>`).
     pub name: String,
+    /// How to decide who moves: the track rule of the data README (default) or the
+    /// older displacement rule (module docs).
+    pub rule: LabelRule,
+    /// Track rule: smallest speed (m/s) of the line fitted to a person's track for the
+    /// person to walk; 0 makes every annotated person its own cluster.
+    pub walking_speed: f64,
+    /// Track rule: the line is fitted to the annotations from scan `i − track_window`
+    /// to scan `j + track_window`.
+    pub track_window: usize,
+}
+
+/// Which rule decides whether an annotated person moves ([`leigh_pairs`], module
+/// docs).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum LabelRule {
+    /// The data README's rule: the speed of a straight line fitted (least squares,
+    /// against the scan index) to the person's annotated centres in the odometry frame
+    /// over scans `i − w … j + w`.
+    #[default]
+    Track,
+    /// The older rule: the displacement between the two annotated centres of the pair
+    /// (a person missing from the reference scan per [`Unannotated`]).
+    Displacement,
+}
+
+impl std::fmt::Display for LabelRule {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            LabelRule::Track => "track",
+            LabelRule::Displacement => "displacement",
+        })
+    }
+}
+
+impl std::str::FromStr for LabelRule {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        match s {
+            "track" => Ok(LabelRule::Track),
+            "displacement" => Ok(LabelRule::Displacement),
+            other => Err(format!(
+                "unknown labelling rule {other:?}: expected track or displacement"
+            )),
+        }
+    }
 }
 
 impl Default for LeighPairOptions {
     fn default() -> Self {
         Self {
+            rule: LabelRule::Track,
+            walking_speed: 0.5,
+            track_window: 10,
             k: 5,
             moving_threshold: 0.2,
             person_radius: 0.35,
@@ -442,6 +491,29 @@ pub fn leigh_pairs(
             what: format!("person radius {} must be positive", options.person_radius),
         });
     }
+    if !(options.walking_speed >= 0.0 && options.walking_speed.is_finite()) {
+        return Err(Error::Mismatch {
+            what: format!(
+                "walking speed {} must be finite and >= 0",
+                options.walking_speed
+            ),
+        });
+    }
+    let tracks = match options.rule {
+        LabelRule::Track if options.walking_speed > 0.0 => Some(Tracks {
+            world: leigh_annotations_in_odometry_frame(scans, people).map_err(|e| {
+                Error::Mismatch {
+                    what: format!(
+                        "{e}; the track rule needs odometry (or a walking speed of 0, \
+                         which makes every annotated person a mover)"
+                    ),
+                }
+            })?,
+            period: scan_period(scans),
+            window: options.track_window,
+        }),
+        _ => None,
+    };
     let mut by_scan: BTreeMap<usize, BTreeMap<u32, Point2<f64>>> = BTreeMap::new();
     for a in people {
         by_scan
@@ -478,7 +550,13 @@ pub fn leigh_pairs(
             continue;
         };
         pairs.push(leigh_pair(
-            ref_scan, cur_scan, people_i, people_j, options, sector,
+            ref_scan,
+            cur_scan,
+            people_i,
+            people_j,
+            options,
+            sector,
+            tracks.as_ref(),
         )?);
     }
     Ok(pairs)
@@ -491,9 +569,13 @@ fn leigh_pair(
     people_j: &BTreeMap<u32, Point2<f64>>,
     options: &LeighPairOptions,
     sector: Option<[f64; 2]>,
+    tracks: Option<&Tracks>,
 ) -> Result<ScanPair> {
     let prior = odometry_prior(&reference.scan, &current.scan);
-    if prior.is_none() && options.moving_threshold > 0.0 {
+    if let Some(tracks) = tracks {
+        return track_pair(reference, current, people_i, people_j, options, sector, tracks);
+    }
+    if prior.is_none() && options.moving_threshold > 0.0 && options.rule == LabelRule::Displacement {
         return Err(Error::Mismatch {
             what: format!(
                 "scans {} and {}: deciding who moves by at least {} m needs odometry to carry \
@@ -516,7 +598,11 @@ fn leigh_pair(
             }
             _ => None,
         };
-        let moving = options.moving_threshold <= 0.0
+        let every_person = match options.rule {
+            LabelRule::Displacement => options.moving_threshold <= 0.0,
+            LabelRule::Track => true,
+        };
+        let moving = every_person
             || match (c_i, displacement) {
                 (None, _) => options.unannotated == Unannotated::Moving,
                 (Some(_), d) => d.is_some_and(|d| d >= options.moving_threshold),
@@ -563,6 +649,160 @@ fn leigh_pair(
         reference: reference.scan.clone(),
         current: current.scan.clone(),
         odometry: prior,
+        truth: Some(truth),
+    })
+}
+
+/// What the track rule needs: every annotation in the odometry frame, the scan period
+/// and the window.
+struct Tracks {
+    world: BTreeMap<usize, BTreeMap<u32, Point2<f64>>>,
+    period: f64,
+    window: usize,
+}
+
+/// The median time between consecutive scans (indices one apart) of a log, from their
+/// time stamps; 1 s when no two consecutive scans have increasing stamps.
+pub fn scan_period(scans: &LeighScans) -> f64 {
+    let mut gaps: Vec<f64> = scans
+        .scans
+        .windows(2)
+        .filter(|w| w[1].index == w[0].index + 1)
+        .map(|w| w[1].scan.timestamp - w[0].scan.timestamp)
+        .filter(|g| g.is_finite() && *g > 0.0)
+        .collect();
+    if gaps.is_empty() {
+        return 1.0;
+    }
+    gaps.sort_by(f64::total_cmp);
+    let n = gaps.len();
+    if n % 2 == 1 {
+        gaps[n / 2]
+    } else {
+        (gaps[n / 2 - 1] + gaps[n / 2]) / 2.0
+    }
+}
+
+/// A straight line fitted to a person's track ([`track_fit`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TrackFit {
+    /// Number of annotations fitted.
+    pub annotations: usize,
+    /// Velocity in the odometry frame, metres per scan.
+    pub per_scan: nalgebra::Vector2<f64>,
+    /// Speed in m/s (the velocity over the scan period).
+    pub speed: f64,
+}
+
+/// The least-squares line through `person`'s annotated centres (odometry frame,
+/// against the scan index) over scans `lo..=hi`; `None` with fewer than two
+/// annotations there.
+pub fn track_fit(
+    world: &BTreeMap<usize, BTreeMap<u32, Point2<f64>>>,
+    person: u32,
+    lo: usize,
+    hi: usize,
+    period: f64,
+) -> Option<TrackFit> {
+    let points: Vec<(f64, Point2<f64>)> = world
+        .range(lo..=hi)
+        .filter_map(|(&s, at)| at.get(&person).map(|p| (s as f64, *p)))
+        .collect();
+    if points.len() < 2 {
+        return None;
+    }
+    let n = points.len() as f64;
+    let mean_t = points.iter().map(|(t, _)| t).sum::<f64>() / n;
+    let mean_p = points
+        .iter()
+        .fold(nalgebra::Vector2::zeros(), |acc, (_, p)| acc + p.coords)
+        / n;
+    let stt: f64 = points.iter().map(|(t, _)| (t - mean_t).powi(2)).sum();
+    let stp = points.iter().fold(nalgebra::Vector2::zeros(), |acc, (t, p)| {
+        acc + (p.coords - mean_p) * (t - mean_t)
+    });
+    let per_scan = stp / stt;
+    Some(TrackFit {
+        annotations: points.len(),
+        per_scan,
+        speed: per_scan.norm() / period,
+    })
+}
+
+#[allow(clippy::too_many_arguments)]
+fn track_pair(
+    reference: &IndexedScan,
+    current: &IndexedScan,
+    people_i: &BTreeMap<u32, Point2<f64>>,
+    people_j: &BTreeMap<u32, Point2<f64>>,
+    options: &LeighPairOptions,
+    sector: Option<[f64; 2]>,
+    tracks: &Tracks,
+) -> Result<ScanPair> {
+    let (i, j) = (reference.index, current.index);
+    let (Some(w_i), Some(prior)) = (
+        reference.scan.laser_odometry(),
+        odometry_prior(&reference.scan, &current.scan),
+    ) else {
+        return Err(Error::Mismatch {
+            what: format!(
+                "scans {i} and {j}: the track rule needs odometry to carry person centres \
+                 into the odometry frame"
+            ),
+        });
+    };
+    let lo = i.saturating_sub(tracks.window);
+    let hi = j.saturating_add(tracks.window);
+    let mut centres_i = Vec::new();
+    let mut centres_j = Vec::new();
+    let mut motions = Vec::new();
+    let mut next_label = 1;
+    for (&person, &c_j) in people_j {
+        let Some(fit) = track_fit(&tracks.world, person, lo, hi, tracks.period) else {
+            continue;
+        };
+        if fit.speed < options.walking_speed {
+            continue;
+        }
+        let label = next_label;
+        next_label += 1;
+        centres_j.push((label, c_j));
+        if let Some(&c_i) = people_i.get(&person) {
+            centres_i.push((label, c_i));
+        }
+        // The person moved d = v (j − i) in the odometry frame; a current point p was at
+        // W_j p − d at scan i: the motion is the prior followed by −R_i⁻¹ d.
+        let d = fit.per_scan * (j - i) as f64;
+        let back = w_i.inverse().transform_point(&Point2::from(-d)) - w_i.inverse().translation();
+        let t = prior.translation() + back.coords;
+        motions.push(ClusterMotion {
+            label,
+            motion: Pose2::new(t.x, t.y, prior.theta()),
+            kind: format!("person {person}"),
+        });
+    }
+    let truth = GroundTruth {
+        ego_motion: None,
+        labels: Some(label_returns(
+            &current.scan,
+            &centres_j,
+            options.person_radius,
+            sector,
+        )),
+        reference_labels: Some(label_returns(
+            &reference.scan,
+            &centres_i,
+            options.person_radius,
+            sector,
+        )),
+        associations: None,
+        motions,
+    };
+    Ok(ScanPair {
+        name: format!("{}:{}-{}", options.name, i, j),
+        reference: reference.scan.clone(),
+        current: current.scan.clone(),
+        odometry: Some(prior),
         truth: Some(truth),
     })
 }

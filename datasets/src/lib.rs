@@ -36,6 +36,7 @@ pub mod evaluation;
 pub mod format;
 pub mod leigh;
 pub mod metrics;
+pub mod mocap;
 pub mod pair;
 pub mod relations;
 pub mod sim;
