@@ -573,9 +573,12 @@ fn leigh_pair(
 ) -> Result<ScanPair> {
     let prior = odometry_prior(&reference.scan, &current.scan);
     if let Some(tracks) = tracks {
-        return track_pair(reference, current, people_i, people_j, options, sector, tracks);
+        return track_pair(
+            reference, current, people_i, people_j, options, sector, tracks,
+        );
     }
-    if prior.is_none() && options.moving_threshold > 0.0 && options.rule == LabelRule::Displacement {
+    if prior.is_none() && options.moving_threshold > 0.0 && options.rule == LabelRule::Displacement
+    {
         return Err(Error::Mismatch {
             what: format!(
                 "scans {} and {}: deciding who moves by at least {} m needs odometry to carry \
@@ -718,9 +721,11 @@ pub fn track_fit(
         .fold(nalgebra::Vector2::zeros(), |acc, (_, p)| acc + p.coords)
         / n;
     let stt: f64 = points.iter().map(|(t, _)| (t - mean_t).powi(2)).sum();
-    let stp = points.iter().fold(nalgebra::Vector2::zeros(), |acc, (t, p)| {
-        acc + (p.coords - mean_p) * (t - mean_t)
-    });
+    let stp = points
+        .iter()
+        .fold(nalgebra::Vector2::zeros(), |acc, (t, p)| {
+            acc + (p.coords - mean_p) * (t - mean_t)
+        });
     let per_scan = stp / stt;
     Some(TrackFit {
         annotations: points.len(),

@@ -529,7 +529,13 @@ pub fn summarize_detection(
         moving_recall: ratio(tp, actual),
         object_translation_error_median: percentile(&translation, 50.0),
         object_rotation_error_median: percentile(&rotation, 50.0),
-        v_measure_mean: mean_std(&outcomes.iter().map(|o| o.score.v_measure).collect::<Vec<_>>()).0,
+        v_measure_mean: mean_std(
+            &outcomes
+                .iter()
+                .map(|o| o.score.v_measure)
+                .collect::<Vec<_>>(),
+        )
+        .0,
         mover_pairs: with.len(),
         v_measure_mover_pairs: (!with.is_empty()).then(|| mean_std(&with).0),
     }

@@ -250,9 +250,10 @@ pub fn mocap_pair(
     }];
     let (labels_j, labels_i) = match object {
         Some(o) => {
-            let c_i = o
-                .track
-                .at(reference.timestamp + options.pose_delay, options.max_pose_gap)?;
+            let c_i = o.track.at(
+                reference.timestamp + options.pose_delay,
+                options.max_pose_gap,
+            )?;
             let c_j = o
                 .track
                 .at(current.timestamp + options.pose_delay, options.max_pose_gap)?;
@@ -262,7 +263,11 @@ pub fn mocap_pair(
             let moving = moved >= options.object_min_speed * gap;
             motions.push(ClusterMotion {
                 label: 1,
-                motion: l_i.inverse().compose(&c_i).compose(&c_j.inverse()).compose(&l_j),
+                motion: l_i
+                    .inverse()
+                    .compose(&c_i)
+                    .compose(&c_j.inverse())
+                    .compose(&l_j),
                 kind: if moving {
                     o.kind.to_string()
                 } else {
@@ -311,7 +316,10 @@ mod tests {
         assert_eq!(t.span(), Some([0.0, 3.0]));
         assert_eq!(t.at(0.0, 0.5), Some(Pose2::new(-1.0, 0.0, 0.0)));
         assert!((t.at(0.25, 1.0).unwrap().x() + 0.75).abs() < 1e-12);
-        assert!(t.at(2.0, 1.0).is_none(), "a 2 s gap is not bridged with max_gap 1");
+        assert!(
+            t.at(2.0, 1.0).is_none(),
+            "a 2 s gap is not bridged with max_gap 1"
+        );
         assert!(t.at(2.0, 2.0).is_some());
         assert!(t.at(-0.1, 1.0).is_none() && t.at(3.1, 9.0).is_none());
     }
@@ -372,7 +380,9 @@ mod tests {
         let expected = l_i
             .inverse()
             .transform_point(&c_i.transform_point(&Point2::new(0.057, 0.028)));
-        let got = truth.motions[1].motion.transform_point(&current.beam_point(0));
+        let got = truth.motions[1]
+            .motion
+            .transform_point(&current.beam_point(0));
         assert!((got - expected).norm() < 1e-9, "{got:?} vs {expected:?}");
         // The background motion is the ego-motion between the laser poses.
         let ego_motion = truth.ego_motion.unwrap();
@@ -381,6 +391,15 @@ mod tests {
         // Outside the tracks: no pair.
         let mut late = current.clone();
         late.timestamp = 1.5;
-        assert!(mocap_pair("q".into(), &reference, &late, &ego, &mount, Some(object), &options).is_none());
+        assert!(mocap_pair(
+            "q".into(),
+            &reference,
+            &late,
+            &ego,
+            &mount,
+            Some(object),
+            &options
+        )
+        .is_none());
     }
 }

@@ -20,11 +20,11 @@
 //! # }
 //! ```
 
+use crate::bag::pairs::{bag_pairs, BagPairOptions};
+use crate::bag::{read_bag, BagTopics};
 use crate::builders::{
     consecutive_pairs, leigh_pairs, relation_pairs, LeighPairOptions, RelationPairOptions,
 };
-use crate::bag::pairs::{bag_pairs, BagPairOptions};
-use crate::bag::{read_bag, BagTopics};
 use crate::carmen::CarmenOptions;
 use crate::error::Result;
 use crate::{carmen, leigh, relations, ScanPair};

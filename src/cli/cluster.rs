@@ -213,8 +213,9 @@ fn load_pair(args: &OnePairArgs) -> Result<ScanPair, CliError> {
         let log = pgm_datasets::bag::read_bag(path, &args.bag.topics()?)
             .map_err(CliError::from_display)?;
         let mut notes = Vec::new();
-        let pair = pgm_datasets::bag::pairs::bag_scan_pair(&log, i, j, args.bag.laser_mount, &mut notes)
-            .map_err(CliError::from_display)?;
+        let pair =
+            pgm_datasets::bag::pairs::bag_scan_pair(&log, i, j, args.bag.laser_mount, &mut notes)
+                .map_err(CliError::from_display)?;
         for note in notes {
             eprintln!("note: {note}");
         }

@@ -17,16 +17,16 @@
 use super::{CliError, CliResult};
 use clap::{Args, Subcommand};
 use pgm_datasets::bag::pairs::BagPairOptions;
+use pgm_datasets::bag::pairs::{laser_mount, prepared_scans, to_leigh};
+use pgm_datasets::bag::read_bag;
 use pgm_datasets::bag::BagTopics;
 use pgm_datasets::builders::{
     leigh_pairs, summarize_leigh_pairs, LabelRule, LeighPairOptions, Unannotated,
 };
 use pgm_datasets::mocap::{Footprint, MocapOptions};
-use pgm_features::Pose2;
-use pgm_datasets::bag::pairs::{laser_mount, prepared_scans, to_leigh};
-use pgm_datasets::bag::read_bag;
-use pgm_datasets::{carmen, leigh};
 use pgm_datasets::source::{read_leigh, LoadedPairs, PairSource};
+use pgm_datasets::{carmen, leigh};
+use pgm_features::Pose2;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -79,7 +79,12 @@ pub struct BagArgs {
     pub laser_mount: Option<Pose2>,
     /// Bag: the pose that matches a scan is read at its header stamp plus this many
     /// seconds.
-    #[arg(long, requires = "bag", default_value_t = 0.0, allow_hyphen_values = true)]
+    #[arg(
+        long,
+        requires = "bag",
+        default_value_t = 0.0,
+        allow_hyphen_values = true
+    )]
     pub pose_delay: f64,
     /// Bag: the object's footprint LENGTH,WIDTH,CENTRE_X,CENTRE_Y (m), a rectangle in
     /// its pose frame.
@@ -115,7 +120,9 @@ impl Default for BagArgs {
 fn numbers<const N: usize>(text: &str, what: &str) -> Result<[f64; N], String> {
     let parts: Vec<&str> = text.split(',').map(str::trim).collect();
     if parts.len() != N {
-        return Err(format!("{text:?}: expected {what} ({N} numbers separated by commas)"));
+        return Err(format!(
+            "{text:?}: expected {what} ({N} numbers separated by commas)"
+        ));
     }
     let mut out = [0.0; N];
     for (k, p) in parts.iter().enumerate() {
@@ -138,8 +145,7 @@ pub fn parse_pose(text: &str) -> Result<Pose2, String> {
 
 /// Parses `LENGTH,WIDTH,CENTRE_X,CENTRE_Y`.
 pub fn parse_footprint(text: &str) -> Result<Footprint, String> {
-    let [length, width, centre_x, centre_y] =
-        numbers::<4>(text, "LENGTH,WIDTH,CENTRE_X,CENTRE_Y")?;
+    let [length, width, centre_x, centre_y] = numbers::<4>(text, "LENGTH,WIDTH,CENTRE_X,CENTRE_Y")?;
     let f = Footprint {
         length,
         width,
@@ -480,9 +486,8 @@ fn leigh_log(
                     .into(),
             ));
         };
-        let (log, annotations) =
-            read_leigh(scans, people, source.odometry.as_deref(), &mut notes)
-                .map_err(CliError::from_display)?;
+        let (log, annotations) = read_leigh(scans, people, source.odometry.as_deref(), &mut notes)
+            .map_err(CliError::from_display)?;
         (log, annotations, scans.display().to_string())
     };
     for note in &notes {

@@ -186,7 +186,11 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
     };
     let data = format!(
         "{source}{}; every pair scored, none trained on",
-        if args.no_prior { ", odometry prior hidden" } else { "" }
+        if args.no_prior {
+            ", odometry prior hidden"
+        } else {
+            ""
+        }
     );
     if args.json {
         let json = Report {
@@ -206,7 +210,10 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
         );
         return Ok(ExitCode::SUCCESS);
     }
-    println!("method {}: {} pairs of {data}", report.method, summary.pairs);
+    println!(
+        "method {}: {} pairs of {data}",
+        report.method, summary.pairs
+    );
     if clusterer_needs_associations(&args.method) || args.method == "crf" {
         println!("weights {weights}");
     }

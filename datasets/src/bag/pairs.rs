@@ -96,7 +96,14 @@ pub fn bag_stem(log: &BagLog) -> String {
 /// to the scan frame, else the identity; with a note saying which.
 pub fn laser_mount(log: &BagLog, given: Option<Pose2>) -> (Pose2, String) {
     if let Some(m) = given {
-        return (m, format!("{}: laser mounting as given: {}", log.path.display(), show(&m)));
+        return (
+            m,
+            format!(
+                "{}: laser mounting as given: {}",
+                log.path.display(),
+                show(&m)
+            ),
+        );
     }
     let scan_frame = &log.scans[0].frame;
     let robot = log.odometry.first().map(|o| o.child_frame.clone());
@@ -123,12 +130,18 @@ pub fn laser_mount(log: &BagLog, given: Option<Pose2>) -> (Pose2, String) {
 }
 
 fn show(p: &Pose2) -> String {
-    format!("x {:.6} m, y {:.6} m, yaw {:.6} rad", p.x(), p.y(), p.theta())
+    format!(
+        "x {:.6} m, y {:.6} m, yaw {:.6} rad",
+        p.x(),
+        p.y(),
+        p.theta()
+    )
 }
 
 /// The odometry track of the bag (robot base in the odometry frame), if it has one.
 pub fn odometry_track(log: &BagLog) -> Option<PoseTrack> {
-    (!log.odometry.is_empty()).then(|| PoseTrack::new(log.odometry.iter().map(|o| (o.stamp, o.pose))))
+    (!log.odometry.is_empty())
+        .then(|| PoseTrack::new(log.odometry.iter().map(|o| (o.stamp, o.pose))))
 }
 
 /// The bag's scans with the mounting set and the odometry (when the bag has it)
@@ -240,8 +253,7 @@ pub fn bag_pairs(log: &BagLog, options: &BagPairOptions) -> Result<BagPairs> {
             name,
             ..options.leigh.clone()
         };
-        let pairs = leigh_pairs(&leigh, &people, &leigh_options)
-            .map_err(|e| mismatch(log, e))?;
+        let pairs = leigh_pairs(&leigh, &people, &leigh_options).map_err(|e| mismatch(log, e))?;
         return Ok(BagPairs { pairs, notes });
     }
     let mut pairs = Vec::new();
@@ -269,13 +281,14 @@ pub fn bag_pairs(log: &BagLog, options: &BagPairOptions) -> Result<BagPairs> {
         let mut without = 0;
         for i in 0..scans.len() - k {
             let (a, b) = (&scans[i], &scans[i + k]);
-            let object = object_track.as_ref().zip(footprint).map(|(track, footprint)| {
-                TrackedObject {
+            let object = object_track
+                .as_ref()
+                .zip(footprint)
+                .map(|(track, footprint)| TrackedObject {
                     track,
                     footprint,
                     kind: "object",
-                }
-            });
+                });
             match mocap_pair(
                 format!("{name}:{i}-{}", i + k),
                 &a.scan,
