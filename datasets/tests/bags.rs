@@ -81,11 +81,7 @@ fn ros1_and_ros2_bags_written_here_read_back_identically() {
     // What was written is what is read: stamps to the nanosecond, float32 ranges through
     // their shortest decimal form, infinite ranges as no return.
     assert_eq!(a.scans.len(), 12);
-    let Msg::Scan { stamp_ns, ranges } = &records
-        .iter()
-        .find(|r| r.topic == "/scan")
-        .unwrap()
-        .msg
+    let Msg::Scan { stamp_ns, ranges } = &records.iter().find(|r| r.topic == "/scan").unwrap().msg
     else {
         unreachable!()
     };
@@ -106,7 +102,11 @@ fn ros1_and_ros2_bags_written_here_read_back_identically() {
     assert_eq!(first.scan.angles[0], -1.5707964);
     assert_eq!(b.odometry[0].child_frame, "base_link");
     let (x, y, yaw) = robot_pose(0.5);
-    let e = b.ego_poses.iter().find(|p| (p.stamp - 100.5).abs() < 1e-9).unwrap();
+    let e = b
+        .ego_poses
+        .iter()
+        .find(|p| (p.stamp - 100.5).abs() < 1e-9)
+        .unwrap();
     assert!((e.pose.x() - x).abs() < 1e-12 && (e.pose.y() - y).abs() < 1e-12);
     assert!((e.pose.theta() - yaw).abs() < 1e-12);
     // The same pairs from both, for every kind of ground truth.
@@ -123,16 +123,35 @@ fn ros1_and_ros2_bags_written_here_read_back_identically() {
         ("lz4.mcap", false, Some(mcap::Compression::Lz4)),
     ] {
         let p = write(&dir, name, &mcap_bag(&records, big, compression));
-        assert_eq!(content(&read_bag(&p, &all_topics()).unwrap()), content(&a), "{name}");
+        assert_eq!(
+            content(&read_bag(&p, &all_topics()).unwrap()),
+            content(&a),
+            "{name}"
+        );
     }
     // A ROS 2 bag directory (split into two files) and a zipped bag.
     let bagdir = dir.join("rosbag2_drive");
     std::fs::create_dir_all(&bagdir).unwrap();
     let half = records.len() / 2;
-    write(&bagdir, "rosbag2_drive_0.mcap", &mcap_bag(&records[..half], false, None));
-    write(&bagdir, "rosbag2_drive_1.mcap", &mcap_bag(&records[half..], false, None));
-    write(&bagdir, "metadata.yaml", b"rosbag2_bagfile_information: {}\n");
-    assert_eq!(content(&read_bag(&bagdir, &all_topics()).unwrap()), content(&a));
+    write(
+        &bagdir,
+        "rosbag2_drive_0.mcap",
+        &mcap_bag(&records[..half], false, None),
+    );
+    write(
+        &bagdir,
+        "rosbag2_drive_1.mcap",
+        &mcap_bag(&records[half..], false, None),
+    );
+    write(
+        &bagdir,
+        "metadata.yaml",
+        b"rosbag2_bagfile_information: {}\n",
+    );
+    assert_eq!(
+        content(&read_bag(&bagdir, &all_topics()).unwrap()),
+        content(&a)
+    );
     let zipped = dir.join("drive.bag.zip");
     {
         let mut z = zip::ZipWriter::new(std::fs::File::create(&zipped).unwrap());
@@ -141,7 +160,10 @@ fn ros1_and_ros2_bags_written_here_read_back_identically() {
         std::io::Write::write_all(&mut z, &ros1_bag(&records)).unwrap();
         z.finish().unwrap();
     }
-    assert_eq!(content(&read_bag(&zipped, &all_topics()).unwrap()), content(&a));
+    assert_eq!(
+        content(&read_bag(&zipped, &all_topics()).unwrap()),
+        content(&a)
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
@@ -225,7 +247,10 @@ fn motion_capture_truth_of_the_written_drive() {
         },
     )
     .unwrap();
-    assert!(built.notes.iter().any(|n| n.contains("origin of the robot frame")));
+    assert!(built
+        .notes
+        .iter()
+        .any(|n| n.contains("origin of the robot frame")));
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
@@ -245,7 +270,10 @@ fn malformed_bags_are_errors_naming_topic_message_and_field() {
     let good = ros1_bag(&records);
     // Not a bag, an old format, a missing topic (the error lists the bag's topics).
     let p = write(&dir, "text.bag", b"hello");
-    expect_bag_error(read_bag(&p, &all_topics()), &["text.bag", "neither a ROS 1 bag"]);
+    expect_bag_error(
+        read_bag(&p, &all_topics()),
+        &["text.bag", "neither a ROS 1 bag"],
+    );
     let p = write(&dir, "old.bag", b"#ROSBAG V1.2\n0000000000000000");
     expect_bag_error(read_bag(&p, &all_topics()), &["not supported"]);
     let p = write(&dir, "good.bag", &good);
@@ -256,7 +284,12 @@ fn malformed_bags_are_errors_naming_topic_message_and_field() {
     // A topic read as the wrong type names the field it lacks.
     expect_bag_error(
         read_bag(&p, &BagTopics::new("/odom")),
-        &["topic /odom", "message 1", "field `angle_min`", "nav_msgs/Odometry"],
+        &[
+            "topic /odom",
+            "message 1",
+            "field `angle_min`",
+            "nav_msgs/Odometry",
+        ],
     );
     // Every truncation of the file is an error or, when only the index section after
     // the chunks is cut, the whole content; never a panic.
@@ -275,13 +308,19 @@ fn malformed_bags_are_errors_naming_topic_message_and_field() {
     let at = bad.windows(10).position(|w| w == b"index_pos=").unwrap() + 10;
     bad[at..at + 8].copy_from_slice(&(1u64 << 40).to_le_bytes());
     let p = write(&dir, "index.bag", &bad);
-    expect_bag_error(read_bag(&p, &all_topics()), &["index_pos", "outside the file"]);
+    expect_bag_error(
+        read_bag(&p, &all_topics()),
+        &["index_pos", "outside the file"],
+    );
     assert!(check_ros1_bytes(&bad).is_err());
     let mut bad = good.clone();
     let at = bad.windows(5).position(|w| w == b"size=").unwrap() + 5;
     bad[at..at + 4].copy_from_slice(&u32::MAX.to_le_bytes());
     let p = write(&dir, "size.bag", &bad);
-    expect_bag_error(read_bag(&p, &all_topics()), &["declares 4294967295 uncompressed bytes"]);
+    expect_bag_error(
+        read_bag(&p, &all_topics()),
+        &["declares 4294967295 uncompressed bytes"],
+    );
     // A scan whose ranges array claims more elements than the message holds.
     let mut scan_records: Vec<Record> = records.clone();
     for r in &mut scan_records {
@@ -291,20 +330,41 @@ fn malformed_bags_are_errors_naming_topic_message_and_field() {
     }
     let mut bytes = ros1_bag(&scan_records);
     // The empty ranges array: patch its length (the u32 before the empty intensities).
-    let scan_data = serialise(&scan_records.iter().find(|r| r.topic == "/scan").unwrap().msg, 1, Wire::Ros1);
-    let at = bytes.windows(scan_data.len()).position(|w| w == scan_data.as_slice()).unwrap();
+    let scan_data = serialise(
+        &scan_records
+            .iter()
+            .find(|r| r.topic == "/scan")
+            .unwrap()
+            .msg,
+        1,
+        Wire::Ros1,
+    );
+    let at = bytes
+        .windows(scan_data.len())
+        .position(|w| w == scan_data.as_slice())
+        .unwrap();
     let len_at = at + scan_data.len() - 8;
     bytes[len_at..len_at + 4].copy_from_slice(&1_000_000u32.to_le_bytes());
     let p = write(&dir, "ranges.bag", &bytes);
     expect_bag_error(
         read_bag(&p, &all_topics()),
-        &["topic /scan", "message 1", "field `ranges`", "length 1000000"],
+        &[
+            "topic /scan",
+            "message 1",
+            "field `ranges`",
+            "length 1000000",
+        ],
     );
     // An empty scan is refused by the scan reader.
     let mcap = write(&dir, "empty.mcap", &mcap_bag(&scan_records, false, None));
     expect_bag_error(
         read_bag(&mcap, &all_topics()),
-        &["topic /scan", "message 1", "field `ranges`", "at least one beam"],
+        &[
+            "topic /scan",
+            "message 1",
+            "field `ranges`",
+            "at least one beam",
+        ],
     );
     // Every truncation of an MCAP file too (a cut in the summary after the data
     // section leaves the messages whole).
@@ -327,7 +387,12 @@ fn malformed_bags_are_errors_naming_topic_message_and_field() {
     let p = write(&dir, "definition.bag", &bytes);
     expect_bag_error(
         read_bag(&p, &all_topics()),
-        &["topic /ego_pose", "message 1", "has type Point", "does not define"],
+        &[
+            "topic /ego_pose",
+            "message 1",
+            "has type Point",
+            "does not define",
+        ],
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }
@@ -371,7 +436,11 @@ fn leigh_bag_gives_the_pairs_of_its_text_export() {
         return;
     };
     let d = data.join("leigh-gtm1");
-    let log = read_bag(&d.join("general_tracking_moving_1.bag.zip"), &leigh_topics()).unwrap();
+    let log = read_bag(
+        &d.join("general_tracking_moving_1.bag.zip"),
+        &leigh_topics(),
+    )
+    .unwrap();
     assert_eq!(log.scans.len(), 873);
     assert_eq!(log.people.len(), 153);
     let expected = [(1, 106, 33, 34), (3, 97, 30, 48), (5, 92, 26, 46)];
@@ -425,9 +494,17 @@ fn assert_same_pairs(text: &[ScanPair], bag: &[ScanPair]) {
             assert_eq!(s.ranges, t.ranges, "{}", a.name);
             assert_eq!(s.max_range, t.max_range);
             assert!((s.timestamp - t.timestamp).abs() < 1e-6, "{}", a.name);
-            assert!(s.angles.iter().zip(&t.angles).all(|(x, y)| (x - y).abs() < 1e-6));
+            assert!(s
+                .angles
+                .iter()
+                .zip(&t.angles)
+                .all(|(x, y)| (x - y).abs() < 1e-6));
             let (o, p) = (s.odometry.unwrap(), t.odometry.unwrap());
-            assert!(o.translation_error(&p) < 2e-6 && o.rotation_error(&p) < 2e-6, "{}", a.name);
+            assert!(
+                o.translation_error(&p) < 2e-6 && o.rotation_error(&p) < 2e-6,
+                "{}",
+                a.name
+            );
             assert_eq!(s.laser_offset, t.laser_offset);
         }
         let (ta, tb) = (a.truth.as_ref().unwrap(), b.truth.as_ref().unwrap());
@@ -439,7 +516,11 @@ fn assert_same_pairs(text: &[ScanPair], bag: &[ScanPair]) {
             assert!(m.motion.translation_error(&n.motion) < 5e-4, "{}", a.name);
         }
         let (o, p) = (a.odometry.unwrap(), b.odometry.unwrap());
-        assert!(o.translation_error(&p) < 1e-5 && o.rotation_error(&p) < 5e-6, "{}", a.name);
+        assert!(
+            o.translation_error(&p) < 1e-5 && o.rotation_error(&p) < 5e-6,
+            "{}",
+            a.name
+        );
     }
 }
 
@@ -485,10 +566,19 @@ fn datmo_bags_give_motion_capture_truth_that_scan_matching_agrees_with() {
             .pairs
             .iter()
             .filter(|p| {
-                p.truth.as_ref().unwrap().labels.as_ref().unwrap().contains(&Some(1))
+                p.truth
+                    .as_ref()
+                    .unwrap()
+                    .labels
+                    .as_ref()
+                    .unwrap()
+                    .contains(&Some(1))
             })
             .count();
-        assert!(movers >= mover_pairs_at_least, "{bag}: {movers} pairs with the car moving");
+        assert!(
+            movers >= mover_pairs_at_least,
+            "{bag}: {movers} pairs with the car moving"
+        );
         eprintln!("{bag}: {movers} of {pairs_k3} pairs at k = 3 with the car moving");
         // Consecutive scans: ICP from the identity agrees with the motion-capture
         // ego-motion to about a centimetre (the data README: 7 mm, 3.5 mrad median).
@@ -506,6 +596,9 @@ fn datmo_bags_give_motion_capture_truth_that_scan_matching_agrees_with() {
             v[v.len() / 2]
         };
         let (mt, mr) = (median(&mut t), median(&mut r));
-        assert!(mt < 0.015 && mr < 0.006, "{bag}: ICP vs truth {mt} m, {mr} rad");
+        assert!(
+            mt < 0.015 && mr < 0.006,
+            "{bag}: ICP vs truth {mt} m, {mr} rad"
+        );
     }
 }

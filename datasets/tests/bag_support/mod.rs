@@ -74,7 +74,10 @@ impl Ser {
     }
     /// A header: ROS 1 has a sequence number and `time`; ROS 2 `builtin_interfaces/Time`.
     pub fn header(&mut self, seq: u32, stamp_ns: u64, frame: &str) {
-        let (sec, nsec) = ((stamp_ns / 1_000_000_000) as u32, (stamp_ns % 1_000_000_000) as u32);
+        let (sec, nsec) = (
+            (stamp_ns / 1_000_000_000) as u32,
+            (stamp_ns % 1_000_000_000) as u32,
+        );
         match self.wire {
             Wire::Ros1 => {
                 self.u32(seq);
@@ -122,7 +125,11 @@ fn pose_definition() -> String {
 
 /// The message definition text of a type, as a bag of `ros1` or ROS 2 carries it.
 pub fn definition(type_name: &str, ros1: bool) -> String {
-    let header = if ros1 { "Header header" } else { "std_msgs/Header header" };
+    let header = if ros1 {
+        "Header header"
+    } else {
+        "std_msgs/Header header"
+    };
     match type_name {
         "sensor_msgs/LaserScan" => format!(
             "# Single scan from a planar laser range-finder\n{header}\n\
@@ -153,9 +160,22 @@ pub fn definition(type_name: &str, ros1: bool) -> String {
 /// One synthetic message.
 #[derive(Clone, Debug)]
 pub enum Msg {
-    Scan { stamp_ns: u64, ranges: Vec<f32> },
-    Odom { stamp_ns: u64, x: f64, y: f64, yaw: f64 },
-    Pose { stamp_ns: u64, x: f64, y: f64, yaw: f64 },
+    Scan {
+        stamp_ns: u64,
+        ranges: Vec<f32>,
+    },
+    Odom {
+        stamp_ns: u64,
+        x: f64,
+        y: f64,
+        yaw: f64,
+    },
+    Pose {
+        stamp_ns: u64,
+        x: f64,
+        y: f64,
+        yaw: f64,
+    },
 }
 
 /// A message on a topic at a record time.
@@ -190,7 +210,12 @@ pub fn serialise(msg: &Msg, seq: u32, wire: Wire) -> Vec<u8> {
             }
             s.u32(0);
         }
-        Msg::Odom { stamp_ns, x, y, yaw } => {
+        Msg::Odom {
+            stamp_ns,
+            x,
+            y,
+            yaw,
+        } => {
             s.header(seq, *stamp_ns, "odom");
             s.string("base_link");
             s.pose(*x, *y, *yaw);
@@ -204,7 +229,12 @@ pub fn serialise(msg: &Msg, seq: u32, wire: Wire) -> Vec<u8> {
                 s.f64(0.0);
             }
         }
-        Msg::Pose { stamp_ns, x, y, yaw } => {
+        Msg::Pose {
+            stamp_ns,
+            x,
+            y,
+            yaw,
+        } => {
             s.header(seq, *stamp_ns, "map");
             s.pose(*x, *y, *yaw);
         }
@@ -217,7 +247,12 @@ pub fn serialise(msg: &Msg, seq: u32, wire: Wire) -> Vec<u8> {
 fn ray(origin: (f64, f64), a: f64, boxes: &[((f64, f64), (f64, f64), f64)]) -> f64 {
     let (dx, dy) = (a.cos(), a.sin());
     let mut best = f64::INFINITY;
-    for (wall, d, o) in [(6.0, dx, origin.0), (-6.0, dx, origin.0), (4.0, dy, origin.1), (-4.0, dy, origin.1)] {
+    for (wall, d, o) in [
+        (6.0, dx, origin.0),
+        (-6.0, dx, origin.0),
+        (4.0, dy, origin.1),
+        (-4.0, dy, origin.1),
+    ] {
         if d.abs() > 1e-12 {
             let t = (wall - o) / d;
             if t > 0.0 {
@@ -292,7 +327,12 @@ pub fn drive(n: usize) -> Vec<Record> {
             topic: "/ego_pose",
             type_name: "geometry_msgs/PoseStamped",
             time_ns: t0 + t + 500_000,
-            msg: Msg::Pose { stamp_ns: t0 + t, x, y, yaw },
+            msg: Msg::Pose {
+                stamp_ns: t0 + t,
+                x,
+                y,
+                yaw,
+            },
         });
         let (bx, by, byaw) = box_pose(secs);
         out.push(Record {
@@ -391,7 +431,10 @@ pub fn ros1_bag(records: &[Record]) -> Vec<u8> {
     for r in records {
         let s = seq.entry(r.topic).or_insert(0);
         *s += 1;
-        let (sec, nsec) = ((r.time_ns / 1_000_000_000) as u32, (r.time_ns % 1_000_000_000) as u32);
+        let (sec, nsec) = (
+            (r.time_ns / 1_000_000_000) as u32,
+            (r.time_ns % 1_000_000_000) as u32,
+        );
         let time = [sec.to_le_bytes(), nsec.to_le_bytes()].concat();
         chunk.extend(ros1_record(
             &[
@@ -435,7 +478,11 @@ pub fn ros1_bag(records: &[Record]) -> Vec<u8> {
 }
 
 /// An MCAP file (ROS 2: `ros2msg` schemas, CDR messages) holding `records`.
-pub fn mcap_bag(records: &[Record], big_endian: bool, compression: Option<mcap::Compression>) -> Vec<u8> {
+pub fn mcap_bag(
+    records: &[Record],
+    big_endian: bool,
+    compression: Option<mcap::Compression>,
+) -> Vec<u8> {
     let mut out = Cursor::new(Vec::new());
     {
         let mut w = mcap::WriteOptions::new()
@@ -449,7 +496,11 @@ pub fn mcap_bag(records: &[Record], big_endian: bool, compression: Option<mcap::
             if !channels.contains_key(r.topic) {
                 let ros2_name = r.type_name.replacen('/', "/msg/", 1);
                 let schema = w
-                    .add_schema(&ros2_name, "ros2msg", definition(r.type_name, false).as_bytes())
+                    .add_schema(
+                        &ros2_name,
+                        "ros2msg",
+                        definition(r.type_name, false).as_bytes(),
+                    )
                     .expect("schema");
                 let channel = w
                     .add_channel(schema, r.topic, "cdr", &BTreeMap::new())
