@@ -4,11 +4,9 @@
 //! of its text export; the datmo bags give motion-capture truth that scan matching
 //! agrees with). Real-data tests skip without the folder and fail under CI=true.
 
-mod bag_support;
-
-use bag_support::*;
 use pgm_datasets::bag::container::check_ros1_bytes;
 use pgm_datasets::bag::pairs::{bag_pairs, BagPairOptions};
+use pgm_datasets::bag::synthetic::*;
 use pgm_datasets::bag::{read_bag, BagLog, BagTopics};
 use pgm_datasets::builders::{summarize_leigh_pairs, LabelRule, LeighPairOptions};
 use pgm_datasets::mocap::{Footprint, MocapOptions};

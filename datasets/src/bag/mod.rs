@@ -40,6 +40,7 @@ pub mod container;
 pub mod decode;
 pub mod msgdef;
 pub mod pairs;
+pub mod synthetic;
 
 use crate::error::{limits, Error, Result};
 use container::{read_container, BagFormat, RawMessage, ReadError, TopicInfo};
