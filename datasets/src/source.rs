@@ -48,6 +48,8 @@ pub enum SourceKind {
 }
 
 /// A source of scan pairs.
+// Built once per command; boxing the bag options would only make them clumsier to write.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug, PartialEq)]
 pub enum PairSource {
     /// A stored data set: a directory, its `index.json`, or one pair file.

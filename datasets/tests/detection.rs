@@ -46,7 +46,7 @@ impl MotionClusterer for Fixed {
 
 fn labels(spec: &str) -> Vec<Option<u32>> {
     spec.chars()
-        .map(|c| c.to_digit(10).map(|d| d as u32))
+        .map(|c| c.to_digit(10))
         .collect()
 }
 

@@ -272,7 +272,9 @@ pub fn bag(data: &[u8]) {
         assert!(s.stamp.is_finite() && s.time.is_finite());
     }
     for track in [&log.odometry, &log.ego_poses, &log.object_poses] {
-        assert!(track.iter().all(|p| p.pose.is_finite() && p.stamp.is_finite()));
+        assert!(track
+            .iter()
+            .all(|p| p.pose.is_finite() && p.stamp.is_finite()));
         assert!(track.windows(2).all(|w| w[0].stamp <= w[1].stamp), "sorted");
     }
     for k in 1..=2 {

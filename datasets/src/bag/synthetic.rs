@@ -287,7 +287,10 @@ pub fn serialise(msg: &Msg, seq: u32, wire: Wire) -> Vec<u8> {
 
 /// Range of a ray from `origin` at world angle `a` to the walls of the room
 /// `[-6, 6] × [-4, 4]` or to a box (centre, half sizes, yaw), whichever is nearer.
-fn ray(origin: (f64, f64), a: f64, boxes: &[((f64, f64), (f64, f64), f64)]) -> f64 {
+/// A box: centre, half sizes, yaw.
+type Box2 = ((f64, f64), (f64, f64), f64);
+
+fn ray(origin: (f64, f64), a: f64, boxes: &[Box2]) -> f64 {
     let (dx, dy) = (a.cos(), a.sin());
     let mut best = f64::INFINITY;
     for (wall, d, o) in [
@@ -336,7 +339,7 @@ pub fn robot_pose(t: f64) -> (f64, f64, f64) {
 }
 /// The box's true pose at time `t` (s after 100 s).
 pub fn box_pose(t: f64) -> (f64, f64, f64) {
-    (1.5, -2.5 + 1.0 * t, 1.5707963)
+    (1.5, -2.5 + 1.0 * t, std::f64::consts::FRAC_PI_2)
 }
 /// The laser's mounting on the robot.
 pub const MOUNT: (f64, f64, f64) = (0.2, 0.0, 0.0);
