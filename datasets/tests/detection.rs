@@ -45,9 +45,7 @@ impl MotionClusterer for Fixed {
 }
 
 fn labels(spec: &str) -> Vec<Option<u32>> {
-    spec.chars()
-        .map(|c| c.to_digit(10))
-        .collect()
+    spec.chars().map(|c| c.to_digit(10)).collect()
 }
 
 fn motion(label: u32, x: f64, theta: f64) -> ClusterMotion {
