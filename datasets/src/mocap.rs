@@ -342,8 +342,12 @@ mod tests {
             centre_x: 0.057,
             centre_y: 0.028,
         };
-        // A current scan with one beam on the car's centre.
-        let options = MocapOptions::default();
+        // A current scan with one beam on the car's centre (the tracks here have one
+        // sample a second).
+        let options = MocapOptions {
+            max_pose_gap: 2.0,
+            ..MocapOptions::default()
+        };
         let (t_i, t_j) = (0.2, 0.8);
         let l_j = ego.at(t_j, 1.0).unwrap().compose(&mount);
         let c_j = car.at(t_j, 1.0).unwrap();

@@ -7,9 +7,19 @@
 //! - `pgm data pairs --scans FILE --people FILE [--odometry FILE] --k K
 //!   [--moving-threshold M] --out DIR`: leigh-gtm1 pairs `K` scans apart with
 //!   moving-person labels (without odometry only `--moving-threshold 0` works).
-//! - `pgm data summary --scans FILE --people FILE [--odometry FILE] [--k 1,3,5]
-//!   [--moving-threshold M] [--json]`: for each `k`, the number of pairs, valid returns
-//!   per scan, moving-person returns per pair and pairs with a moving person.
+//! - `pgm data pairs --bag FILE --scan-topic T [--odom-topic T] [--people-topic T]
+//!   [--ego-pose-topic T [--object-pose-topic T --object-footprint L,W,CX,CY]]
+//!   [--laser-mount X,Y,YAW] [--pose-delay S] [--label-margin M] [--object-min-speed V]
+//!   --k K --out DIR`: pairs of a ROS bag `K` scans apart with the ground truth its
+//!   topics give ([`pgm_datasets::bag::pairs`]).
+//! - `pgm data summary (--scans FILE --people FILE [--odometry FILE] | --bag FILE
+//!   --scan-topic T --odom-topic T --people-topic T) [--k 1,3,5] [--json]`: for each
+//!   `k` and each labelling rule (track, displacement), the number of pairs, valid
+//!   returns per scan, moving-person returns per pair and pairs with a moving person.
+//!
+//! leigh-gtm1 labels follow `--labels track` (default; `--walking-speed`,
+//! `--track-window`) or `--labels displacement` (`--moving-threshold`,
+//! `--unannotated`).
 //!
 //! Pairs are written in the format of `datasets/FORMAT.md`
 //! ([`pgm_datasets::format`]). Notes (skipped lines, unmatched relations) go to stderr.

@@ -5,11 +5,19 @@
 //! [--odometry FILE] --k K [--moving-threshold M]) [--associations NAME] [--weights
 //! FILE] [--json]` scores every pair with ground-truth labels
 //! ([`pgm_datasets::evaluation::evaluate_clustering`]) and prints the mean and standard
-//! deviation over pairs. The methods and association sources are those of
-//! [`pgm::methods`]. `--json` prints one object `{"method", "pairs",
+//! deviation over pairs, and the detection metrics
+//! ([`pgm_datasets::evaluation::DetectionSummary`]; `--min-object-returns N`, default
+//! 5). The data may also come from a bag (`--bag FILE --scan-topic T …`, see `pgm data
+//! pairs`). The methods and association sources are those of [`pgm::methods`].
+//! `--json` prints one object `{"method", "data", "weights", "pairs",
 //! "homogeneity_mean", "homogeneity_std", "completeness_mean", "completeness_std",
 //! "v_measure_mean", "v_measure_std", "iterations_mean", "objects_found",
-//! "objects_total", "centroid_error_median", "rotation_error_median"}`. Without
+//! "objects_total", "centroid_error_median", "rotation_error_median",
+//! "min_object_returns", "objects_counted", "objects_detected", "object_recall",
+//! "false_alarms_per_pair", "pairs_without_mover", "false_alarm_pair_share",
+//! "moving_precision", "moving_recall", "object_translation_error_median",
+//! "object_rotation_error_median", "mover_pairs", "v_measure_mover_pairs"}` (`null`
+//! where a figure has nothing to be computed from). Without
 //! odometry the ego-motion comes from the model itself (the largest cluster) or from
 //! ICP (CBD, associations). `--no-prior` hides the pairs' odometry prior from the
 //! methods while the labels still use it (leigh-gtm1 needs odometry to decide who
