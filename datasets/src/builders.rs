@@ -518,21 +518,7 @@ pub fn leigh_pairs(
             ),
         });
     }
-    let tracks = match options.rule {
-        LabelRule::Track if options.walking_speed > 0.0 => Some(Tracks {
-            world: leigh_annotations_in_odometry_frame(scans, people).map_err(|e| {
-                Error::Mismatch {
-                    what: format!(
-                        "{e}; the track rule needs odometry (or a walking speed of 0, \
-                         which makes every annotated person a mover)"
-                    ),
-                }
-            })?,
-            period: scan_period(scans),
-            window: options.track_window,
-        }),
-        _ => None,
-    };
+
     let mut by_scan: BTreeMap<usize, BTreeMap<u32, Point2<f64>>> = BTreeMap::new();
     for a in people {
         by_scan
@@ -557,6 +543,21 @@ pub fn leigh_pairs(
             });
         }
     }
+    let tracks = match options.rule {
+        LabelRule::Track if options.walking_speed > 0.0 => Some(Tracks {
+            world: leigh_annotations_in_odometry_frame(scans, people).map_err(|e| {
+                Error::Mismatch {
+                    what: format!(
+                        "{e}; the track rule needs odometry (or a walking speed of 0, \
+                         which makes every annotated person a mover)"
+                    ),
+                }
+            })?,
+            period: scan_period(scans),
+            window: options.track_window,
+        }),
+        _ => None,
+    };
     let mut pairs = Vec::new();
     for (&i, people_i) in &by_scan {
         let Some(j) = i.checked_add(options.k) else {
