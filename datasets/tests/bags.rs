@@ -127,6 +127,33 @@ fn ros1_and_ros2_bags_written_here_read_back_identically() {
             "{name}"
         );
     }
+    // ROS 1 chunks compressed with bz2 and lz4 (rosbag record --bz2, --lz4).
+    let bz2 = |chunk: &[u8]| {
+        let mut out = Vec::new();
+        let mut e = bzip2::read::BzEncoder::new(chunk, bzip2::Compression::best());
+        std::io::Read::read_to_end(&mut e, &mut out).unwrap();
+        out
+    };
+    let lz4 = |chunk: &[u8]| {
+        let mut e = lz4::EncoderBuilder::new().build(Vec::new()).unwrap();
+        std::io::Write::write_all(&mut e, chunk).unwrap();
+        let (out, result) = e.finish();
+        result.unwrap();
+        out
+    };
+    for (name, compression, compress) in [
+        ("bz2.bag", "bz2", &bz2 as &dyn Fn(&[u8]) -> Vec<u8>),
+        ("lz4.bag", "lz4", &lz4),
+    ] {
+        let bytes = ros1_bag_compressed(&records, compression, compress);
+        assert!(bytes.len() < ros1_bag(&records).len(), "{name} compressed");
+        let p = write(&dir, name, &bytes);
+        assert_eq!(
+            content(&read_bag(&p, &all_topics()).unwrap()),
+            content(&a),
+            "{name}"
+        );
+    }
     // A ROS 2 bag directory (split into two files) and a zipped bag.
     let bagdir = dir.join("rosbag2_drive");
     std::fs::create_dir_all(&bagdir).unwrap();

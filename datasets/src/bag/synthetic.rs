@@ -448,6 +448,16 @@ fn ros1_record(header: &[Vec<u8>], data: &[u8]) -> Vec<u8> {
 
 /// A ROS 1 bag (format 2.0, one uncompressed chunk) holding `records`.
 pub fn ros1_bag(records: &[Record]) -> Vec<u8> {
+    ros1_bag_compressed(records, "none", &|chunk| chunk.to_vec())
+}
+
+/// A ROS 1 bag whose one chunk is stored as `compress` makes it and declared as
+/// `compression` (`none`, `bz2` or `lz4`: the caller brings the compressor).
+pub fn ros1_bag_compressed(
+    records: &[Record],
+    compression: &str,
+    compress: &dyn Fn(&[u8]) -> Vec<u8>,
+) -> Vec<u8> {
     let mut conns: BTreeMap<&str, (u32, &str)> = BTreeMap::new();
     for r in records {
         let n = conns.len() as u32;
@@ -495,10 +505,10 @@ pub fn ros1_bag(records: &[Record]) -> Vec<u8> {
     let chunk_record = ros1_record(
         &[
             ros1_field("op", &[5]),
-            ros1_field("compression", b"none"),
+            ros1_field("compression", compression.as_bytes()),
             ros1_field("size", &(chunk.len() as u32).to_le_bytes()),
         ],
-        &chunk,
+        &compress(&chunk),
     );
     let mut index = Vec::new();
     for (topic, (id, type_name)) in &conns {
