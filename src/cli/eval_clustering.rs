@@ -9,7 +9,7 @@
 //! ([`pgm_datasets::evaluation::DetectionSummary`]; `--min-object-returns N`, default
 //! 5). The data may also come from a bag (`--bag FILE --scan-topic T …`, see `pgm data
 //! pairs`). The methods and association sources are those of [`pgm::methods`].
-//! `--json` prints one object `{"method", "data", "weights", "pairs",
+//! `--json` prints one object `{"method", "data", "pair_sets", "weights", "pairs",
 //! "homogeneity_mean", "homogeneity_std", "completeness_mean", "completeness_std",
 //! "v_measure_mean", "v_measure_std", "iterations_mean", "objects_found",
 //! "objects_total", "centroid_error_median", "rotation_error_median",
@@ -96,6 +96,9 @@ pub struct ClusteringEvalArgs {
 struct Report<'a> {
     method: &'a str,
     data: String,
+    /// The distinct pair-name prefixes (`sim:PRESET:SEED`, `leigh-gtm1`, a bag's stem):
+    /// which sets and seeds the pairs come from.
+    pair_sets: Vec<String>,
     weights: String,
     #[serde(flatten)]
     summary: &'a pgm_datasets::evaluation::ClusteringSummary,
@@ -200,10 +203,22 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
             ""
         }
     );
+    let pair_sets: Vec<String> = pairs
+        .iter()
+        .map(|p| {
+            p.name
+                .rsplit_once(':')
+                .map_or(p.name.as_str(), |(set, _)| set)
+                .to_string()
+        })
+        .collect::<std::collections::BTreeSet<_>>()
+        .into_iter()
+        .collect();
     if args.json {
         let json = Report {
             method: &report.method,
             data,
+            pair_sets,
             weights,
             detection: DetectionFields::from(&report.detection),
             summary: &summary,
@@ -221,6 +236,10 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
     println!(
         "method {}: {} pairs of {data}",
         report.method, summary.pairs
+    );
+    println!(
+        "pair sets (names before the last `:`): {}",
+        pair_sets.join(", ")
     );
     if clusterer_needs_associations(&args.method) || args.method == "crf" {
         println!("weights {weights}");
