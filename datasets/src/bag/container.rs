@@ -478,82 +478,217 @@ fn read_ros1<E>(
 // ---------------------------------------------------------------------------------
 // MCAP
 
+/// A little-endian reader over one MCAP record's body, every length checked against
+/// the bytes left.
+struct Body<'a> {
+    data: &'a [u8],
+    pos: usize,
+    what: &'static str,
+}
+
+impl<'a> Body<'a> {
+    fn take(&mut self, n: usize, field: &str) -> Result<&'a [u8], String> {
+        let left = self.data.len() - self.pos;
+        if n > left {
+            return Err(format!(
+                "{} record: field {field} needs {n} bytes, {left} left in the record",
+                self.what
+            ));
+        }
+        let s = &self.data[self.pos..self.pos + n];
+        self.pos += n;
+        Ok(s)
+    }
+    fn u16(&mut self, field: &str) -> Result<u16, String> {
+        let b = self.take(2, field)?;
+        Ok(u16::from_le_bytes([b[0], b[1]]))
+    }
+    fn u32(&mut self, field: &str) -> Result<u32, String> {
+        let b = self.take(4, field)?;
+        Ok(u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+    }
+    fn u64(&mut self, field: &str) -> Result<u64, String> {
+        let b = self.take(8, field)?;
+        let mut a = [0u8; 8];
+        a.copy_from_slice(b);
+        Ok(u64::from_le_bytes(a))
+    }
+    fn bytes(&mut self, field: &str) -> Result<&'a [u8], String> {
+        let n = self.u32(field)? as usize;
+        self.take(n, field)
+    }
+    fn string(&mut self, field: &str) -> Result<String, String> {
+        let b = self.bytes(field)?;
+        String::from_utf8(b.to_vec())
+            .map_err(|_| format!("{} record: field {field} is not UTF-8", self.what))
+    }
+    fn rest(&mut self) -> &'a [u8] {
+        let s = &self.data[self.pos..];
+        self.pos = self.data.len();
+        s
+    }
+}
+
+/// A schema record: name, encoding, definition.
+struct SchemaRecord {
+    name: String,
+    encoding: String,
+    data: String,
+}
+
 /// Reads an MCAP file held in memory (the fuzz target's entry point too).
+///
+/// The records are read with the `mcap` crate's sans-io reader (record framing, chunk
+/// decompression, every record at most as long as the file), and the three records
+/// the bag reader needs (schema, channel, message) are parsed here with every length
+/// checked against the record; other records are skipped. (The crate's own record
+/// parser reserves a string's declared length before reading it, up to 4 GiB.)
 pub fn read_mcap<E>(
     bytes: &[u8],
     wanted: &[&str],
     callback: &mut Callback<'_, E>,
 ) -> Result<ContainerSummary, ReadError<E>> {
+    use mcap::records::op;
+    use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
     let cerr = |s: String| container::<E>(s);
-    let stream = mcap::MessageStream::new(bytes).map_err(|e| cerr(format!("MCAP: {e}")))?;
+    let mut reader = LinearReader::new_with_options(
+        LinearReaderOptions::default().with_record_length_limit(bytes.len()),
+    );
+    let mut fed = 0usize;
     let mut counts: BTreeMap<String, (String, usize)> = BTreeMap::new();
-    let mut connections: BTreeMap<u16, Connection> = BTreeMap::new();
-    for (k, message) in stream.enumerate() {
-        let message = message.map_err(|e| cerr(format!("MCAP, message {}: {e}", k + 1)))?;
-        let channel = &message.channel;
-        let connection = match connections.get(&channel.id) {
-            Some(c) => c,
-            None => {
-                let (type_name, definition, dialect) = match &channel.schema {
-                    Some(schema) => {
-                        let dialect =
-                            match (schema.encoding.as_str(), channel.message_encoding.as_str()) {
-                                ("ros2msg", "cdr") => Some(Dialect::Ros2),
-                                ("ros1msg", "ros1") => Some(Dialect::Ros1),
-                                _ => None,
-                            };
-                        (
-                            schema.name.clone(),
-                            String::from_utf8_lossy(&schema.data).into_owned(),
-                            dialect,
-                        )
-                    }
-                    None => (String::new(), String::new(), None),
+    let mut schemas: BTreeMap<u16, SchemaRecord> = BTreeMap::new();
+    let mut connections: BTreeMap<u16, Option<Connection>> = BTreeMap::new();
+    // Channels whose messages are not read (no ROS schema): their topics, for counting.
+    let mut unread_topics: BTreeMap<u16, String> = BTreeMap::new();
+    let mut record_number = 0usize;
+    while let Some(event) = reader.next_event() {
+        let event = event.map_err(|e| cerr(format!("MCAP, after record {record_number}: {e}")))?;
+        let (opcode, data) = match event {
+            LinearReadEvent::ReadRequest(need) => {
+                let n = need.min(bytes.len() - fed);
+                let buffer = reader.insert(n);
+                buffer[..n].copy_from_slice(&bytes[fed..fed + n]);
+                reader.notify_read(n);
+                fed += n;
+                continue;
+            }
+            LinearReadEvent::Record { opcode, data } => (opcode, data),
+        };
+        record_number += 1;
+        let at = |e: String| cerr(format!("MCAP, record {record_number}: {e}"));
+        match opcode {
+            op::SCHEMA => {
+                let mut b = Body {
+                    data,
+                    pos: 0,
+                    what: "schema",
                 };
-                let Some(dialect) = dialect else {
-                    if wanted.contains(&channel.topic.as_str()) {
-                        let schema = channel
-                            .schema
-                            .as_ref()
-                            .map_or("no schema".to_string(), |s| {
-                                format!("schema encoding {:?}", s.encoding)
-                            });
+                let id = b.u16("id").map_err(at)?;
+                let name = b.string("name").map_err(at)?;
+                let encoding = b.string("encoding").map_err(at)?;
+                let data = String::from_utf8_lossy(b.bytes("data").map_err(at)?).into_owned();
+                schemas.entry(id).or_insert(SchemaRecord {
+                    name,
+                    encoding,
+                    data,
+                });
+            }
+            op::CHANNEL => {
+                let mut b = Body {
+                    data,
+                    pos: 0,
+                    what: "channel",
+                };
+                let id = b.u16("id").map_err(at)?;
+                let schema_id = b.u16("schema_id").map_err(at)?;
+                let topic = b.string("topic").map_err(at)?;
+                let message_encoding = b.string("message_encoding").map_err(at)?;
+                if connections.contains_key(&id) {
+                    continue;
+                }
+                let schema = schemas.get(&schema_id);
+                if schema_id != 0 && schema.is_none() {
+                    return Err(at(format!(
+                        "channel {id} (topic {topic}) names schema {schema_id}, which no earlier \
+                         record defines"
+                    )));
+                }
+                let dialect =
+                    schema.and_then(|s| match (s.encoding.as_str(), message_encoding.as_str()) {
+                        ("ros2msg", "cdr") => Some(Dialect::Ros2),
+                        ("ros1msg", "ros1") => Some(Dialect::Ros1),
+                        _ => None,
+                    });
+                let type_name = schema.map_or(String::new(), |s| s.name.clone());
+                counts
+                    .entry(topic.clone())
+                    .or_insert_with(|| (type_name.clone(), 0));
+                match dialect {
+                    Some(dialect) => {
+                        connections.insert(
+                            id,
+                            Some(Connection {
+                                topic,
+                                type_name,
+                                definition: schema.map_or(String::new(), |s| s.data.clone()),
+                                dialect,
+                            }),
+                        );
+                    }
+                    None if wanted.contains(&topic.as_str()) => {
+                        let what = schema.map_or("no schema".to_string(), |s| {
+                            format!("schema encoding {:?}", s.encoding)
+                        });
                         return Err(cerr(format!(
-                            "topic {}: message encoding {:?} with {schema}; only ROS 2 CDR with \
-                             ros2msg schemas and ROS 1 messages with ros1msg schemas are read",
-                            channel.topic, channel.message_encoding
+                            "topic {topic}: message encoding {message_encoding:?} with {what}; \
+                             only ROS 2 CDR with ros2msg schemas and ROS 1 messages with \
+                             ros1msg schemas are read"
                         )));
                     }
-                    let entry = counts
-                        .entry(channel.topic.clone())
-                        .or_insert_with(|| (type_name.clone(), 0));
-                    entry.1 += 1;
+                    None => {
+                        unread_topics.insert(id, topic);
+                        connections.insert(id, None);
+                    }
+                }
+            }
+            op::MESSAGE => {
+                let mut b = Body {
+                    data,
+                    pos: 0,
+                    what: "message",
+                };
+                let channel = b.u16("channel_id").map_err(at)?;
+                b.u32("sequence").map_err(at)?;
+                let log_time = b.u64("log_time").map_err(at)?;
+                b.u64("publish_time").map_err(at)?;
+                let payload = b.rest();
+                let Some(known) = connections.get(&channel) else {
+                    return Err(at(format!(
+                        "a message on channel {channel} before that channel's record"
+                    )));
+                };
+                let Some(connection) = known else {
+                    if let Some(entry) = unread_topics.get(&channel).and_then(|t| counts.get_mut(t))
+                    {
+                        entry.1 += 1;
+                    }
                     continue;
                 };
-                connections.insert(
-                    channel.id,
-                    Connection {
-                        topic: channel.topic.clone(),
-                        type_name,
-                        definition,
-                        dialect,
-                    },
-                );
-                &connections[&channel.id]
+                let entry = counts
+                    .entry(connection.topic.clone())
+                    .or_insert_with(|| (connection.type_name.clone(), 0));
+                entry.1 += 1;
+                if wanted.contains(&connection.topic.as_str()) {
+                    callback(RawMessage {
+                        connection,
+                        time: log_time,
+                        number: entry.1,
+                        data: payload,
+                    })
+                    .map_err(ReadError::Message)?;
+                }
             }
-        };
-        let entry = counts
-            .entry(connection.topic.clone())
-            .or_insert_with(|| (connection.type_name.clone(), 0));
-        entry.1 += 1;
-        if wanted.contains(&connection.topic.as_str()) {
-            callback(RawMessage {
-                connection,
-                time: message.log_time,
-                number: entry.1,
-                data: &message.data,
-            })
-            .map_err(ReadError::Message)?;
+            _ => {}
         }
     }
     Ok(ContainerSummary {
