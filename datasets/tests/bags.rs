@@ -403,6 +403,21 @@ fn malformed_bags_are_errors_naming_topic_message_and_field() {
         }
     }
     assert!(errors * 10 > good_mcap.len() / 101 * 8, "{errors} errors");
+    // A schema whose name claims 4 GB (found by fuzzing: the mcap crate's record parser
+    // reserved it): an error naming the record and field, nothing that large allocated.
+    let mut bytes = mcap_bag(&records, false, None);
+    let name = b"sensor_msgs/msg/LaserScan";
+    let at = bytes.windows(name.len()).position(|w| w == name).unwrap();
+    bytes[at - 4..at].copy_from_slice(&0xFFFF_FFF0u32.to_le_bytes());
+    let p = write(&dir, "schema.mcap", &bytes);
+    expect_bag_error(
+        read_bag(&p, &all_topics()),
+        &[
+            "schema.mcap",
+            "schema record",
+            "field name needs 4294967280 bytes",
+        ],
+    );
     // A definition that names a type it does not define.
     let mut bytes = good.clone();
     let needle = b"MSG: geometry_msgs/Point";
