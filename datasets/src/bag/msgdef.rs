@@ -375,9 +375,14 @@ impl Definitions {
                 t.fields[k].ty = FieldType::Message(full);
             }
         }
-        // Cycles and depth: depth-first from the root.
-        let mut stack = Vec::new();
-        self.check_depth(&self.root.clone(), &mut stack)
+        // Cycles and depth: depth-first from every type (a type the root does not use
+        // is still walked by the decoder's size table, found by fuzzing).
+        let names: Vec<String> = self.types.keys().cloned().collect();
+        for name in std::iter::once(self.root.clone()).chain(names) {
+            let mut stack = Vec::new();
+            self.check_depth(&name, &mut stack)?;
+        }
+        Ok(())
     }
 
     fn check_depth(&self, name: &str, stack: &mut Vec<String>) -> Result<(), DefinitionError> {
@@ -538,6 +543,11 @@ mod tests {
         let e = Definitions::parse("a/B", "Missing m\n", Dialect::Ros1).unwrap_err();
         assert!(e.problem.contains("does not define"), "{e}");
         let e = Definitions::parse("a/B", "B inner\n", Dialect::Ros1).unwrap_err();
+        assert!(e.problem.contains("contains itself"), "{e}");
+        // A recursive type the root does not use (found by fuzzing: the decoder's size
+        // table recursed on it without end).
+        let text = "float32 x\n===\nMSG: std_msgs/Header\nHeader seq\n";
+        let e = Definitions::parse("a/B", text, Dialect::Ros1).unwrap_err();
         assert!(e.problem.contains("contains itself"), "{e}");
         let e = Definitions::parse("a/B", "float64\n", Dialect::Ros1).unwrap_err();
         assert!(e.problem.contains("type and a name"), "{e}");
