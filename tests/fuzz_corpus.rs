@@ -67,3 +67,13 @@ fn index_json_corpus() {
 fn weights_json_corpus() {
     run("weights_json", harness::weights_json);
 }
+
+#[test]
+fn bag_corpus() {
+    run("bag", harness::bag);
+}
+
+#[test]
+fn ros_message_corpus() {
+    run("ros_message", harness::ros_message);
+}

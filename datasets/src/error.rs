@@ -88,6 +88,17 @@ pub enum Error {
         /// What is wrong.
         problem: String,
     },
+    /// A bag (ROS 1, MCAP) that cannot be read as asked: the file, then where in it
+    /// (topic, message number and record time, field) and what is wrong.
+    #[error("{}{location}: {problem}", path.display())]
+    Bag {
+        /// The bag file.
+        path: PathBuf,
+        /// Where in the bag.
+        location: crate::bag::BagLocation,
+        /// What is wrong.
+        problem: String,
+    },
     /// Two inputs that must agree do not (for example odometry and scans, or the
     /// arguments of a metric).
     #[error("{what}")]

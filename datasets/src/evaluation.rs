@@ -19,6 +19,27 @@
 //! true motion is the annotated displacement of the person's centre (with the
 //! odometry's rotation), so only the centroid error is meaningful there.
 //!
+//! **Detection** (issue 18; [`DetectionSummary`], computed over the labelled returns of
+//! each pair's current scan). A true moving object is a label > 0 with at least one
+//! return. It is *detected* when one reported moving cluster (predicted label > 0)
+//! holds at least half of the object's returns and at least half of that cluster's
+//! returns are the object's. Objects with fewer than
+//! [`DetectionOptions::min_object_returns`] returns (default 5) are left out of the
+//! recall (`object_recall` = detected / counted objects). A reported moving cluster is
+//! a *false alarm* when fewer than half of its returns belong to any true moving object
+//! (so a cluster on a small object left out of the recall is not one);
+//! `false_alarms_per_pair` is their number over all pairs divided by the pairs, and
+//! `false_alarm_pair_share` the share of the pairs without a labelled mover in which
+//! something is reported moving. `moving_precision` and `moving_recall` are point-level,
+//! pooled over all pairs: returns predicted moving that are moving, over those predicted
+//! moving, and over those moving. The motion error of the detected (and counted)
+//! objects with a known true motion is summarised by its median:
+//! `object_translation_error_median` is the distance between where the estimated and
+//! the true motion put the object's centroid (m), `object_rotation_error_median` the
+//! rotation error (rad). `v_measure_mean` is the mean V-measure over all pairs and
+//! `v_measure_mover_pairs` over the pairs with a labelled mover only: on a pair without
+//! a mover the V-measure is all or nothing (1 for one cluster, 0 for any split).
+//!
 //! **Scan matching.** The translation and rotation error of the estimated ego-motion
 //! ([`crate::metrics::motion_error`]) summarised by median and 90th percentile
 //! ([`evaluate_matching`]); a pair the method cannot run on keeps the prior and, like
@@ -63,6 +84,94 @@ pub struct ClusteringOutcome {
     pub motion_errors: Vec<ObjectMotionError>,
     /// The predicted labels, per beam of the current scan.
     pub labels: Vec<Option<u32>>,
+    /// Detection of each true moving object (module docs).
+    pub objects: Vec<ObjectDetection>,
+    /// Reported moving clusters that are false alarms.
+    pub false_alarms: usize,
+    /// Whether the pair has a labelled mover (a return with a true label > 0).
+    pub has_mover: bool,
+    /// Whether the method reported something moving (a labelled return with a
+    /// predicted label > 0).
+    pub reported_moving: bool,
+    /// Point-level counts over the labelled returns.
+    pub moving_points: MovingPoints,
+}
+
+/// Options of the detection metrics.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub struct DetectionOptions {
+    /// Objects with fewer returns in the current scan are left out of the recall.
+    pub min_object_returns: usize,
+}
+
+impl Default for DetectionOptions {
+    fn default() -> Self {
+        Self {
+            min_object_returns: 5,
+        }
+    }
+}
+
+/// How one true moving object fared.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct ObjectDetection {
+    /// Its true label.
+    pub label: u32,
+    /// Its returns in the current scan.
+    pub returns: usize,
+    /// Whether it counts for the recall (at least the minimum number of returns).
+    pub counted: bool,
+    /// Whether a reported moving cluster found it (module docs).
+    pub detected: bool,
+    /// The motion error, when detected, with a known true motion and a motion estimate
+    /// for the cluster.
+    pub error: Option<ObjectMotionError>,
+}
+
+/// Point-level counts over the labelled returns of one pair.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct MovingPoints {
+    /// Returns predicted moving that are moving.
+    pub true_positive: usize,
+    /// Returns predicted moving.
+    pub predicted: usize,
+    /// Returns that are moving.
+    pub actual: usize,
+}
+
+/// The detection metrics over all pairs (module docs; the field names are those of
+/// the `pgm eval clustering --json` object).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct DetectionSummary {
+    /// Objects with fewer returns were left out of the recall.
+    pub min_object_returns: usize,
+    /// True moving objects counted for the recall.
+    pub objects_counted: usize,
+    /// Of those, detected.
+    pub objects_detected: usize,
+    /// `objects_detected / objects_counted` (`None` without a counted object).
+    pub object_recall: Option<f64>,
+    /// False alarms over all pairs divided by the number of pairs.
+    pub false_alarms_per_pair: f64,
+    /// Pairs without a labelled mover.
+    pub pairs_without_mover: usize,
+    /// Share of the pairs without a labelled mover in which something is reported
+    /// moving (`None` without such pairs).
+    pub false_alarm_pair_share: Option<f64>,
+    /// Point-level precision of "moving" (`None` when nothing is predicted moving).
+    pub moving_precision: Option<f64>,
+    /// Point-level recall of "moving" (`None` when nothing moves).
+    pub moving_recall: Option<f64>,
+    /// Median centroid error (m) of the detected objects with motions.
+    pub object_translation_error_median: Option<f64>,
+    /// Median rotation error (rad) of the detected objects with motions.
+    pub object_rotation_error_median: Option<f64>,
+    /// Mean V-measure over all pairs.
+    pub v_measure_mean: f64,
+    /// Pairs with a labelled mover.
+    pub mover_pairs: usize,
+    /// Mean V-measure over the pairs with a labelled mover (`None` without such pairs).
+    pub v_measure_mover_pairs: Option<f64>,
 }
 
 /// Mean and standard deviation over pairs (the `--json` object of
@@ -111,6 +220,8 @@ pub struct ClusteringReport {
     pub summary: ClusteringSummary,
     /// Motion errors of the found objects.
     pub found_objects: FoundObjects,
+    /// The detection metrics.
+    pub detection: DetectionSummary,
 }
 
 /// Whether a pair can score a clustering: it has ground-truth labels with at least one
@@ -130,6 +241,18 @@ pub fn scorable_for_clustering(pair: &ScanPair) -> bool {
 pub fn evaluate_clustering_pair(
     pair: &ScanPair,
     method: &dyn MotionClusterer,
+) -> Result<ClusteringOutcome> {
+    evaluate_clustering_pair_with(pair, method, &DetectionOptions::default())
+}
+
+/// [`evaluate_clustering_pair`] with the given detection options.
+///
+/// # Errors
+/// As [`evaluate_clustering_pair`].
+pub fn evaluate_clustering_pair_with(
+    pair: &ScanPair,
+    method: &dyn MotionClusterer,
+    detection: &DetectionOptions,
 ) -> Result<ClusteringOutcome> {
     let truth = pair
         .truth
@@ -151,7 +274,18 @@ pub fn evaluate_clustering_pair(
             what: e.to_string(),
         })?;
     let motions: HashMap<u32, Pose2> = result.motions.iter().map(|m| (m.label, m.motion)).collect();
+    if result.labels.len() != truth.len() {
+        return Err(Error::Unscorable {
+            pair: pair.name.clone(),
+            what: format!(
+                "{} predicted labels for {} beams",
+                result.labels.len(),
+                truth.len()
+            ),
+        });
+    }
     let (true_objects, motion_errors) = object_motion_errors(pair, truth, &result.labels, &motions);
+    let scored = detect(pair, truth, &result.labels, &motions, detection);
     Ok(ClusteringOutcome {
         name: pair.name.clone(),
         score,
@@ -160,6 +294,11 @@ pub fn evaluate_clustering_pair(
         true_objects,
         motion_errors,
         labels: result.labels,
+        objects: scored.objects,
+        false_alarms: scored.false_alarms,
+        has_mover: scored.has_mover,
+        reported_moving: scored.reported_moving,
+        moving_points: scored.moving_points,
     })
 }
 
@@ -171,6 +310,18 @@ pub fn evaluate_clustering(
     pairs: &[ScanPair],
     method: &dyn MotionClusterer,
 ) -> Result<ClusteringReport> {
+    evaluate_clustering_with(pairs, method, &DetectionOptions::default())
+}
+
+/// [`evaluate_clustering`] with the given detection options.
+///
+/// # Errors
+/// As [`evaluate_clustering`].
+pub fn evaluate_clustering_with(
+    pairs: &[ScanPair],
+    method: &dyn MotionClusterer,
+    detection: &DetectionOptions,
+) -> Result<ClusteringReport> {
     if pairs.is_empty() {
         return Err(Error::Unscorable {
             pair: "(none)".into(),
@@ -179,12 +330,13 @@ pub fn evaluate_clustering(
     }
     let outcomes: Vec<ClusteringOutcome> = pairs
         .par_iter()
-        .map(|p| evaluate_clustering_pair(p, method))
+        .map(|p| evaluate_clustering_pair_with(p, method, detection))
         .collect::<Result<_>>()?;
     Ok(ClusteringReport {
         method: method.name(),
         summary: summarize_clustering(&outcomes),
         found_objects: found_objects(&outcomes),
+        detection: summarize_detection(&outcomes, detection),
         outcomes,
     })
 }
@@ -230,6 +382,162 @@ pub fn found_objects(outcomes: &[ClusteringOutcome]) -> FoundObjects {
         total: outcomes.iter().map(|o| o.true_objects).sum(),
         centroid_error_median: percentile(&centroid, 50.0),
         rotation_error_median: percentile(&rotation, 50.0),
+    }
+}
+
+struct PairDetection {
+    objects: Vec<ObjectDetection>,
+    false_alarms: usize,
+    has_mover: bool,
+    reported_moving: bool,
+    moving_points: MovingPoints,
+}
+
+/// The detection figures of one pair (module docs); `truth` and `labels` have one
+/// entry per beam of the current scan.
+fn detect(
+    pair: &ScanPair,
+    truth: &[Option<u32>],
+    labels: &[Option<u32>],
+    motions: &HashMap<u32, Pose2>,
+    options: &DetectionOptions,
+) -> PairDetection {
+    // Overlap counts over the labelled returns: (true label, predicted label) -> returns.
+    let mut overlap: BTreeMap<(u32, u32), usize> = BTreeMap::new();
+    let mut object_size: BTreeMap<u32, usize> = BTreeMap::new();
+    let mut cluster_size: BTreeMap<u32, usize> = BTreeMap::new();
+    let mut cluster_moving: BTreeMap<u32, usize> = BTreeMap::new();
+    let mut points = MovingPoints::default();
+    for (t, p) in truth.iter().zip(labels) {
+        let Some(t) = *t else {
+            continue;
+        };
+        let p = p.unwrap_or(0);
+        let (moving, predicted) = (t > 0, p > 0);
+        points.actual += usize::from(moving);
+        points.predicted += usize::from(predicted);
+        points.true_positive += usize::from(moving && predicted);
+        if moving {
+            *object_size.entry(t).or_default() += 1;
+        }
+        if predicted {
+            *cluster_size.entry(p).or_default() += 1;
+            *cluster_moving.entry(p).or_default() += usize::from(moving);
+            if moving {
+                *overlap.entry((t, p)).or_default() += 1;
+            }
+        }
+    }
+    let true_motions: HashMap<u32, Pose2> = pair
+        .truth
+        .as_ref()
+        .map(|gt| gt.motions.iter().map(|m| (m.label, m.motion)).collect())
+        .unwrap_or_default();
+    let objects = object_size
+        .iter()
+        .map(|(&label, &returns)| {
+            let matched = overlap
+                .range((label, 0)..=(label, u32::MAX))
+                .map(|(&(_, p), &n)| (p, n))
+                .find(|&(p, n)| 2 * n >= returns && 2 * n >= cluster_size[&p]);
+            let counted = returns >= options.min_object_returns;
+            let error = matched.and_then(|(cluster, _)| {
+                let truth_motion = true_motions.get(&label)?;
+                let estimate = motions.get(&cluster)?;
+                let members: Vec<usize> = (0..truth.len())
+                    .filter(|&k| truth[k] == Some(label))
+                    .collect();
+                let centroid = members
+                    .iter()
+                    .fold(Point2::origin(), |acc: Point2<f64>, &k| {
+                        acc + pair.current.beam_point(k).coords / members.len() as f64
+                    });
+                Some(ObjectMotionError {
+                    centroid_error: (estimate.transform_point(&centroid)
+                        - truth_motion.transform_point(&centroid))
+                    .norm(),
+                    rotation_error: estimate.rotation_error(truth_motion),
+                })
+            });
+            ObjectDetection {
+                label,
+                returns,
+                counted,
+                detected: matched.is_some(),
+                error,
+            }
+        })
+        .collect();
+    let false_alarms = cluster_size
+        .iter()
+        .filter(|(p, &n)| 2 * cluster_moving[*p] < n)
+        .count();
+    PairDetection {
+        objects,
+        false_alarms,
+        has_mover: points.actual > 0,
+        reported_moving: points.predicted > 0,
+        moving_points: points,
+    }
+}
+
+/// The detection metrics over all outcomes (module docs).
+pub fn summarize_detection(
+    outcomes: &[ClusteringOutcome],
+    options: &DetectionOptions,
+) -> DetectionSummary {
+    let ratio = |a: usize, b: usize| (b > 0).then(|| a as f64 / b as f64);
+    let counted: Vec<&ObjectDetection> = outcomes
+        .iter()
+        .flat_map(|o| &o.objects)
+        .filter(|d| d.counted)
+        .collect();
+    let detected = counted.iter().filter(|d| d.detected).count();
+    let errors: Vec<&ObjectMotionError> = counted.iter().filter_map(|d| d.error.as_ref()).collect();
+    let translation: Vec<f64> = errors.iter().map(|e| e.centroid_error).collect();
+    let rotation: Vec<f64> = errors.iter().map(|e| e.rotation_error).collect();
+    let without: Vec<&ClusteringOutcome> = outcomes.iter().filter(|o| !o.has_mover).collect();
+    let with: Vec<f64> = outcomes
+        .iter()
+        .filter(|o| o.has_mover)
+        .map(|o| o.score.v_measure)
+        .collect();
+    let sum = |f: fn(&MovingPoints) -> usize| -> usize {
+        outcomes.iter().map(|o| f(&o.moving_points)).sum()
+    };
+    let (tp, predicted, actual) = (
+        sum(|m| m.true_positive),
+        sum(|m| m.predicted),
+        sum(|m| m.actual),
+    );
+    DetectionSummary {
+        min_object_returns: options.min_object_returns,
+        objects_counted: counted.len(),
+        objects_detected: detected,
+        object_recall: ratio(detected, counted.len()),
+        false_alarms_per_pair: ratio(
+            outcomes.iter().map(|o| o.false_alarms).sum(),
+            outcomes.len(),
+        )
+        .unwrap_or(0.0),
+        pairs_without_mover: without.len(),
+        false_alarm_pair_share: ratio(
+            without.iter().filter(|o| o.reported_moving).count(),
+            without.len(),
+        ),
+        moving_precision: ratio(tp, predicted),
+        moving_recall: ratio(tp, actual),
+        object_translation_error_median: percentile(&translation, 50.0),
+        object_rotation_error_median: percentile(&rotation, 50.0),
+        v_measure_mean: mean_std(
+            &outcomes
+                .iter()
+                .map(|o| o.score.v_measure)
+                .collect::<Vec<_>>(),
+        )
+        .0,
+        mover_pairs: with.len(),
+        v_measure_mover_pairs: (!with.is_empty()).then(|| mean_std(&with).0),
     }
 }
 

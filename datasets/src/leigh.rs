@@ -30,8 +30,10 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 /// Pose of the laser on the wheelchair's base (x = 0.850326 m, y = 0.235214 m,
-/// yaw = 0.73480 rad), from the bag's `/tf`.
-pub const LASER_OFFSET: (f64, f64, f64) = (0.850326, 0.235214, 0.73480);
+/// yaw = 0.734808 rad), the bag's `/tf` edge `base_link → left_laser` (quaternion z =
+/// 0.35919389, w = 0.93326296). The data README rounds the yaw to 0.73480 rad, which
+/// this constant used until the bag reader showed the 8 µrad difference.
+pub const LASER_OFFSET: (f64, f64, f64) = (0.850326, 0.235214, 0.734808);
 
 /// [`LASER_OFFSET`] as a pose.
 pub fn laser_offset() -> Pose2 {

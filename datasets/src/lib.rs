@@ -2,10 +2,11 @@
 //!
 //! Everything between raw laser data and the models: scan pairs with ground truth
 //! ([`pair`]), the real-log readers ([`carmen`] for CARMEN logs, [`relations`] for
-//! Kümmerle-style relation files, [`leigh`] for the leigh-gtm1 text logs), the
-//! builders that turn logs into pairs with ground truth ([`builders`]), the on-disk
+//! Kümmerle-style relation files, [`leigh`] for the leigh-gtm1 text logs, [`bag`] for
+//! ROS 1 bags and ROS 2 MCAP bags), the builders that turn logs into pairs with ground
+//! truth ([`builders`]; [`mocap`] for motion-capture truth), the on-disk
 //! pair format ([`format`](mod@format), specified in `datasets/FORMAT.md`), pair
-//! sources ([`source`]: a stored data set or a real log, loaded one way), the
+//! sources ([`source`]: a stored data set, a real log or a bag, loaded one way), the
 //! evaluation metrics of both papers ([`metrics`]), the one evaluation loop every
 //! method runs through ([`evaluation`], over the
 //! [`MotionClusterer`](pgm_features::MotionClusterer) and
@@ -28,6 +29,7 @@
 //! # }
 //! ```
 
+pub mod bag;
 pub mod builders;
 pub mod carmen;
 pub mod error;
@@ -35,6 +37,7 @@ pub mod evaluation;
 pub mod format;
 pub mod leigh;
 pub mod metrics;
+pub mod mocap;
 pub mod pair;
 pub mod relations;
 pub mod sim;

@@ -20,6 +20,8 @@
 //! # }
 //! ```
 
+use crate::bag::pairs::{bag_pairs, BagPairOptions};
+use crate::bag::{read_bag, BagTopics};
 use crate::builders::{
     consecutive_pairs, leigh_pairs, relation_pairs, LeighPairOptions, RelationPairOptions,
 };
@@ -41,9 +43,13 @@ pub enum SourceKind {
     ConsecutiveLog,
     /// leigh-gtm1 text logs.
     Leigh,
+    /// A ROS bag (ROS 1 or MCAP).
+    Bag,
 }
 
 /// A source of scan pairs.
+// Built once per command; boxing the bag options would only make them clumsier to write.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug, PartialEq)]
 pub enum PairSource {
     /// A stored data set: a directory, its `index.json`, or one pair file.
@@ -77,6 +83,16 @@ pub enum PairSource {
         /// The builder's options (`k`, thresholds, labelling rule).
         options: LeighPairOptions,
     },
+    /// A ROS bag (ROS 1, MCAP, a ROS 2 bag directory, or one of them zipped): pairs
+    /// `k` scans apart with the ground truth its topics give ([`crate::bag::pairs`]).
+    Bag {
+        /// The bag.
+        path: PathBuf,
+        /// The topics to read.
+        topics: BagTopics,
+        /// The pair builder's options.
+        options: BagPairOptions,
+    },
 }
 
 /// Pairs loaded from a [`PairSource`], with what the readers noted on the way.
@@ -107,7 +123,30 @@ impl fmt::Display for PairSource {
                 write!(f, "consecutive scans of {}", log.display())
             }
             PairSource::Leigh { scans, options, .. } => {
-                write!(f, "{} (k = {})", scans.display(), options.k)
+                write!(
+                    f,
+                    "{} (k = {}, {} labels)",
+                    scans.display(),
+                    options.k,
+                    options.rule
+                )
+            }
+            PairSource::Bag {
+                path,
+                topics,
+                options,
+            } => {
+                write!(f, "bag {} (scans {}", path.display(), topics.scan)?;
+                if let Some(t) = &topics.people {
+                    write!(f, ", people {t}, {} labels", options.leigh.rule)?;
+                }
+                if let Some(t) = &topics.ego_pose {
+                    write!(f, ", ego pose {t}")?;
+                }
+                if let Some(t) = &topics.object_pose {
+                    write!(f, ", object pose {t}")?;
+                }
+                write!(f, ", k = {})", options.k)
             }
         }
     }
@@ -207,6 +246,16 @@ impl PairSource {
                     }
                 })?;
                 (SourceKind::Leigh, pairs)
+            }
+            PairSource::Bag {
+                path,
+                topics,
+                options,
+            } => {
+                let log = read_bag(path, topics)?;
+                let built = bag_pairs(&log, options)?;
+                notes.extend(built.notes);
+                (SourceKind::Bag, built.pairs)
             }
         };
         Ok(LoadedPairs { pairs, kind, notes })

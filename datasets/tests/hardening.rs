@@ -324,6 +324,7 @@ fn a_scan_offset_k_never_wraps() {
     let options = |k| LeighPairOptions {
         k,
         moving_threshold: 0.0,
+        rule: pgm_datasets::builders::LabelRule::Displacement,
         ..Default::default()
     };
     for k in [usize::MAX, usize::MAX - 9, 4] {

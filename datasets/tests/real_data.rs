@@ -2,8 +2,8 @@
 //! folder is missing, a failure under CI=true; see `pgm_datasets::testdata`).
 
 use pgm_datasets::builders::{
-    consecutive_pairs, leigh_pairs, relation_pairs, summarize_leigh_pairs, LeighPairOptions,
-    RelationPairOptions,
+    consecutive_pairs, leigh_pairs, relation_pairs, summarize_leigh_pairs, LabelRule,
+    LeighPairOptions, RelationPairOptions,
 };
 use pgm_datasets::testdata::shared_data_dir;
 use pgm_datasets::{carmen, leigh, relations};
@@ -87,6 +87,7 @@ fn leigh_pairs_carry_moving_person_labels() {
         &LeighPairOptions {
             k: 1,
             moving_threshold: 0.0,
+            rule: LabelRule::Displacement,
             ..Default::default()
         },
     )
@@ -104,7 +105,11 @@ fn leigh_pairs_carry_moving_person_labels() {
     )
     .unwrap();
     assert_eq!(k1.len(), 106);
-    let k5 = leigh_pairs(&scans, &people, &LeighPairOptions::default()).unwrap();
+    let displacement = LeighPairOptions {
+        rule: LabelRule::Displacement,
+        ..Default::default()
+    };
+    let k5 = leigh_pairs(&scans, &people, &displacement).unwrap();
     let summary = summarize_leigh_pairs(5, &k5);
     // 92 pairs at k = 5. The data README expects "roughly half" of them to contain a
     // moving person: people annotated in both scans who moved >= 0.2 m (centre of
@@ -118,7 +123,7 @@ fn leigh_pairs_carry_moving_person_labels() {
         &people,
         &LeighPairOptions {
             unannotated: pgm_datasets::builders::Unannotated::Static,
-            ..Default::default()
+            ..displacement.clone()
         },
     )
     .unwrap();
@@ -180,11 +185,77 @@ fn leigh_pairs_carry_moving_person_labels() {
         &people,
         &LeighPairOptions {
             moving_threshold: 0.0,
-            ..Default::default()
+            ..displacement.clone()
         },
     )
     .unwrap();
     let s0 = summarize_leigh_pairs(5, &k5_all);
     assert!(s0.moving_people > summary.moving_people);
     assert!(s0.pairs_with_moving_person >= summary.pairs_with_moving_person);
+}
+
+#[test]
+fn leigh_track_rule_labels_walkers_only() {
+    let Some(data) = shared_data_dir() else {
+        return;
+    };
+    let dir = data.join("leigh-gtm1");
+    let mut scans = leigh::read_scans(dir.join("scans.txt")).unwrap();
+    let people = leigh::read_people(dir.join("people_gt.txt")).unwrap();
+    // The track rule needs odometry (unless the walking speed is 0).
+    assert!(leigh_pairs(&scans, &people, &LeighPairOptions::default()).is_err());
+    let odometry = leigh::read_odometry(dir.join("odom_at_scan.txt")).unwrap();
+    leigh::attach_odometry(&mut scans, &odometry, &dir.join("odom_at_scan.txt")).unwrap();
+    // The data README's counts: pairs with a walking person 33 of 106, 30 of 97, 26 of 92.
+    for (k, pairs, walkers) in [(1, 106, 33), (3, 97, 30), (5, 92, 26)] {
+        let options = LeighPairOptions {
+            k,
+            ..Default::default()
+        };
+        assert_eq!(options.rule, LabelRule::Track);
+        let built = leigh_pairs(&scans, &people, &options).unwrap();
+        let s = summarize_leigh_pairs(k, &built);
+        assert_eq!(
+            (s.pairs, s.pairs_with_moving_person),
+            (pairs, walkers),
+            "k = {k}"
+        );
+        for p in &built {
+            assert!(p.validate().is_ok());
+            let truth = p.truth.as_ref().unwrap();
+            // Every labelled walker has a motion (from its fitted line) that moves it by
+            // at least the walking speed times the time between the scans, relative to
+            // the static background (the prior).
+            let labels = truth.labels.as_ref().unwrap();
+            let prior = p.odometry.unwrap();
+            for l in labels.iter().flatten().filter(|l| **l > 0) {
+                let m = truth.motions.iter().find(|m| m.label == *l).unwrap();
+                let moved = prior.between(&m.motion).translation().norm();
+                assert!(moved >= 0.5 * k as f64 / 7.6, "{}: {moved}", p.name);
+            }
+        }
+    }
+    // The standing people (1000, 1001, 1005, 1006) are never labelled: no pair has a
+    // motion of theirs.
+    let k5 = leigh_pairs(&scans, &people, &LeighPairOptions::default()).unwrap();
+    for p in &k5 {
+        for m in &p.truth.as_ref().unwrap().motions {
+            for standing in ["1000", "1001", "1005", "1006"] {
+                assert_ne!(m.kind, format!("person {standing}"), "{}", p.name);
+            }
+        }
+    }
+    // A walking speed of 0: every annotated person is a mover, as the displacement
+    // rule's threshold 0.
+    let everyone = leigh_pairs(
+        &scans,
+        &people,
+        &LeighPairOptions {
+            walking_speed: 0.0,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let s = summarize_leigh_pairs(5, &everyone);
+    assert_eq!(s.pairs_with_moving_person, 92);
 }

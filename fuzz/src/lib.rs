@@ -234,3 +234,99 @@ pub fn weights_json(data: &[u8]) {
     }
     .check();
 }
+
+/// ROS bags (ROS 1, MCAP, zip; `pgm_datasets::bag::read_bag` reads a file, so the input
+/// is written to a temporary file): the first byte picks the optional topics read
+/// besides `/scan` (bit 0 `/odom`, bit 1 `/ego_pose`, bit 2 `/box_pose` with it, bit 3
+/// `/people` instead), the rest is the file. Scans read are valid; every pair built
+/// (k = 1, 2) passes `ScanPair::validate`.
+pub fn bag(data: &[u8]) {
+    use pgm_datasets::bag::pairs::{bag_pairs, BagPairOptions};
+    use pgm_datasets::bag::{read_bag, BagTopics};
+    use pgm_datasets::mocap::Footprint;
+    let Some((&select, file)) = data.split_first() else {
+        return;
+    };
+    let topic = |bit: u8, name: &str| (select & bit != 0).then(|| name.to_string());
+    let topics = BagTopics {
+        odometry: topic(1, "/odom"),
+        ego_pose: topic(2, "/ego_pose"),
+        object_pose: topic(2, "/ego_pose").and(topic(4, "/box_pose")),
+        people: topic(8, "/people"),
+        ..BagTopics::new("/scan")
+    };
+    let path = std::env::temp_dir().join(format!(
+        "pgm-fuzz-bag-{}-{:?}",
+        std::process::id(),
+        std::thread::current().id()
+    ));
+    if std::fs::write(&path, file).is_err() {
+        return;
+    }
+    let read = read_bag(&path, &topics);
+    let _ = std::fs::remove_file(&path);
+    let Ok(log) = read else { return };
+    assert!(!log.scans.is_empty(), "a log has scans");
+    for s in &log.scans {
+        assert_eq!(s.scan.validate(), Ok(()), "scan {} valid", s.number);
+        assert!(s.stamp.is_finite() && s.time.is_finite());
+    }
+    for track in [&log.odometry, &log.ego_poses, &log.object_poses] {
+        assert!(track
+            .iter()
+            .all(|p| p.pose.is_finite() && p.stamp.is_finite()));
+        assert!(track.windows(2).all(|w| w[0].stamp <= w[1].stamp), "sorted");
+    }
+    for k in 1..=2 {
+        let options = BagPairOptions {
+            k,
+            object_footprint: Some(Footprint {
+                length: 0.6,
+                width: 0.4,
+                centre_x: 0.0,
+                centre_y: 0.0,
+            }),
+            ..BagPairOptions::default()
+        };
+        if let Ok(built) = bag_pairs(&log, &options) {
+            for p in &built.pairs {
+                assert_eq!(p.validate(), Ok(()), "{}", p.name);
+            }
+        }
+    }
+}
+
+/// One ROS message and its definition: the first byte picks the serialisation (bit 0:
+/// ROS 2 CDR, else ROS 1), the bytes up to the first 0 are the definition text of type
+/// `fuzz/Msg`, the rest is the message. A definition that parses describes only
+/// defined types; decoding never reads past the message.
+pub fn ros_message(data: &[u8]) {
+    use pgm_datasets::bag::decode::{Decoder, Value};
+    use pgm_datasets::bag::msgdef::{Definitions, Dialect, FieldType};
+    let Some((&select, rest)) = data.split_first() else {
+        return;
+    };
+    let dialect = if select & 1 == 1 {
+        Dialect::Ros2
+    } else {
+        Dialect::Ros1
+    };
+    let split = rest.iter().position(|&b| b == 0).unwrap_or(rest.len());
+    let Some(text) = text(&rest[..split]) else {
+        return;
+    };
+    let message = rest.get(split + 1..).unwrap_or(&[]);
+    let Ok(definitions) = Definitions::parse("fuzz/Msg", text, dialect) else {
+        return;
+    };
+    for t in definitions.types.values() {
+        for f in &t.fields {
+            if let FieldType::Message(m) = &f.ty {
+                assert!(definitions.types.contains_key(m), "{m} resolved");
+            }
+        }
+    }
+    if let Ok(value) = Decoder::new(definitions).decode(message) {
+        assert!(matches!(value, Value::Message(_)));
+    }
+}

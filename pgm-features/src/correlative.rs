@@ -54,11 +54,14 @@
 //!   log-likelihood: it is what the bounds are computed on, reads as "share of
 //!   returns explained", and does not let one far-off return veto a motion (Olson
 //!   also clamps the cost of a return).
-//! - *Decimation*: current returns in beam order are kept when they lie at least
-//!   [`CorrelativeParams::point_spacing`] from the previously kept one, so the score
-//!   weighs surfaces by length rather than by how close they are to the sensor (near
-//!   surfaces get many more beams), and the search touches fewer returns
-//!   (Cartographer's adaptive voxel filter serves the same purpose).
+//! - *Decimation*: a voxel filter keeps one current return per square cell of side
+//!   [`CorrelativeParams::point_spacing`] (the one nearest the cell's centre), so
+//!   the score weighs surfaces by length rather than by how close they are to the
+//!   sensor (near surfaces get many more beams), the search touches fewer returns
+//!   (Cartographer's voxel filter serves the same purpose), and the result does not
+//!   depend on the beam order. (A first version kept returns at least that far from
+//!   the previously kept one in beam order: a scan with its beams reversed then
+//!   scored differently, and near-equal hypotheses swapped.)
 //! - *Angular step* (unless set): the rotation that moves the farthest current return
 //!   used by one cell along its arc, `r/d` (Hess et al., eq. 7, take the chord,
 //!   `acos(1 − r²/(2d²))`, larger by a factor `1 + O(r²/d²)`; the arc makes the
@@ -151,8 +154,8 @@ pub struct CorrelativeParams {
     /// Standard deviation `σ` of the Gaussian that blurs each reference return in the
     /// lookup grid (m, default 0.15, one cell); the grid holds it out to `3σ`.
     pub kernel_sigma: f64,
-    /// Current returns closer than this to the previously kept return (beam order)
-    /// are left out of the score (m, default 0.2; 0 keeps every return).
+    /// Side of the voxel filter's cells: the score uses one current return per cell
+    /// (m, default 0.2; 0 keeps every return).
     pub point_spacing: f64,
     /// Returns farther than this from their sensor are left out, of the grid and of
     /// the score (m, default 100); bounds the grid's size.
@@ -808,23 +811,31 @@ impl CorrelativeGrid {
         Ok(total / (f64::from(FULL) * points.len() as f64))
     }
 
-    /// The current returns the score uses: valid, within `max_range`, decimated by
-    /// `point_spacing` in beam order (sensor frame, m).
+    /// The current returns the score uses: valid, within `max_range`, decimated by a
+    /// voxel filter of cell side `point_spacing` (sensor frame, m): in each cell the
+    /// return nearest to the cell's centre (ties: the smaller coordinates), in cell
+    /// order. The result does not depend on the beam order.
     fn current_points(&self, current: &Scan) -> Result<Vec<[f64; 2]>> {
         let all = returns_within(current, self.params.max_range);
         if all.is_empty() {
             return Err(Error::EmptyScan { which: "current" });
         }
-        let spacing2 = self.params.point_spacing * self.params.point_spacing;
-        let mut kept: Vec<[f64; 2]> = Vec::with_capacity(all.len());
+        let side = self.params.point_spacing;
+        if side == 0.0 {
+            return Ok(all);
+        }
+        let mut cells: std::collections::BTreeMap<(i64, i64), ([f64; 2], f64)> =
+            std::collections::BTreeMap::new();
         for p in all {
-            if kept.last().is_none_or(|k| {
-                (k[0] - p[0]) * (k[0] - p[0]) + (k[1] - p[1]) * (k[1] - p[1]) >= spacing2
-            }) {
-                kept.push(p);
+            let (cx, cy) = ((p[0] / side).floor(), (p[1] / side).floor());
+            let (dx, dy) = (p[0] - (cx + 0.5) * side, p[1] - (cy + 0.5) * side);
+            let d2 = dx * dx + dy * dy;
+            let entry = cells.entry((cx as i64, cy as i64)).or_insert((p, d2));
+            if d2 < entry.1 || (d2 == entry.1 && (p[0], p[1]) < (entry.0[0], entry.0[1])) {
+                *entry = (p, d2);
             }
         }
-        Ok(kept)
+        Ok(cells.into_values().map(|(p, _)| p).collect())
     }
 
     /// The best distinct motions of `current` within the window around `prior`, best
@@ -1465,7 +1476,9 @@ mod tests {
             .unwrap()
             .score(&current, truth)
             .unwrap();
-        assert!(score > 0.8, "{score}");
+        // Most returns of the room sit on the blurred walls at the truth (0.80 with the
+        // voxel filter; a wrong motion scores far lower, see the search above).
+        assert!(score > 0.75, "{score}");
     }
 
     #[test]

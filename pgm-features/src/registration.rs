@@ -246,6 +246,10 @@ pub struct IcpResult {
     pub rms_error: f64,
 }
 
+/// Two ICP runs of [`Icp::align_best`] whose motions differ by at most this (m and
+/// rad) ended at the same minimum.
+pub const SAME_MINIMUM: f64 = 1e-6;
+
 /// Marks a current return without a partner in the previous iteration.
 const NO_PARTNER: usize = usize::MAX;
 
@@ -368,7 +372,8 @@ impl Icp {
     /// Aligns `current` once per run `(start, first correspondence distance in m)` of
     /// `runs` (the distance replaces [`IcpParams::initial_max_distance`] for that run)
     /// and returns the run with the most inliers at the final distance (ties: the
-    /// lower RMS error, then the earlier run). The support at the final distance is
+    /// lower RMS error, then the earlier run; runs within [`SAME_MINIMUM`] of each
+    /// other count as one, the earlier). The support at the final distance is
     /// the number of current returns the motion explains; a wrong local minimum
     /// explains fewer.
     ///
@@ -393,7 +398,14 @@ impl Icp {
             InvalidParameter::positive("first distance", d, "a distance in metres > 0")?;
             let r = self.align_from(current, start, d.max(self.params.final_max_distance))?;
             let better = best.as_ref().is_none_or(|b| {
-                r.inliers > b.inliers || (r.inliers == b.inliers && r.rms_error < b.rms_error)
+                // Runs that end at the same minimum (within 1 µm and 1 µrad) keep the
+                // earlier one: their RMS errors differ only by rounding, which would
+                // make the choice depend on the order the returns were summed in.
+                let same = r.motion.translation_error(&b.motion) <= SAME_MINIMUM
+                    && r.motion.rotation_error(&b.motion) <= SAME_MINIMUM;
+                !same
+                    && (r.inliers > b.inliers
+                        || (r.inliers == b.inliers && r.rms_error < b.rms_error))
             });
             if better {
                 best = Some(r);

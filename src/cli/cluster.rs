@@ -4,7 +4,9 @@
 //! leigh-gtm1 style log (`--scans FILE --reference I --current J [--odometry FILE]`;
 //! `I`, `J` are the log's scan indices) or from a CARMEN log (`--carmen FILE
 //! --reference I --current J`; `I`, `J` count the log's FLASER / ROBOTLASER1 lines
-//! from 0, and the odometry prior comes from the poses on those lines).
+//! from 0, and the odometry prior comes from the poses on those lines) or from a ROS
+//! bag (`--bag FILE --scan-topic T [--odom-topic T] --reference I --current J`; scans
+//! numbered from 0 in record-time order, the odometry prior from the odometry topic).
 //! Prints one JSON object: per-beam cluster labels (0 background, 1, 2, … moving
 //! objects, null without a return), the clusters with motion, point count and
 //! background flag, the number of sweeps and rounds and whether inference converged.
@@ -112,8 +114,13 @@ impl CrfArgs {
 #[derive(Args, Debug, Clone)]
 pub struct OnePairArgs {
     /// Stored data set (directory, index.json or pair file).
-    #[arg(long, conflicts_with_all = ["scans", "carmen"])]
+    #[arg(long, conflicts_with_all = ["scans", "carmen", "bag"])]
     pub pairs: Option<PathBuf>,
+    /// ROS bag (`--bag FILE --scan-topic T [--odom-topic T] --reference I --current J`;
+    /// scans numbered from 0 in record-time order). Ground-truth topics are accepted
+    /// and not used.
+    #[command(flatten)]
+    pub bag: super::data::BagArgs,
     /// Which pair of the data set: its name or its index from 0.
     #[arg(long, default_value = "0")]
     pub pair: String,
@@ -125,7 +132,7 @@ pub struct OnePairArgs {
     pub odometry: Option<PathBuf>,
     /// CARMEN log (FLASER / ROBOTLASER1 lines); the odometry prior comes from the
     /// poses on the laser lines.
-    #[arg(long, conflicts_with = "scans", requires_all = ["reference", "current"])]
+    #[arg(long, conflicts_with_all = ["scans", "bag"], requires_all = ["reference", "current"])]
     pub carmen: Option<PathBuf>,
     /// Index of the reference scan in the log (CARMEN: the laser line's position
     /// among the log's laser lines, from 0).
@@ -189,6 +196,26 @@ fn load_pair(args: &OnePairArgs) -> Result<ScanPair, CliError> {
             ))),
         };
     }
+    if let Some(path) = &args.bag.bag {
+        if args.scans.is_some() {
+            return Err(CliError("give --bag or --scans, not both".into()));
+        }
+        let (Some(i), Some(j)) = (args.reference, args.current) else {
+            return Err(CliError(
+                "--bag needs --reference I --current J (scans numbered from 0)".into(),
+            ));
+        };
+        let log = pgm_datasets::bag::read_bag(path, &args.bag.topics()?)
+            .map_err(CliError::from_display)?;
+        let mut notes = Vec::new();
+        let pair =
+            pgm_datasets::bag::pairs::bag_scan_pair(&log, i, j, args.bag.laser_mount, &mut notes)
+                .map_err(CliError::from_display)?;
+        for note in notes {
+            eprintln!("note: {note}");
+        }
+        return Ok(pair);
+    }
     if let (Some(path), Some(i), Some(j)) = (&args.carmen, args.reference, args.current) {
         let options = pgm_datasets::carmen::CarmenOptions {
             front_laser_fov: args.laser_fov,
@@ -203,7 +230,8 @@ fn load_pair(args: &OnePairArgs) -> Result<ScanPair, CliError> {
     let (Some(scans), Some(i), Some(j)) = (&args.scans, args.reference, args.current) else {
         return Err(CliError(
             "give --pairs PATH [--pair NAME|INDEX], --scans FILE --reference I --current J, \
-             or --carmen FILE --reference I --current J"
+             --carmen FILE --reference I --current J, or --bag FILE --scan-topic T \
+             --reference I --current J"
                 .into(),
         ));
     };

@@ -7,18 +7,36 @@
 //! - `pgm data pairs --scans FILE --people FILE [--odometry FILE] --k K
 //!   [--moving-threshold M] --out DIR`: leigh-gtm1 pairs `K` scans apart with
 //!   moving-person labels (without odometry only `--moving-threshold 0` works).
-//! - `pgm data summary --scans FILE --people FILE [--odometry FILE] [--k 1,3,5]
-//!   [--moving-threshold M] [--json]`: for each `k`, the number of pairs, valid returns
-//!   per scan, moving-person returns per pair and pairs with a moving person.
+//! - `pgm data pairs --bag FILE --scan-topic T [--odom-topic T] [--people-topic T]
+//!   [--ego-pose-topic T [--object-pose-topic T --object-footprint L,W,CX,CY]]
+//!   [--laser-mount X,Y,YAW] [--pose-delay S] [--label-margin M] [--object-min-speed V]
+//!   --k K --out DIR`: pairs of a ROS bag `K` scans apart with the ground truth its
+//!   topics give ([`pgm_datasets::bag::pairs`]).
+//! - `pgm data summary (--scans FILE --people FILE [--odometry FILE] | --bag FILE
+//!   --scan-topic T --odom-topic T --people-topic T) [--k 1,3,5] [--json]`: for each
+//!   `k` and each labelling rule (track, displacement), the number of pairs, valid
+//!   returns per scan, moving-person returns per pair and pairs with a moving person.
+//!
+//! leigh-gtm1 labels follow `--labels track` (default; `--walking-speed`,
+//! `--track-window`) or `--labels displacement` (`--moving-threshold`,
+//! `--unannotated`).
 //!
 //! Pairs are written in the format of `datasets/FORMAT.md`
 //! ([`pgm_datasets::format`]). Notes (skipped lines, unmatched relations) go to stderr.
 
 use super::{CliError, CliResult};
 use clap::{Args, Subcommand};
-use pgm_datasets::builders::{leigh_pairs, summarize_leigh_pairs, LeighPairOptions, Unannotated};
-use pgm_datasets::carmen;
+use pgm_datasets::bag::pairs::BagPairOptions;
+use pgm_datasets::bag::pairs::{laser_mount, prepared_scans, to_leigh};
+use pgm_datasets::bag::read_bag;
+use pgm_datasets::bag::BagTopics;
+use pgm_datasets::builders::{
+    leigh_pairs, summarize_leigh_pairs, LabelRule, LeighPairOptions, Unannotated,
+};
+use pgm_datasets::mocap::{Footprint, MocapOptions};
 use pgm_datasets::source::{read_leigh, LoadedPairs, PairSource};
+use pgm_datasets::{carmen, leigh};
+use pgm_features::Pose2;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -39,10 +57,208 @@ pub enum DataCommand {
     Summary(SummaryArgs),
 }
 
+/// A ROS bag as the source (`--bag FILE --scan-topic T …`): what every command that
+/// reads a scan log also reads.
+#[derive(Args, Debug, Clone)]
+pub struct BagArgs {
+    /// ROS bag: a ROS 1 `.bag`, an MCAP file, a ROS 2 bag directory (MCAP storage), or
+    /// a `.zip` holding one bag.
+    #[arg(long)]
+    pub bag: Option<PathBuf>,
+    /// Bag: topic of the laser scans (sensor_msgs/LaserScan).
+    #[arg(long, requires = "bag")]
+    pub scan_topic: Option<String>,
+    /// Bag: topic of the wheel odometry (nav_msgs/Odometry), the prior.
+    #[arg(long, requires = "bag")]
+    pub odom_topic: Option<String>,
+    /// Bag: topic of the annotated people (leigh-gtm1 leg_tracker/Person): labels by
+    /// the leigh-gtm1 rules.
+    #[arg(long, requires = "bag")]
+    pub people_topic: Option<String>,
+    /// Bag: topic of the robot's true pose (motion capture, geometry_msgs/PoseStamped):
+    /// the true ego-motion.
+    #[arg(long, requires = "bag")]
+    pub ego_pose_topic: Option<String>,
+    /// Bag: topic of a moving object's true pose (motion capture): its motion and
+    /// per-point labels from --object-footprint.
+    #[arg(long, requires = "ego_pose_topic")]
+    pub object_pose_topic: Option<String>,
+    /// Bag: the laser's pose X,Y,YAW (m, m, rad) in the robot frame that the odometry
+    /// and the ego pose follow (default: the bag's tf, else the identity).
+    #[arg(long, requires = "bag", allow_hyphen_values = true, value_parser = parse_pose)]
+    pub laser_mount: Option<Pose2>,
+    /// Bag: the pose that matches a scan is read at its header stamp plus this many
+    /// seconds.
+    #[arg(
+        long,
+        requires = "bag",
+        default_value_t = 0.0,
+        allow_hyphen_values = true
+    )]
+    pub pose_delay: f64,
+    /// Bag: the object's footprint LENGTH,WIDTH,CENTRE_X,CENTRE_Y (m), a rectangle in
+    /// its pose frame.
+    #[arg(long, requires = "object_pose_topic", allow_hyphen_values = true, value_parser = parse_footprint)]
+    pub object_footprint: Option<Footprint>,
+    /// Bag: returns within this distance (m) of the object's footprint are the object.
+    #[arg(long, requires = "bag", default_value_t = MocapOptions::default().label_margin)]
+    pub label_margin: f64,
+    /// Bag: the object is a mover only when it moves at least this fast (m/s) between
+    /// the two scans, else its returns are static background (0: always a mover).
+    #[arg(long, requires = "bag", default_value_t = MocapOptions::default().object_min_speed)]
+    pub object_min_speed: f64,
+}
+
+impl Default for BagArgs {
+    fn default() -> Self {
+        Self {
+            bag: None,
+            scan_topic: None,
+            odom_topic: None,
+            people_topic: None,
+            ego_pose_topic: None,
+            object_pose_topic: None,
+            laser_mount: None,
+            pose_delay: 0.0,
+            object_footprint: None,
+            label_margin: MocapOptions::default().label_margin,
+            object_min_speed: MocapOptions::default().object_min_speed,
+        }
+    }
+}
+
+fn numbers<const N: usize>(text: &str, what: &str) -> Result<[f64; N], String> {
+    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
+    if parts.len() != N {
+        return Err(format!(
+            "{text:?}: expected {what} ({N} numbers separated by commas)"
+        ));
+    }
+    let mut out = [0.0; N];
+    for (k, p) in parts.iter().enumerate() {
+        let v: f64 = p
+            .parse()
+            .map_err(|_| format!("{text:?}: {p:?} is not a number ({what})"))?;
+        if !v.is_finite() {
+            return Err(format!("{text:?}: {p:?} is not finite ({what})"));
+        }
+        out[k] = v;
+    }
+    Ok(out)
+}
+
+/// Parses `X,Y,YAW`.
+pub fn parse_pose(text: &str) -> Result<Pose2, String> {
+    let [x, y, yaw] = numbers::<3>(text, "X,Y,YAW")?;
+    Ok(Pose2::new(x, y, yaw))
+}
+
+/// Parses `LENGTH,WIDTH,CENTRE_X,CENTRE_Y`.
+pub fn parse_footprint(text: &str) -> Result<Footprint, String> {
+    let [length, width, centre_x, centre_y] = numbers::<4>(text, "LENGTH,WIDTH,CENTRE_X,CENTRE_Y")?;
+    let f = Footprint {
+        length,
+        width,
+        centre_x,
+        centre_y,
+    };
+    f.validate()?;
+    Ok(f)
+}
+
+impl BagArgs {
+    /// The topics to read; `--bag` needs `--scan-topic`.
+    pub fn topics(&self) -> Result<BagTopics, CliError> {
+        let Some(scan) = &self.scan_topic else {
+            return Err(CliError(
+                "--bag needs --scan-topic T (the sensor_msgs/LaserScan topic)".into(),
+            ));
+        };
+        Ok(BagTopics {
+            scan: scan.clone(),
+            odometry: self.odom_topic.clone(),
+            people: self.people_topic.clone(),
+            ego_pose: self.ego_pose_topic.clone(),
+            object_pose: self.object_pose_topic.clone(),
+        })
+    }
+
+    /// The pair builder's options for pairs `k` scans apart with people labels by
+    /// `leigh`.
+    pub fn options(&self, k: usize, leigh: LeighPairOptions) -> Result<BagPairOptions, CliError> {
+        if !(self.label_margin.is_finite() && self.label_margin >= 0.0) {
+            return Err(CliError(format!(
+                "--label-margin {}: must be a finite distance >= 0",
+                self.label_margin
+            )));
+        }
+        if !(self.object_min_speed.is_finite() && self.object_min_speed >= 0.0) {
+            return Err(CliError(format!(
+                "--object-min-speed {}: must be a finite speed >= 0",
+                self.object_min_speed
+            )));
+        }
+        if !self.pose_delay.is_finite() || self.pose_delay.abs() > 10.0 {
+            return Err(CliError(format!(
+                "--pose-delay {}: must be finite seconds within ±10",
+                self.pose_delay
+            )));
+        }
+        Ok(BagPairOptions {
+            k,
+            laser_mount: self.laser_mount,
+            mocap: MocapOptions {
+                pose_delay: self.pose_delay,
+                label_margin: self.label_margin,
+                object_min_speed: self.object_min_speed,
+                ..MocapOptions::default()
+            },
+            object_footprint: self.object_footprint,
+            leigh,
+            name: None,
+        })
+    }
+}
+
+/// How leigh-gtm1 people labels decide who moves (text logs and bags).
+#[derive(Args, Debug, Clone)]
+pub struct LabelArgs {
+    /// Who moves: `track` (the speed of a line fitted to the person's track, the data
+    /// README's rule) or `displacement` (the older rule: the two annotated centres of
+    /// the pair, --moving-threshold and --unannotated).
+    #[arg(long, default_value_t = LabelRule::Track)]
+    pub labels: LabelRule,
+    /// Track rule: smallest speed (m/s) of a walking person; 0: every annotated person
+    /// is a mover.
+    #[arg(long, default_value_t = LeighPairOptions::default().walking_speed)]
+    pub walking_speed: f64,
+    /// Track rule: the line is fitted over the annotated scans from i - W to j + W.
+    #[arg(long, default_value_t = LeighPairOptions::default().track_window)]
+    pub track_window: usize,
+}
+
+impl Default for LabelArgs {
+    fn default() -> Self {
+        let d = LeighPairOptions::default();
+        Self {
+            labels: d.rule,
+            walking_speed: d.walking_speed,
+            track_window: d.track_window,
+        }
+    }
+}
+
 /// Where pairs come from: exactly one of `--carmen` with `--relations`, `--log`,
-/// `--scans` with `--people` (and optionally `--odometry`), or `--pairs`.
+/// `--scans` with `--people` (and optionally `--odometry`), `--bag` with
+/// `--scan-topic`, or `--pairs`.
 #[derive(Args, Debug, Default, Clone)]
 pub struct SourceArgs {
+    /// ROS bag input.
+    #[command(flatten)]
+    pub bag: BagArgs,
+    /// leigh-gtm1 labelling rule.
+    #[command(flatten)]
+    pub labels: LabelArgs,
     /// CARMEN log (FLASER / ROBOTLASER1) whose scans the relations refer to.
     #[arg(long, requires = "relations")]
     pub carmen: Option<PathBuf>,
@@ -127,15 +343,10 @@ pub struct PairsArgs {
 /// `pgm data summary`.
 #[derive(Args, Debug)]
 pub struct SummaryArgs {
-    /// leigh-gtm1 scan log.
-    #[arg(long)]
-    pub scans: PathBuf,
-    /// leigh-gtm1 person annotations.
-    #[arg(long)]
-    pub people: PathBuf,
-    /// leigh-gtm1 odometry per scan (needed for a positive moving threshold).
-    #[arg(long)]
-    pub odometry: Option<PathBuf>,
+    /// The leigh-gtm1 style log: `--scans FILE --people FILE [--odometry FILE]`, or a
+    /// bag with `--people-topic` (and `--odom-topic`).
+    #[command(flatten)]
+    pub source: SourceArgs,
     /// Scan distances to summarise.
     #[arg(long, value_delimiter = ',', default_value = "1,3,5")]
     pub k: Vec<usize>,
@@ -148,8 +359,8 @@ pub struct SummaryArgs {
 }
 
 impl LeighArgs {
-    /// The pair builder's options for pairs `k` scans apart.
-    pub fn options(&self, k: usize) -> LeighPairOptions {
+    /// The pair builder's options for pairs `k` scans apart with the rule of `labels`.
+    pub fn options_with(&self, k: usize, labels: &LabelArgs) -> LeighPairOptions {
         LeighPairOptions {
             k,
             moving_threshold: self.moving_threshold,
@@ -157,6 +368,9 @@ impl LeighArgs {
             unannotated: self.unannotated,
             annotated_sector: self.annotated_sector,
             name: "leigh-gtm1".into(),
+            rule: labels.labels,
+            walking_speed: labels.walking_speed,
+            track_window: labels.track_window,
         }
     }
 }
@@ -174,6 +388,7 @@ pub fn pair_source(
         source.carmen.is_some(),
         source.log.is_some(),
         source.scans.is_some(),
+        source.bag.bag.is_some(),
     ]
     .iter()
     .filter(|g| **g)
@@ -181,7 +396,7 @@ pub fn pair_source(
     if given != 1 {
         return Err(CliError(
             "give exactly one source: --pairs DIR, --carmen FILE --relations FILE, --log FILE, \
-             or --scans FILE --people FILE [--odometry FILE]"
+             --scans FILE --people FILE [--odometry FILE], or --bag FILE --scan-topic T"
                 .into(),
         ));
     }
@@ -193,6 +408,14 @@ pub fn pair_source(
             log: log.clone(),
             relations: relations.clone(),
             options: source.carmen_options(),
+        });
+    }
+    let leigh = leigh_args.options_with(k, &source.labels);
+    if let Some(path) = &source.bag.bag {
+        return Ok(PairSource::Bag {
+            path: path.clone(),
+            topics: source.bag.topics()?,
+            options: source.bag.options(k, leigh)?,
         });
     }
     if let Some(log) = &source.log {
@@ -208,7 +431,7 @@ pub fn pair_source(
         scans: scans.clone(),
         people: people.clone(),
         odometry: source.odometry.clone(),
-        options: leigh_args.options(k),
+        options: leigh,
     })
 }
 
@@ -230,34 +453,83 @@ pub fn run(args: DataArgs) -> CliResult {
 }
 
 fn run_pairs(args: PairsArgs) -> CliResult {
-    let pairs = load_pairs(&pair_source(None, &args.source, &args.leigh, args.k)?)?.pairs;
+    let source = pair_source(None, &args.source, &args.leigh, args.k)?;
+    let pairs = load_pairs(&source)?.pairs;
     if pairs.is_empty() {
         return Err(CliError(
             "no pair could be built from the given logs".into(),
         ));
     }
     pgm_datasets::write_pairs(&args.out, &pairs).map_err(CliError::from_display)?;
-    println!("wrote {} pairs to {}", pairs.len(), args.out.display());
+    println!(
+        "wrote {} pairs of {source} to {}",
+        pairs.len(),
+        args.out.display()
+    );
     Ok(ExitCode::SUCCESS)
 }
 
-fn run_summary(args: SummaryArgs) -> CliResult {
+/// The leigh-gtm1 style log and its annotations from text files or a bag, with the
+/// readers' notes printed on stderr.
+fn leigh_log(
+    source: &SourceArgs,
+) -> Result<(leigh::LeighScans, Vec<leigh::PersonAnnotation>, String), CliError> {
     let mut notes = Vec::new();
-    let (log, annotations) = read_leigh(
-        &args.scans,
-        &args.people,
-        args.odometry.as_deref(),
-        &mut notes,
-    )
-    .map_err(CliError::from_display)?;
+    let out = if let Some(path) = &source.bag.bag {
+        let topics = source.bag.topics()?;
+        if topics.people.is_none() {
+            return Err(CliError(
+                "pgm data summary of a bag needs --people-topic (the annotated people)".into(),
+            ));
+        }
+        let log = read_bag(path, &topics).map_err(CliError::from_display)?;
+        let (mount, note) = laser_mount(&log, source.bag.laser_mount);
+        notes.push(note);
+        let scans = prepared_scans(&log, &mount, &mut notes);
+        let (scans, people) = to_leigh(&log, &scans, &mut notes);
+        (scans, people, format!("bag {}", path.display()))
+    } else {
+        let (Some(scans), Some(people)) = (&source.scans, &source.people) else {
+            return Err(CliError(
+                "give --scans FILE --people FILE [--odometry FILE], or --bag FILE --scan-topic T \
+                 --people-topic T [--odom-topic T]"
+                    .into(),
+            ));
+        };
+        let (log, annotations) = read_leigh(scans, people, source.odometry.as_deref(), &mut notes)
+            .map_err(CliError::from_display)?;
+        (log, annotations, scans.display().to_string())
+    };
     for note in &notes {
         eprintln!("note: {note}");
     }
+    Ok(out)
+}
+
+/// One row of `pgm data summary --json`.
+#[derive(serde::Serialize)]
+struct SummaryRow {
+    rule: LabelRule,
+    #[serde(flatten)]
+    summary: pgm_datasets::builders::LeighSummary,
+}
+
+fn run_summary(args: SummaryArgs) -> CliResult {
+    let (log, annotations, name) = leigh_log(&args.source)?;
     let mut rows = Vec::new();
-    for &k in &args.k {
-        let pairs = leigh_pairs(&log, &annotations, &args.leigh.options(k))
-            .map_err(|e| CliError(format!("{}: {e}", args.scans.display())))?;
-        rows.push(summarize_leigh_pairs(k, &pairs));
+    for rule in [LabelRule::Track, LabelRule::Displacement] {
+        let labels = LabelArgs {
+            labels: rule,
+            ..args.source.labels.clone()
+        };
+        for &k in &args.k {
+            let pairs = leigh_pairs(&log, &annotations, &args.leigh.options_with(k, &labels))
+                .map_err(|e| CliError(format!("{name}: {e}")))?;
+            rows.push(SummaryRow {
+                rule,
+                summary: summarize_leigh_pairs(k, &pairs),
+            });
+        }
     }
     if args.json {
         println!(
@@ -267,11 +539,17 @@ fn run_summary(args: SummaryArgs) -> CliResult {
         return Ok(ExitCode::SUCCESS);
     }
     println!(
-        "leigh-gtm1 pairs (moving threshold {} m, person radius {} m)",
-        args.leigh.moving_threshold, args.leigh.person_radius
+        "leigh-gtm1 pairs of {name}: track rule (walking speed {} m/s, window {} scans) and \
+         displacement rule (moving threshold {} m, unannotated {}); person radius {} m",
+        args.source.labels.walking_speed,
+        args.source.labels.track_window,
+        args.leigh.moving_threshold,
+        args.leigh.unannotated,
+        args.leigh.person_radius
     );
     println!(
-        "{:>3}  {:>5}  {:>12}  {:>20}  {:>24}  {:>13}",
+        "{:<12}  {:>3}  {:>5}  {:>12}  {:>20}  {:>24}  {:>13}",
+        "rule",
         "k",
         "pairs",
         "returns/scan",
@@ -280,14 +558,16 @@ fn run_summary(args: SummaryArgs) -> CliResult {
         "moving people"
     );
     for r in rows {
+        let s = r.summary;
         println!(
-            "{:>3}  {:>5}  {:>12.1}  {:>20.2}  {:>24}  {:>13}",
-            r.k,
-            r.pairs,
-            r.returns_per_scan,
-            r.moving_returns_per_pair,
-            r.pairs_with_moving_person,
-            r.moving_people
+            "{:<12}  {:>3}  {:>5}  {:>12.1}  {:>20.2}  {:>24}  {:>13}",
+            r.rule.to_string(),
+            s.k,
+            s.pairs,
+            s.returns_per_scan,
+            s.moving_returns_per_pair,
+            s.pairs_with_moving_person,
+            s.moving_people
         );
     }
     Ok(ExitCode::SUCCESS)

@@ -66,8 +66,11 @@ pub struct MatchingArgs {
     #[command(flatten)]
     pub source: SourceArgs,
     /// A stored scan-pair data set (directory, index or pair file) instead of logs.
-    #[arg(long, conflicts_with_all = ["carmen", "log", "scans"])]
+    #[arg(long, conflicts_with_all = ["carmen", "log", "scans", "bag"])]
     pub pairs: Option<PathBuf>,
+    /// Bags: the scan distance of the pairs.
+    #[arg(long, default_value_t = 1)]
+    pub k: usize,
     /// Pairs less than this many seconds apart form the subset `near`, others `far`.
     #[arg(long, default_value_t = 1.5)]
     pub near_seconds: f64,
@@ -116,7 +119,7 @@ fn run_matching(args: MatchingArgs) -> CliResult {
         unannotated: Default::default(),
         annotated_sector: false,
     };
-    let source = pair_source(args.pairs.as_deref(), &args.source, &leigh, 1)?;
+    let source = pair_source(args.pairs.as_deref(), &args.source, &leigh, args.k)?;
     let loaded = load_pairs(&source)?;
     let pairs = loaded.pairs;
     let scored = pairs
@@ -171,13 +174,26 @@ fn run_matching(args: MatchingArgs) -> CliResult {
         );
     }
     if args.json {
+        #[derive(serde::Serialize)]
+        struct WithData<'a> {
+            data: String,
+            #[serde(flatten)]
+            report: &'a pgm_datasets::evaluation::MatchingReport,
+        }
+        let json = WithData {
+            data: format!("{source}; every pair scored"),
+            report: &report,
+        };
         println!(
             "{}",
-            serde_json::to_string(&report).map_err(CliError::from_display)?
+            serde_json::to_string(&json).map_err(CliError::from_display)?
         );
         return Ok(ExitCode::SUCCESS);
     }
-    println!("method {}: {} pairs", report.method, report.all.pairs);
+    println!(
+        "method {}: {} pairs of {source} (every pair scored)",
+        report.method, report.all.pairs
+    );
     println!(
         "{:<24}  {:>5}  {:>14}  {:>12}  {:>15}  {:>13}",
         "subset", "pairs", "transl. median", "transl. p90", "rot. median", "rot. p90"

@@ -5,11 +5,19 @@
 //! [--odometry FILE] --k K [--moving-threshold M]) [--associations NAME] [--weights
 //! FILE] [--json]` scores every pair with ground-truth labels
 //! ([`pgm_datasets::evaluation::evaluate_clustering`]) and prints the mean and standard
-//! deviation over pairs. The methods and association sources are those of
-//! [`pgm::methods`]. `--json` prints one object `{"method", "pairs",
+//! deviation over pairs, and the detection metrics
+//! ([`pgm_datasets::evaluation::DetectionSummary`]; `--min-object-returns N`, default
+//! 5). The data may also come from a bag (`--bag FILE --scan-topic T …`, see `pgm data
+//! pairs`). The methods and association sources are those of [`pgm::methods`].
+//! `--json` prints one object `{"method", "data", "pair_sets", "weights", "pairs",
 //! "homogeneity_mean", "homogeneity_std", "completeness_mean", "completeness_std",
 //! "v_measure_mean", "v_measure_std", "iterations_mean", "objects_found",
-//! "objects_total", "centroid_error_median", "rotation_error_median"}`. Without
+//! "objects_total", "centroid_error_median", "rotation_error_median",
+//! "min_object_returns", "objects_counted", "objects_detected", "object_recall",
+//! "false_alarms_per_pair", "pairs_without_mover", "false_alarm_pair_share",
+//! "moving_precision", "moving_recall", "object_translation_error_median",
+//! "object_rotation_error_median", "mover_pairs", "v_measure_mover_pairs"}` (`null`
+//! where a figure has nothing to be computed from). Without
 //! odometry the ego-motion comes from the model itself (the largest cluster) or from
 //! ICP (CBD, associations). `--no-prior` hides the pairs' odometry prior from the
 //! methods while the labels still use it (leigh-gtm1 needs odometry to decide who
@@ -23,7 +31,9 @@ use clap::Args;
 use pgm::methods::{
     association_source, clusterer, clusterer_needs_associations, default_association, CLUSTERERS,
 };
-use pgm_datasets::evaluation::{evaluate_clustering, scorable_for_clustering};
+use pgm_datasets::evaluation::{
+    evaluate_clustering_with, scorable_for_clustering, DetectionOptions, DetectionSummary,
+};
 use serde::Serialize;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -44,7 +54,7 @@ pub struct ClusteringEvalArgs {
     #[arg(long, value_parser = clusterer_names())]
     pub method: String,
     /// A stored scan-pair data set with ground-truth labels.
-    #[arg(long, conflicts_with_all = ["carmen", "log", "scans"])]
+    #[arg(long, conflicts_with_all = ["carmen", "log", "scans", "bag"])]
     pub pairs: Option<PathBuf>,
     /// Input logs (leigh-gtm1 style: --scans, --people, optional --odometry).
     #[command(flatten)]
@@ -72,6 +82,10 @@ pub struct ClusteringEvalArgs {
     /// methods run as on a log without odometry.
     #[arg(long)]
     pub no_prior: bool,
+    /// Detection metrics: objects with fewer returns in the current scan are left out
+    /// of the object recall.
+    #[arg(long, default_value_t = DetectionOptions::default().min_object_returns)]
+    pub min_object_returns: usize,
     /// Print one JSON object.
     #[arg(long)]
     pub json: bool,
@@ -81,12 +95,61 @@ pub struct ClusteringEvalArgs {
 #[derive(Serialize)]
 struct Report<'a> {
     method: &'a str,
+    data: String,
+    /// The distinct pair-name prefixes (`sim:PRESET:SEED`, `leigh-gtm1`, a bag's stem):
+    /// which sets and seeds the pairs come from.
+    pair_sets: Vec<String>,
+    weights: String,
     #[serde(flatten)]
     summary: &'a pgm_datasets::evaluation::ClusteringSummary,
     objects_found: usize,
     objects_total: usize,
     centroid_error_median: Option<f64>,
     rotation_error_median: Option<f64>,
+    #[serde(flatten)]
+    detection: DetectionFields,
+}
+
+/// The detection metrics of the `--json` object (`v_measure_mean` is the summary's).
+#[derive(Serialize)]
+struct DetectionFields {
+    min_object_returns: usize,
+    objects_counted: usize,
+    objects_detected: usize,
+    object_recall: Option<f64>,
+    false_alarms_per_pair: f64,
+    pairs_without_mover: usize,
+    false_alarm_pair_share: Option<f64>,
+    moving_precision: Option<f64>,
+    moving_recall: Option<f64>,
+    object_translation_error_median: Option<f64>,
+    object_rotation_error_median: Option<f64>,
+    mover_pairs: usize,
+    v_measure_mover_pairs: Option<f64>,
+}
+
+impl From<&DetectionSummary> for DetectionFields {
+    fn from(d: &DetectionSummary) -> Self {
+        Self {
+            min_object_returns: d.min_object_returns,
+            objects_counted: d.objects_counted,
+            objects_detected: d.objects_detected,
+            object_recall: d.object_recall,
+            false_alarms_per_pair: d.false_alarms_per_pair,
+            pairs_without_mover: d.pairs_without_mover,
+            false_alarm_pair_share: d.false_alarm_pair_share,
+            moving_precision: d.moving_precision,
+            moving_recall: d.moving_recall,
+            object_translation_error_median: d.object_translation_error_median,
+            object_rotation_error_median: d.object_rotation_error_median,
+            mover_pairs: d.mover_pairs,
+            v_measure_mover_pairs: d.v_measure_mover_pairs,
+        }
+    }
+}
+
+fn show(x: Option<f64>, digits: usize) -> String {
+    x.map_or("-".into(), |x| format!("{x:.digits$}"))
 }
 
 /// Runs `pgm eval clustering`.
@@ -121,12 +184,43 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
         .unwrap_or_else(|| default_association(&pairs));
     let associations = association_source(which, &options).map_err(CliError::from_display)?;
     let method = clusterer(&args.method, associations, &options).map_err(CliError::from_display)?;
-    let report = evaluate_clustering(&pairs, method.as_ref()).map_err(CliError::from_display)?;
+    let detection = DetectionOptions {
+        min_object_returns: args.min_object_returns,
+    };
+    let report = evaluate_clustering_with(&pairs, method.as_ref(), &detection)
+        .map_err(CliError::from_display)?;
     let summary = report.summary;
     let found = report.found_objects;
+    let weights = match &args.crf.weights {
+        Some(path) => path.display().to_string(),
+        None => "shipped (trained on simulated pairs, seed 1000)".into(),
+    };
+    let data = format!(
+        "{source}{}; every pair scored, none trained on",
+        if args.no_prior {
+            ", odometry prior hidden"
+        } else {
+            ""
+        }
+    );
+    let pair_sets: Vec<String> = pairs
+        .iter()
+        .map(|p| {
+            p.name
+                .rsplit_once(':')
+                .map_or(p.name.as_str(), |(set, _)| set)
+                .to_string()
+        })
+        .collect::<std::collections::BTreeSet<_>>()
+        .into_iter()
+        .collect();
     if args.json {
         let json = Report {
             method: &report.method,
+            data,
+            pair_sets,
+            weights,
+            detection: DetectionFields::from(&report.detection),
             summary: &summary,
             objects_found: found.found,
             objects_total: found.total,
@@ -140,9 +234,16 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
         return Ok(ExitCode::SUCCESS);
     }
     println!(
-        "method {}: {} pairs of {source}",
+        "method {}: {} pairs of {data}",
         report.method, summary.pairs
     );
+    println!(
+        "pair sets (names before the last `:`): {}",
+        pair_sets.join(", ")
+    );
+    if clusterer_needs_associations(&args.method) || args.method == "crf" {
+        println!("weights {weights}");
+    }
     println!(
         "homogeneity   {:.3} ± {:.3}",
         summary.homogeneity_mean, summary.homogeneity_std
@@ -156,6 +257,35 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
         summary.v_measure_mean, summary.v_measure_std
     );
     println!("iterations    {:.1}", summary.iterations_mean);
+    let d = &report.detection;
+    println!(
+        "V-measure, {} pairs with a mover: {}",
+        d.mover_pairs,
+        show(d.v_measure_mover_pairs, 3)
+    );
+    println!(
+        "objects detected {} of {} with >= {} returns (recall {}); false alarms per pair {:.3}; \
+         pairs without a mover reported moving {} of {} ({})",
+        d.objects_detected,
+        d.objects_counted,
+        d.min_object_returns,
+        show(d.object_recall, 3),
+        d.false_alarms_per_pair,
+        report
+            .outcomes
+            .iter()
+            .filter(|o| !o.has_mover && o.reported_moving)
+            .count(),
+        d.pairs_without_mover,
+        show(d.false_alarm_pair_share, 3)
+    );
+    println!(
+        "moving points: precision {}, recall {}; detected objects' motion error (median) {} m, {} rad",
+        show(d.moving_precision, 3),
+        show(d.moving_recall, 3),
+        show(d.object_translation_error_median, 3),
+        show(d.object_rotation_error_median, 4)
+    );
     if clusterer_needs_associations(&args.method) {
         println!(
             "moving objects found {} of {}; median motion error {} m at the centroid, {} rad",

@@ -4,7 +4,7 @@
 use super::{CliError, CliResult};
 use clap::Args;
 use pgm::datasets::format::StagedFile;
-use pgm::datasets::sim::{simulate_pairs, DatasetStats, Preset, SimConfig};
+use pgm::datasets::sim::{simulate_pairs_report, DatasetStats, Preset, SimConfig, SCENE_ATTEMPTS};
 use pgm::features::ParamGuard;
 use pgm::plot::PairPicture;
 use std::path::PathBuf;
@@ -13,7 +13,8 @@ use std::process::ExitCode;
 /// Options of `pgm sim`.
 #[derive(Args, Debug)]
 pub struct SimArgs {
-    /// Scene preset: overtaking, intersection, oncoming, pedestrians, mixed, random.
+    /// Scene preset: overtaking, intersection, oncoming, pedestrians, mixed, random,
+    /// following.
     #[arg(long, default_value = "mixed")]
     pub preset: String,
     /// Seed of the random streams (pair i uses ChaCha8 stream i of this seed).
@@ -87,7 +88,21 @@ pub fn run(args: SimArgs) -> CliResult {
             args.svg_pair, args.pairs, args.pairs
         )));
     }
-    let pairs = simulate_pairs(&config, args.seed, args.pairs);
+    let report = simulate_pairs_report(&config, args.seed, args.pairs);
+    if !report.unmet.is_empty() {
+        let shown: Vec<String> = report.unmet.iter().take(5).map(|u| u.to_string()).collect();
+        eprintln!(
+            "note: {} of {} pairs (preset {preset}, seed {}) do not meet the pair selection \
+             --min-object-returns {} in {SCENE_ATTEMPTS} draws and keep their last draw: {}{}",
+            report.unmet.len(),
+            args.pairs,
+            args.seed,
+            args.min_object_returns,
+            shown.join(", "),
+            if report.unmet.len() > 5 { ", …" } else { "" }
+        );
+    }
+    let pairs = report.pairs;
     // Both outputs or neither: the picture is staged beside its destination, the data
     // set written, then the picture renamed into place.
     let staged = match &args.svg {

@@ -90,6 +90,57 @@ pub enum SimError {
         /// The name that was given.
         name: String,
     },
+    /// Pairs whose scene failed the pair selection in every one of its
+    /// [`SCENE_ATTEMPTS`] draws ([`try_simulate_pairs`]).
+    #[error(
+        "{} of {requested} pairs do not meet the pair selection (every moving object with at \
+         least {min_object_returns} associated returns) in {SCENE_ATTEMPTS} draws; first: {}",
+        unmet.len(),
+        unmet.first().map_or(String::new(), |u| u.to_string())
+    )]
+    SelectionUnmet {
+        /// Pairs asked for.
+        requested: usize,
+        /// The selection's minimum.
+        min_object_returns: usize,
+        /// The pairs that failed it.
+        unmet: Vec<UnmetSelection>,
+    },
+}
+
+/// A pair whose scene failed the pair selection in every draw: the last draw is what
+/// [`simulate_pair`] returns.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+pub struct UnmetSelection {
+    /// The pair's index.
+    pub index: u64,
+    /// The pair's name.
+    pub name: String,
+    /// Returns (with a true association) of the least-seen moving object of the last
+    /// draw; `None` when no moving object shows at all.
+    pub fewest_object_returns: Option<usize>,
+}
+
+impl std::fmt::Display for UnmetSelection {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.fewest_object_returns {
+            Some(n) => write!(
+                f,
+                "{} (last draw: an object with {n} associated returns)",
+                self.name
+            ),
+            None => write!(f, "{} (last draw: no moving object shows)", self.name),
+        }
+    }
+}
+
+/// Pairs with the pair selection's outcome ([`simulate_pairs_report`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SimulationReport {
+    /// The pairs, as [`simulate_pairs`] returns them.
+    pub pairs: Vec<ScanPair>,
+    /// The pairs that keep a last draw failing the selection.
+    pub unmet: Vec<UnmetSelection>,
 }
 
 /// Result type of the simulator.
@@ -269,11 +320,16 @@ pub const SCENE_ATTEMPTS: usize = 40;
 /// `min_returns` current returns with a true association into the reference scan
 /// ([`SimConfig::min_object_returns`]).
 pub fn objects_observable(pair: &ScanPair, min_returns: usize) -> bool {
-    let Some(truth) = pair.truth.as_ref() else {
-        return true;
-    };
+    fewest_object_returns(pair).is_none_or(|n| n >= min_returns)
+}
+
+/// The smallest number of current returns with a true association over the moving
+/// objects that show in the current scan (`None` when none shows or the pair lacks
+/// labels or associations).
+pub fn fewest_object_returns(pair: &ScanPair) -> Option<usize> {
+    let truth = pair.truth.as_ref()?;
     let (Some(labels), Some(associations)) = (&truth.labels, &truth.associations) else {
-        return true;
+        return None;
     };
     let mut counts: std::collections::BTreeMap<u32, usize> = Default::default();
     for (label, association) in labels.iter().zip(associations) {
@@ -282,7 +338,7 @@ pub fn objects_observable(pair: &ScanPair, min_returns: usize) -> bool {
             *counts.entry(l).or_default() += usize::from(seen);
         }
     }
-    counts.values().all(|&n| n >= min_returns)
+    counts.values().copied().min()
 }
 
 /// Simulates pair number `index` of the configured preset for `seed`; its name is
@@ -293,8 +349,20 @@ pub fn objects_observable(pair: &ScanPair, min_returns: usize) -> bool {
 /// scan, the scene is drawn again from the same stream. So is a scene that fails the
 /// pair selection of [`SimConfig::min_object_returns`] ([`objects_observable`]),
 /// `Random` included (which otherwise keeps whatever it draws, empty streets
-/// included). After [`SCENE_ATTEMPTS`] draws the last one is kept.
+/// included). After [`SCENE_ATTEMPTS`] draws the last one is kept: use
+/// [`simulate_pair_report`], [`simulate_pairs_report`] or [`try_simulate_pairs`] to
+/// know whether that happened.
 pub fn simulate_pair(config: &ValidSimConfig, seed: u64, index: u64) -> ScanPair {
+    simulate_pair_report(config, seed, index).0
+}
+
+/// [`simulate_pair`] and, when the selection was not met in any draw, what the last
+/// draw kept.
+pub fn simulate_pair_report(
+    config: &ValidSimConfig,
+    seed: u64,
+    index: u64,
+) -> (ScanPair, Option<UnmetSelection>) {
     let mut rng = pair_rng(seed, index);
     let preset = config.params().preset;
     let name = format!("sim:{}:{seed}:{index}", preset.name());
@@ -308,10 +376,48 @@ pub fn simulate_pair(config: &ValidSimConfig, seed: u64, index: u64) -> ScanPair
             .and_then(|t| t.labels.as_ref())
             .is_some_and(|labels| labels.iter().any(|l| l.is_some_and(|l| l != 0)));
         let selected = objects_observable(&pair, config.params().min_object_returns);
-        if (selected && (shows_motion || preset == Preset::Random)) || attempt >= SCENE_ATTEMPTS {
-            return pair;
+        if selected && (shows_motion || preset == Preset::Random) {
+            return (pair, None);
+        }
+        if attempt >= SCENE_ATTEMPTS {
+            let unmet = UnmetSelection {
+                index,
+                name: pair.name.clone(),
+                fewest_object_returns: fewest_object_returns(&pair),
+            };
+            return (pair, Some(unmet));
         }
         attempt += 1;
+    }
+}
+
+/// [`simulate_pairs`] with the pairs that failed the selection in every draw listed.
+pub fn simulate_pairs_report(config: &ValidSimConfig, seed: u64, n: usize) -> SimulationReport {
+    let mut pairs = Vec::with_capacity(n);
+    let mut unmet = Vec::new();
+    for i in 0..n {
+        let (pair, failed) = simulate_pair_report(config, seed, i as u64);
+        pairs.push(pair);
+        unmet.extend(failed);
+    }
+    SimulationReport { pairs, unmet }
+}
+
+/// [`simulate_pairs`], or [`SimError::SelectionUnmet`] when some pair's scene failed
+/// the pair selection in every one of its [`SCENE_ATTEMPTS`] draws.
+///
+/// # Errors
+/// [`SimError::SelectionUnmet`] listing those pairs.
+pub fn try_simulate_pairs(config: &ValidSimConfig, seed: u64, n: usize) -> Result<Vec<ScanPair>> {
+    let report = simulate_pairs_report(config, seed, n);
+    if report.unmet.is_empty() {
+        Ok(report.pairs)
+    } else {
+        Err(SimError::SelectionUnmet {
+            requested: n,
+            min_object_returns: config.params().min_object_returns,
+            unmet: report.unmet,
+        })
     }
 }
 

@@ -19,6 +19,11 @@
 //! | `pedestrians` | straight or intersection | 2-4 pedestrians on sidewalks, 1-2 crossing, maybe a lead car |
 //! | `mixed` (default) | straight or intersection | the above together: oncoming, overtaking, lead, crossing, turning cars and pedestrians (typically 3-6 objects) |
 //! | `random` | any | 0-3 of every kind, random densities |
+//! | `following` | straight, 2 lanes per direction | objects that keep pace with the ego vehicle: a lead car at the ego speed within 5 % and a car in the next lane at the ego speed (two scenes in three), or a person walking 1.5-4 m ahead of a slow robot (0.8-1.6 m/s) at its speed within 5 % |
+//!
+//! An object that keeps pace stays where it was in the sensor frame, so it looks
+//! static to a method that compares the scans in the sensor frame and moving to one
+//! that compares them in the world (after the ego-motion).
 
 use super::scene::{heading, polygon, rectangle, MovingObject, Primitive, Scene, Trajectory};
 use super::{uniform, SimError, ValidSimConfig};
@@ -55,27 +60,31 @@ pub enum Preset {
     Mixed,
     /// Random layouts and random numbers of every kind of object.
     Random,
+    /// Objects that keep pace with the ego vehicle (module docs).
+    Following,
 }
 
 impl Preset {
     /// Every preset, in the order of [`Preset::NAMES`].
-    pub const ALL: [Preset; 6] = [
+    pub const ALL: [Preset; 7] = [
         Preset::Overtaking,
         Preset::Intersection,
         Preset::Oncoming,
         Preset::Pedestrians,
         Preset::Mixed,
         Preset::Random,
+        Preset::Following,
     ];
 
     /// The preset names accepted by [`Preset::from_str`].
-    pub const NAMES: [&'static str; 6] = [
+    pub const NAMES: [&'static str; 7] = [
         "overtaking",
         "intersection",
         "oncoming",
         "pedestrians",
         "mixed",
         "random",
+        "following",
     ];
 
     /// The preset's name (lower case).
@@ -88,6 +97,10 @@ impl Preset {
     /// included, from the laser-independent parts of `config` (pair distance and ego
     /// speed ranges).
     pub fn scene<R: Rng>(&self, config: &ValidSimConfig, rng: &mut R) -> Scene {
+        if *self == Preset::Following {
+            // Its own draw order, so the other presets' streams stay as they were.
+            return following_scene(config, rng);
+        }
         let c = config.params();
         let ego_speed = uniform(rng, c.ego_speed[0], c.ego_speed[1]);
         let distance = uniform(rng, c.pair_distance[0], c.pair_distance[1]);
@@ -103,6 +116,7 @@ impl Preset {
             Preset::Overtaking | Preset::Oncoming => false,
             Preset::Pedestrians => rng.random_bool(0.4),
             Preset::Mixed | Preset::Random => rng.random_bool(0.5),
+            Preset::Following => false,
         };
         let lanes = match self {
             Preset::Overtaking => {
@@ -180,6 +194,7 @@ impl Preset {
                 let n = b.rng.random_range(0..=1);
                 b.repeat(n, Builder::crossing_pedestrian);
             }
+            Preset::Following => {}
             Preset::Random => {
                 let n = b.rng.random_range(0..=1);
                 b.repeat(n, Builder::lead_car);
@@ -199,6 +214,38 @@ impl Preset {
         }
         b.finish()
     }
+}
+
+/// A scene of [`Preset::Following`]: cars that keep pace on a two-lane street, or a
+/// person walking just ahead of a slow robot.
+fn following_scene<R: Rng>(config: &ValidSimConfig, rng: &mut R) -> Scene {
+    let c = config.params();
+    let person = rng.random_bool(1.0 / 3.0);
+    let ego_speed = if person {
+        uniform(rng, 0.8, 1.6)
+    } else {
+        uniform(rng, c.ego_speed[0], c.ego_speed[1])
+    };
+    let distance = uniform(rng, c.pair_distance[0], c.pair_distance[1]);
+    let interval = distance / ego_speed;
+    let curvature = uniform(rng, -0.002, 0.002);
+    let ego = Trajectory {
+        start: Pose2::new(0.0, uniform(rng, -0.3, 0.3), uniform(rng, -0.02, 0.02)),
+        speed: ego_speed,
+        yaw_rate: curvature * ego_speed,
+    };
+    let layout = Layout::random(rng, 2, false);
+    let mut b = Builder::new(rng, layout, ego, interval, ego_speed);
+    b.buildings();
+    b.parked_cars(0.65);
+    b.furniture(0.65);
+    if person {
+        b.repeat(1, Builder::pacing_pedestrian);
+    } else {
+        b.repeat(1, Builder::pacing_lead_car);
+        b.repeat(1, Builder::pacing_next_lane_car);
+    }
+    b.finish()
 }
 
 impl fmt::Display for Preset {
@@ -614,6 +661,45 @@ impl<'a, R: Rng> Builder<'a, R> {
             start: Pose2::new(x, y, h),
             speed,
             yaw_rate: 0.0,
+        }))
+    }
+
+    /// A car ahead in the ego lane, 8-35 m away, at the ego speed within 5 %.
+    fn pacing_lead_car(&mut self) -> Option<Candidate> {
+        let x = uniform(self.rng, 8.0, 35.0);
+        let y = self.ego.start.y() + uniform(self.rng, -0.2, 0.2);
+        let speed = self.ego_speed * uniform(self.rng, 0.95, 1.05);
+        let h = self.ego.start.theta() + uniform(self.rng, -0.01, 0.01);
+        Some(self.car(Trajectory {
+            start: Pose2::new(x, y, h),
+            speed,
+            yaw_rate: self.ego.yaw_rate,
+        }))
+    }
+
+    /// A car in the next lane to the left, from 3 m behind to 15 m ahead, at the ego
+    /// speed (and turn rate).
+    fn pacing_next_lane_car(&mut self) -> Option<Candidate> {
+        let x = uniform(self.rng, -3.0, 15.0);
+        let y = LANE_WIDTH + uniform(self.rng, -0.2, 0.2);
+        let h = self.ego.start.theta();
+        Some(self.car(Trajectory {
+            start: Pose2::new(x, y, h),
+            speed: self.ego_speed,
+            yaw_rate: self.ego.yaw_rate,
+        }))
+    }
+
+    /// A person walking 1.5-4 m ahead of the (slow) ego vehicle, at its speed within 5 %.
+    fn pacing_pedestrian(&mut self) -> Option<Candidate> {
+        let x = uniform(self.rng, 1.5, 4.0);
+        let y = self.ego.start.y() + uniform(self.rng, -0.4, 0.4);
+        let h = self.ego.start.theta() + uniform(self.rng, -0.05, 0.05);
+        let speed = self.ego_speed * uniform(self.rng, 0.95, 1.05);
+        Some(self.pedestrian(Trajectory {
+            start: Pose2::new(x, y, h),
+            speed,
+            yaw_rate: self.ego.yaw_rate,
         }))
     }
 
