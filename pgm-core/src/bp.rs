@@ -24,8 +24,10 @@ use crate::factor::{Incoming, Mode};
 use crate::graph::{EdgeId, FactorGraph, FactorId, VariableId};
 use crate::hook::{Potentials, UpdateHook};
 use crate::logspace::{self, Normalisation};
+use crate::observer::{BpProgress, Observe};
 use crate::schedule::{MessagePasser, Schedule, Visit};
 use rayon::prelude::*;
+use std::ops::ControlFlow;
 use std::time::{Duration, Instant};
 
 /// Factor-to-variable messages of one graph, normalised; the state of a run, returned
@@ -124,11 +126,47 @@ pub struct BpResult {
     pub residual: f64,
     /// True when the run stopped because its time budget was spent.
     pub out_of_time: bool,
+    /// True when an observer stopped the run (see [`BeliefPropagation::run_observed`]).
+    pub stopped_by_observer: bool,
     /// Number of message updates whose every entry was −∞ (contradictory evidence);
     /// such messages are replaced by uniform ones.
     pub contradictions: usize,
     /// The final messages, for a warm start.
     pub messages: Messages,
+}
+
+impl BpResult {
+    /// Why the run stopped.
+    pub fn termination(&self) -> Termination {
+        Termination::of(self.converged, self.out_of_time, self.stopped_by_observer)
+    }
+}
+
+/// Why a run of message passing stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Termination {
+    /// The fixed-point residual fell within the tolerance (and the hook was stable).
+    Converged,
+    /// The iteration limit was reached without convergence.
+    IterationLimit,
+    /// The time budget was spent.
+    TimeBudget,
+    /// An observer asked to stop.
+    Observer,
+}
+
+impl Termination {
+    fn of(converged: bool, out_of_time: bool, stopped_by_observer: bool) -> Self {
+        if converged {
+            Termination::Converged
+        } else if stopped_by_observer {
+            Termination::Observer
+        } else if out_of_time {
+            Termination::TimeBudget
+        } else {
+            Termination::IterationLimit
+        }
+    }
 }
 
 /// Loopy belief propagation with a pluggable [`Schedule`].
@@ -228,7 +266,51 @@ impl BeliefPropagation {
         schedule: &mut S,
         messages: Messages,
     ) -> Result<BpResult> {
-        let p = self.drive_messages(GraphRef::Shared(graph), None, schedule, messages)?;
+        let p = self.drive_messages(GraphRef::Shared(graph), None, schedule, messages, None)?;
+        Ok(self.finish(graph, p))
+    }
+
+    /// Runs from `start` (uniform messages when `None`) and reports every iteration to
+    /// `observer`, which may stop the run (see [`Observe`]). Works with every schedule.
+    pub fn run_observed<S: Schedule + ?Sized>(
+        &self,
+        graph: &FactorGraph,
+        schedule: &mut S,
+        start: Option<Messages>,
+        observer: &mut dyn Observe<BpProgress>,
+    ) -> Result<BpResult> {
+        let messages = start.unwrap_or_else(|| Messages::uniform(graph, self.mode));
+        let p = self.drive_messages(
+            GraphRef::Shared(graph),
+            None,
+            schedule,
+            messages,
+            Some(observer),
+        )?;
+        Ok(self.finish(graph, p))
+    }
+
+    /// [`run_with_hook`](Self::run_with_hook) with an observer that sees every
+    /// iteration and may stop the run.
+    pub fn run_with_hook_observed<S: Schedule + ?Sized>(
+        &self,
+        graph: &mut FactorGraph,
+        schedule: &mut S,
+        hook: &mut dyn UpdateHook,
+        start: Option<Messages>,
+        observer: &mut dyn Observe<BpProgress>,
+    ) -> Result<BpResult> {
+        let messages = match start {
+            Some(m) => m,
+            None => Messages::uniform(graph, self.mode),
+        };
+        let p = self.drive_messages(
+            GraphRef::Exclusive(graph),
+            Some(hook),
+            schedule,
+            messages,
+            Some(observer),
+        )?;
         Ok(self.finish(graph, p))
     }
 
@@ -259,7 +341,13 @@ impl BeliefPropagation {
             Some(m) => m,
             None => Messages::uniform(graph, self.mode),
         };
-        self.drive_messages(GraphRef::Exclusive(graph), Some(hook), schedule, messages)
+        self.drive_messages(
+            GraphRef::Exclusive(graph),
+            Some(hook),
+            schedule,
+            messages,
+            None,
+        )
     }
 
     fn drive_messages<S: Schedule + ?Sized>(
@@ -268,6 +356,7 @@ impl BeliefPropagation {
         hook: Option<&mut dyn UpdateHook>,
         schedule: &mut S,
         messages: Messages,
+        mut observer: Option<&mut dyn Observe<BpProgress>>,
     ) -> Result<Propagation> {
         self.check()?;
         messages.check_layout(graph.get())?;
@@ -297,14 +386,28 @@ impl BeliefPropagation {
         let mut converged = false;
         let mut residual = f64::INFINITY;
         let mut out_of_time = false;
+        let mut stopped_by_observer = false;
         while iterations < self.max_iterations {
             passer.state.residual = 0.0;
             let reported = schedule.iteration(&mut passer);
             iterations += 1;
             residual = reported.unwrap_or(passer.state.residual);
             let hook_stable = passer.after_iteration(iterations);
-            if residual <= self.tolerance && hook_stable {
-                converged = true;
+            converged = residual <= self.tolerance && hook_stable;
+            if let Some(observer) = observer.as_deref_mut() {
+                let progress = BpProgress {
+                    iteration: iterations,
+                    residual,
+                    converged,
+                    contradictions: passer.state.contradictions,
+                    elapsed: start.elapsed(),
+                };
+                if let ControlFlow::Break(()) = observer.observe(&progress) {
+                    stopped_by_observer = !converged;
+                    break;
+                }
+            }
+            if converged {
                 break;
             }
             if passer.out_of_time() {
@@ -318,6 +421,7 @@ impl BeliefPropagation {
             converged,
             residual,
             out_of_time,
+            stopped_by_observer,
             contradictions: passer.state.contradictions,
         })
     }
@@ -330,7 +434,7 @@ impl BeliefPropagation {
         schedule: &mut S,
         messages: Messages,
     ) -> Result<Propagation> {
-        self.drive_messages(GraphRef::Shared(graph), None, schedule, messages)
+        self.drive_messages(GraphRef::Shared(graph), None, schedule, messages, None)
     }
 
     /// Decodes the assignment and beliefs of a finished propagation.
@@ -354,6 +458,7 @@ impl BeliefPropagation {
             converged: p.converged,
             residual: p.residual,
             out_of_time: p.out_of_time,
+            stopped_by_observer: p.stopped_by_observer,
             contradictions: p.contradictions,
             messages,
         }
@@ -373,6 +478,8 @@ pub struct Propagation {
     pub residual: f64,
     /// Whether the time budget stopped the run.
     pub out_of_time: bool,
+    /// Whether an observer stopped the run.
+    pub stopped_by_observer: bool,
     /// Number of all-zero message updates.
     pub contradictions: usize,
 }
@@ -671,18 +778,28 @@ impl PassState {
         logspace::distance(&self.scratch.out, &self.messages.values[range])
     }
 
-    fn commit_candidate(&mut self, graph: &FactorGraph, e: EdgeId) {
+    /// Commits the candidate of `e`; returns the change still pending (candidate
+    /// against the committed message, 0 without damping).
+    fn commit_candidate(&mut self, graph: &FactorGraph, e: EdgeId) -> f64 {
         if self.candidates.len() != self.messages.values.len() {
-            return;
+            return 0.0;
         }
         let range = graph.message_range(e);
         let r = commit(
             &mut self.messages.values[range.clone()],
-            &self.candidates[range],
+            &self.candidates[range.clone()],
             self.damping,
             self.normalisation,
         );
         self.residual = self.residual.max(r);
+        if self.damping == 0.0 {
+            0.0
+        } else {
+            logspace::distance(
+                &self.candidates[range.clone()],
+                &self.messages.values[range],
+            )
+        }
     }
 
     fn flood(&mut self, graph: &FactorGraph) {
@@ -771,9 +888,14 @@ impl MessagePasser for Passer<'_, '_> {
     }
 
     fn commit_candidate(&mut self, e: EdgeId) {
+        self.commit_candidate_pending(e);
+    }
+
+    fn commit_candidate_pending(&mut self, e: EdgeId) -> f64 {
         self.before(Visit::Edge(e));
-        self.state.commit_candidate(self.graph.get(), e);
+        let pending = self.state.commit_candidate(self.graph.get(), e);
         self.after(Visit::Edge(e));
+        pending
     }
 
     fn out_of_time(&self) -> bool {

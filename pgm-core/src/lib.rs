@@ -42,17 +42,21 @@ pub mod hook;
 pub mod hybrid;
 pub mod learning;
 pub mod logspace;
+pub mod observer;
 pub mod schedule;
 #[cfg(feature = "proptest-strategies")]
 pub mod strategies;
+pub mod trws;
 pub mod uai;
 
-pub use bp::{decode_map, BeliefPropagation, BpResult, Messages, Propagation};
+pub use bp::{decode_map, BeliefPropagation, BpResult, Messages, Propagation, Termination};
 pub use error::{Error, Result};
 pub use factor::{Factor, Incoming, Mode, PottsFactor, ShiftedIdentityFactor, TableFactor};
 pub use graph::{EdgeId, FactorGraph, FactorId, VariableId};
 pub use hook::{Potentials, UpdateHook};
 pub use learning::{FeatureSet, Learner, LearnerParams, LogLinearModel, PseudoLikelihood, Weights};
+pub use observer::{BpProgress, History, Observe, TrwsProgress};
 pub use schedule::{
     Flooding, MessagePasser, Residual, Schedule, ScheduleKind, Sequential, SequentialUnit, Visit,
 };
+pub use trws::{Trws, TrwsParams, TrwsResult, TrwsTermination};

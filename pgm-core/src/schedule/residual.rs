@@ -1,5 +1,10 @@
 //! Residual belief propagation (Elidan, McGraw and Koller, 2006): always commit the
 //! message whose recomputation would change it most.
+//!
+//! With damping a commit moves a message only part of the way to its candidate, so
+//! the committed edge keeps the rest of its residual in the queue
+//! ([`MessagePasser::commit_candidate_pending`]): damping changes the path to the
+//! fixed point, never the fixed point, and a damped run cannot stop half-way.
 
 use super::{MessagePasser, Schedule};
 use crate::graph::{EdgeId, FactorId};
@@ -50,8 +55,8 @@ impl Schedule for Residual {
                 break;
             }
             let e = EdgeId(e);
-            passer.commit_candidate(e);
-            self.heap.set(e.0, 0.0);
+            let pending = passer.commit_candidate_pending(e);
+            self.heap.set(e.0, pending);
             // Messages that read the changed message: every other factor of the target
             // variable, towards that factor's other variables.
             affected.clear();
