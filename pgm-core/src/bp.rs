@@ -21,7 +21,7 @@
 
 use crate::error::{Error, Result};
 use crate::factor::{Incoming, Mode};
-use crate::graph::{EdgeId, FactorGraph, FactorId, VariableId};
+use crate::graph::{EdgeId, FactorGraph, FactorId, MessageIndex, VariableId};
 use crate::hook::{Potentials, UpdateHook};
 use crate::logspace::{self, Normalisation};
 use crate::observer::{BpProgress, Observe};
@@ -615,6 +615,113 @@ fn gather(
     }
 }
 
+/// Computes the unnormalised message of edge `e` from `messages` into
+/// `scratch.out[..k]` (`k` the states of the edge's variable, returned).
+///
+/// Pairwise factors take the fast path: the one incoming variable-to-factor message
+/// is a leave-one-out sum over the other variable's contiguous block
+/// ([`leave_one_out`]), written straight where [`Incoming`] expects it. Other arities
+/// gather every position ([`gather`]). Both give bit-identical sums.
+#[inline]
+fn raw_message(
+    graph: &FactorGraph,
+    ix: &MessageIndex<'_>,
+    messages: &[f64],
+    e: usize,
+    mode: Mode,
+    scratch: &mut Scratch,
+) -> usize {
+    if let Some(p) = ix.pair_source.get(e).filter(|p| p.target_states > 0) {
+        let k = p.target_states as usize;
+        let other = p.states as usize;
+        let total = k + other;
+        if scratch.incoming.len() < total {
+            scratch.incoming.resize(total, 0.0);
+        }
+        if scratch.out.len() < k {
+            scratch.out.resize(k, 0.0);
+        }
+        let slot = p.slot as usize;
+        let (offsets, at) = if slot == 0 {
+            ([0, k, total], k)
+        } else {
+            ([0, other, total], 0)
+        };
+        let (start, end, own) = (p.start as usize, p.end as usize, p.own as usize);
+        leave_one_out(
+            &messages[start..end],
+            own - start,
+            other,
+            &mut scratch.incoming[at..at + other],
+        );
+        let incoming = Incoming::new(&scratch.incoming[..total], &offsets);
+        graph.factor(FactorId(p.factor as usize)).message(
+            slot,
+            &incoming,
+            mode,
+            &mut scratch.out[..k],
+        );
+        return k;
+    }
+    let a = ix.edge_factor[e];
+    let slot = e - ix.factor_edge_start[a.0];
+    let k = ix.cardinalities[ix.edge_variable[e].0];
+    if scratch.out.len() < k {
+        scratch.out.resize(k, 0.0);
+    }
+    gather(graph, messages, a, Some(slot), scratch);
+    let incoming = Incoming::new(&scratch.incoming, &scratch.offsets);
+    graph
+        .factor(a)
+        .message(slot, &incoming, mode, &mut scratch.out[..k]);
+    k
+}
+
+/// `dst = Σ` of the `k`-long messages of `block` except the one starting at `own`
+/// (all zeros when `own` is the only one): a variable-to-factor message, computed
+/// without subtraction. Small `k` get loops the compiler unrolls.
+#[inline]
+fn leave_one_out(block: &[f64], own: usize, k: usize, dst: &mut [f64]) {
+    match k {
+        2 => leave_one_out_fixed::<2>(block, own, dst),
+        3 => leave_one_out_fixed::<3>(block, own, dst),
+        4 => leave_one_out_fixed::<4>(block, own, dst),
+        5 => leave_one_out_fixed::<5>(block, own, dst),
+        6 => leave_one_out_fixed::<6>(block, own, dst),
+        7 => leave_one_out_fixed::<7>(block, own, dst),
+        8 => leave_one_out_fixed::<8>(block, own, dst),
+        _ => {
+            dst.iter_mut().for_each(|d| *d = 0.0);
+            let mut start = 0;
+            for chunk in block.chunks_exact(k.max(1)) {
+                if start != own {
+                    for (d, c) in dst.iter_mut().zip(chunk) {
+                        *d += c;
+                    }
+                }
+                start += k;
+            }
+        }
+    }
+}
+
+#[inline(always)]
+fn leave_one_out_fixed<const K: usize>(block: &[f64], own: usize, dst: &mut [f64]) {
+    // Starting from +0.0 gives the same sums as starting from the first message
+    // (x + 0.0 = x for every x but −0.0, and −0.0 and +0.0 are the same log-value).
+    let mut acc = [0.0f64; K];
+    let mut start = 0;
+    for chunk in block.chunks_exact(K) {
+        if start != own {
+            for x in 0..K {
+                acc[x] += chunk[x];
+            }
+        }
+        start += K;
+    }
+    dst[..K].copy_from_slice(&acc);
+}
+
 /// Computes the normalised message of scope position `slot` of factor `a` into
 /// `scratch.out`, assuming `gather` was called. Returns false on a contradiction.
 fn compute(
@@ -676,6 +783,33 @@ fn commit_raw(old: &mut [f64], raw: &mut [f64], damping: f64, how: Normalisation
     (commit(old, raw, damping, how), ok)
 }
 
+/// [`commit_raw`] for flooding: the message moves from `old` (the previous
+/// iteration's buffer) to `dst` (the next one's).
+#[inline]
+fn commit_raw_into(
+    old: &[f64],
+    dst: &mut [f64],
+    raw: &mut [f64],
+    damping: f64,
+    how: Normalisation,
+) -> (f64, bool) {
+    if damping == 0.0 && how == Normalisation::Max && raw.len() <= 16 {
+        let m = logspace::max(raw);
+        if m.is_finite() {
+            let mut d = 0.0f64;
+            for ((o, n), &x) in old.iter().zip(dst.iter_mut()).zip(raw.iter()) {
+                let v = x - m;
+                let diff = (v - *o).abs();
+                d = if diff > d { diff } else { d };
+                *n = v;
+            }
+            return (d, true);
+        }
+    }
+    dst.copy_from_slice(old);
+    commit_raw(dst, raw, damping, how)
+}
+
 /// Writes `new` over `old` with damping; returns the undamped change.
 fn commit(old: &mut [f64], new: &[f64], damping: f64, how: Normalisation) -> f64 {
     let residual = logspace::distance(new, old);
@@ -697,6 +831,14 @@ fn commit(old: &mut [f64], new: &[f64], damping: f64, how: Normalisation) -> f64
 impl PassState {
     /// Updates the messages of factor `a` to every scope position except `except`.
     fn update_factor_except(&mut self, graph: &FactorGraph, a: FactorId, except: Option<usize>) {
+        if graph.factor_edges(a).len() == 2 {
+            for (slot, e) in graph.factor_edges(a).enumerate() {
+                if Some(slot) != except {
+                    self.update_edge(graph, EdgeId(e));
+                }
+            }
+            return;
+        }
         let skip = match (except, graph.factor(a).scope().len()) {
             // A single-target update only needs the other positions' messages.
             (_, 1) => Some(0),
@@ -711,16 +853,24 @@ impl PassState {
     }
 
     fn update_edge(&mut self, graph: &FactorGraph, e: EdgeId) {
-        let a = graph.edge_factor(e);
-        let slot = graph.edge_slot(e);
-        gather(
+        let ix = graph.index();
+        let k = raw_message(
             graph,
+            &ix,
             &self.messages.values,
-            a,
-            Some(slot),
+            e.0,
+            self.mode,
             &mut self.scratch,
         );
-        self.send(graph, a, slot, e);
+        let start = ix.edge_offset[e.0];
+        let (r, ok) = commit_raw(
+            &mut self.messages.values[start..start + k],
+            &mut self.scratch.out[..k],
+            self.damping,
+            self.normalisation,
+        );
+        self.contradictions += usize::from(!ok);
+        self.residual = self.residual.max(r);
     }
 
     /// Computes the message of edge `e` (scope position `slot` of factor `a`) from the
@@ -754,28 +904,38 @@ impl PassState {
         if self.candidates.len() != self.messages.values.len() {
             self.candidates = self.messages.values.clone();
         }
-        let a = graph.edge_factor(e);
-        let slot = graph.edge_slot(e);
-        gather(
+        let ix = graph.index();
+        let k = raw_message(
             graph,
+            &ix,
             &self.messages.values,
-            a,
-            Some(slot),
+            e.0,
+            self.mode,
             &mut self.scratch,
         );
-        if !compute(
-            graph,
-            a,
-            slot,
-            self.mode,
-            self.normalisation,
-            &mut self.scratch,
-        ) {
+        let out = &mut self.scratch.out[..k];
+        let start = ix.edge_offset[e.0];
+        let current = &self.messages.values[start..start + k];
+        let candidate = &mut self.candidates[start..start + k];
+        if self.normalisation == Normalisation::Max && k <= 16 {
+            // One fused pass: normalise, compare, store.
+            let m = logspace::max(out);
+            if m.is_finite() {
+                let mut d = 0.0f64;
+                for ((c, &x), &o) in candidate.iter_mut().zip(out.iter()).zip(current) {
+                    let v = x - m;
+                    let diff = (v - o).abs();
+                    d = if diff > d { diff } else { d };
+                    *c = v;
+                }
+                return d;
+            }
+        }
+        if !logspace::normalise(out, self.normalisation) {
             self.contradictions += 1;
         }
-        let range = graph.message_range(e);
-        self.candidates[range.clone()].copy_from_slice(&self.scratch.out);
-        logspace::distance(&self.scratch.out, &self.messages.values[range])
+        candidate.copy_from_slice(out);
+        logspace::distance(out, current)
     }
 
     /// Commits the candidate of `e`; returns the change still pending (candidate
@@ -831,16 +991,18 @@ impl PassState {
                 let base = graph.variable_message_range(order[variables.start]).start;
                 let mut residual = 0.0f64;
                 let mut contradictions = 0usize;
+                let ix = graph.index();
                 for &v in &order[variables] {
                     for &e in graph.variable_edges(v) {
-                        let a = graph.edge_factor(e);
-                        let slot = graph.edge_slot(e);
-                        gather(graph, old, a, Some(slot), &mut scratch);
-                        compute_raw(graph, a, slot, mode, &mut scratch);
-                        let range = graph.message_range(e);
-                        let dst = &mut out[range.start - base..range.end - base];
-                        dst.copy_from_slice(&old[range]);
-                        let (r, ok) = commit_raw(dst, &mut scratch.out, damping, how);
+                        let k = raw_message(graph, &ix, old, e.0, mode, &mut scratch);
+                        let start = ix.edge_offset[e.0];
+                        let (r, ok) = commit_raw_into(
+                            &old[start..start + k],
+                            &mut out[start - base..start - base + k],
+                            &mut scratch.out[..k],
+                            damping,
+                            how,
+                        );
                         contradictions += usize::from(!ok);
                         residual = residual.max(r);
                     }

@@ -72,6 +72,32 @@ pub(crate) struct MessageIndex<'g> {
     pub(crate) edge_variable: &'g [VariableId],
     pub(crate) cardinalities: &'g [usize],
     pub(crate) factor_edge_start: &'g [usize],
+    pub(crate) edge_factor: &'g [FactorId],
+    /// Per edge of a pairwise factor: where the *other* scope position's incoming
+    /// messages live (see [`PairSource`]); empty when the buffer is too large for
+    /// 32-bit offsets (the engine then takes its general path).
+    pub(crate) pair_source: &'g [PairSource],
+}
+
+/// For an edge of a pairwise factor, the message block of the factor's other variable:
+/// `start..end` holds every message into that variable, `own` is where the message
+/// from this factor sits (left out of the variable-to-factor sum). Unused (zero) for
+/// edges of factors of other arities.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct PairSource {
+    pub(crate) start: u32,
+    pub(crate) end: u32,
+    pub(crate) own: u32,
+    /// Number of states of the other variable.
+    pub(crate) states: u32,
+    /// Number of states of this edge's variable.
+    pub(crate) target_states: u32,
+    /// Where this edge's message starts in the buffer.
+    pub(crate) target: u32,
+    /// The factor.
+    pub(crate) factor: u32,
+    /// This edge's scope position (0 or 1).
+    pub(crate) slot: u32,
 }
 
 /// Variable-major message layout.
@@ -87,6 +113,8 @@ struct Layout {
     order: Vec<VariableId>,
     /// Total buffer length.
     total: usize,
+    /// See [`MessageIndex::pair_source`].
+    pair_source: Vec<PairSource>,
 }
 
 impl FactorGraph {
@@ -278,6 +306,8 @@ impl FactorGraph {
             edge_variable: &self.edge_variable,
             cardinalities: &self.cardinalities,
             factor_edge_start: &self.factor_edge_start,
+            edge_factor: &self.edge_factor,
+            pair_source: &layout.pair_source,
         }
     }
 
@@ -298,12 +328,41 @@ impl FactorGraph {
                 }
                 variable_end[v.0] = next;
             }
+            let mut pair_source = Vec::new();
+            if u32::try_from(next).is_ok() && u32::try_from(self.num_factors()).is_ok() {
+                pair_source = vec![PairSource::default(); self.num_edges()];
+                for w in self.factor_edge_start.windows(2) {
+                    if w[1] - w[0] != 2 {
+                        continue;
+                    }
+                    for (slot, (e, other)) in
+                        [(w[0], w[0] + 1), (w[0] + 1, w[0])].into_iter().enumerate()
+                    {
+                        let u = self.edge_variable[other].0;
+                        let v = self.edge_variable[e].0;
+                        // Offsets and state counts are at most `next`, which fits in
+                        // 32 bits; so does the factor index when the edges fit.
+                        let narrow = |x: usize| x as u32;
+                        pair_source[e] = PairSource {
+                            start: narrow(variable_start[u]),
+                            end: narrow(variable_end[u]),
+                            own: narrow(edge_offset[other]),
+                            states: narrow(self.cardinalities[u]),
+                            target_states: narrow(self.cardinalities[v]),
+                            target: narrow(edge_offset[e]),
+                            factor: narrow(self.edge_factor[e].0),
+                            slot: narrow(slot),
+                        };
+                    }
+                }
+            }
             Layout {
                 edge_offset,
                 variable_start,
                 variable_end,
                 order,
                 total: next,
+                pair_source,
             }
         })
     }
