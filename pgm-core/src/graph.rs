@@ -92,8 +92,6 @@ pub(crate) struct PairSource {
     pub(crate) states: u32,
     /// Number of states of this edge's variable.
     pub(crate) target_states: u32,
-    /// Where this edge's message starts in the buffer.
-    pub(crate) target: u32,
     /// The factor.
     pub(crate) factor: u32,
     /// This edge's scope position (0 or 1).
@@ -349,7 +347,6 @@ impl FactorGraph {
                             own: narrow(edge_offset[other]),
                             states: narrow(self.cardinalities[u]),
                             target_states: narrow(self.cardinalities[v]),
-                            target: narrow(edge_offset[e]),
                             factor: narrow(self.edge_factor[e].0),
                             slot: narrow(slot),
                         };

@@ -24,6 +24,13 @@ fn at_most(a: f64, b: f64) -> bool {
 }
 
 fn check_exact(spec: &GraphSpec) -> Result<(), TestCaseError> {
+    for decode_backward in [false, true] {
+        check_exact_with(spec, decode_backward)?;
+    }
+    Ok(())
+}
+
+fn check_exact_with(spec: &GraphSpec, decode_backward: bool) -> Result<(), TestCaseError> {
     let graph = spec.build();
     let Ok(exact) = brute_force(&graph, BruteForceLimit(MAX_STATES)) else {
         return Ok(());
@@ -31,6 +38,7 @@ fn check_exact(spec: &GraphSpec) -> Result<(), TestCaseError> {
     let result = TrwsParams::default()
         .max_iterations(500)
         .tolerance(1e-12)
+        .decode_backward(decode_backward)
         .check()
         .unwrap()
         .run(&graph)
@@ -55,11 +63,19 @@ fn check_exact(spec: &GraphSpec) -> Result<(), TestCaseError> {
 }
 
 fn check_bound(spec: &GraphSpec) -> Result<(), TestCaseError> {
+    for decode_backward in [false, true] {
+        check_bound_with(spec, decode_backward)?;
+    }
+    Ok(())
+}
+
+fn check_bound_with(spec: &GraphSpec, decode_backward: bool) -> Result<(), TestCaseError> {
     let graph = spec.build();
     let mut history = History::<TrwsProgress>::default();
     let result = TrwsParams::default()
         .max_iterations(40)
         .tolerance(0.0)
+        .decode_backward(decode_backward)
         .check()
         .unwrap()
         .run_observed(&graph, &mut history)
