@@ -21,7 +21,7 @@
 
 use crate::error::{Error, Result};
 use crate::factor::{Incoming, Mode};
-use crate::graph::{EdgeId, FactorGraph, FactorId, MessageIndex, VariableId};
+use crate::graph::{EdgeId, FactorGraph, FactorId, VariableId};
 use crate::hook::{Potentials, UpdateHook};
 use crate::logspace::{self, Normalisation};
 use crate::observer::{BpProgress, Observe};
@@ -362,6 +362,7 @@ impl BeliefPropagation {
         messages.check_layout(graph.get())?;
         schedule.prepare(graph.get())?;
         let start = Instant::now();
+        let scratch = Scratch::for_graph(graph.get());
         let mut passer = Passer {
             graph,
             hook,
@@ -375,7 +376,7 @@ impl BeliefPropagation {
                 messages,
                 candidates: Vec::new(),
                 flood_buffer: Vec::new(),
-                scratch: Scratch::default(),
+                scratch,
                 residual: 0.0,
                 contradictions: 0,
             },
@@ -506,6 +507,35 @@ struct Scratch {
     out: Vec<f64>,
 }
 
+impl Scratch {
+    /// Buffers large enough for every message of `graph` (so the inner loops never
+    /// grow them): the largest sum of a factor's scope cardinalities, the largest
+    /// cardinality.
+    fn for_graph(graph: &FactorGraph) -> Self {
+        let ix = graph.index();
+        let widest = ix
+            .factor_edge_start
+            .windows(2)
+            .map(|w| {
+                (w[0]..w[1])
+                    .map(|e| ix.cardinalities[ix.edge_variable[e].0])
+                    .sum::<usize>()
+            })
+            .max()
+            .unwrap_or(0);
+        let largest = ix.cardinalities.iter().copied().max().unwrap_or(0);
+        Scratch::with_sizes(widest, largest)
+    }
+
+    fn with_sizes(incoming: usize, out: usize) -> Self {
+        Scratch {
+            incoming: vec![0.0; incoming],
+            offsets: Vec::new(),
+            out: vec![0.0; out],
+        }
+    }
+}
+
 struct PassState {
     mode: Mode,
     normalisation: Normalisation,
@@ -616,31 +646,26 @@ fn gather(
 }
 
 /// Computes the unnormalised message of edge `e` from `messages` into
-/// `scratch.out[..k]` (`k` the states of the edge's variable, returned).
+/// `scratch.out[..k]`; returns `k` (the states of the edge's variable) and where the
+/// edge's message starts in the buffer.
 ///
 /// Pairwise factors take the fast path: the one incoming variable-to-factor message
 /// is a leave-one-out sum over the other variable's contiguous block
 /// ([`leave_one_out`]), written straight where [`Incoming`] expects it. Other arities
-/// gather every position ([`gather`]). Both give bit-identical sums.
+/// gather every position ([`gather`]). Both give bit-identical sums. `scratch` must
+/// be sized for the graph ([`Scratch::for_graph`]).
 #[inline]
 fn raw_message(
     graph: &FactorGraph,
-    ix: &MessageIndex<'_>,
     messages: &[f64],
     e: usize,
     mode: Mode,
     scratch: &mut Scratch,
-) -> usize {
-    if let Some(p) = ix.pair_source.get(e).filter(|p| p.target_states > 0) {
+) -> (usize, usize) {
+    if let Some(p) = graph.pair_sources().get(e).filter(|p| p.target_states > 0) {
         let k = p.target_states as usize;
         let other = p.states as usize;
         let total = k + other;
-        if scratch.incoming.len() < total {
-            scratch.incoming.resize(total, 0.0);
-        }
-        if scratch.out.len() < k {
-            scratch.out.resize(k, 0.0);
-        }
         let slot = p.slot as usize;
         let (offsets, at) = if slot == 0 {
             ([0, k, total], k)
@@ -661,8 +686,9 @@ fn raw_message(
             mode,
             &mut scratch.out[..k],
         );
-        return k;
+        return (k, p.target as usize);
     }
+    let ix = graph.index();
     let a = ix.edge_factor[e];
     let slot = e - ix.factor_edge_start[a.0];
     let k = ix.cardinalities[ix.edge_variable[e].0];
@@ -674,7 +700,7 @@ fn raw_message(
     graph
         .factor(a)
         .message(slot, &incoming, mode, &mut scratch.out[..k]);
-    k
+    (k, ix.edge_offset[e])
 }
 
 /// `dst = Σ` of the `k`-long messages of `block` except the one starting at `own`
@@ -853,16 +879,13 @@ impl PassState {
     }
 
     fn update_edge(&mut self, graph: &FactorGraph, e: EdgeId) {
-        let ix = graph.index();
-        let k = raw_message(
+        let (k, start) = raw_message(
             graph,
-            &ix,
             &self.messages.values,
             e.0,
             self.mode,
             &mut self.scratch,
         );
-        let start = ix.edge_offset[e.0];
         let (r, ok) = commit_raw(
             &mut self.messages.values[start..start + k],
             &mut self.scratch.out[..k],
@@ -904,17 +927,14 @@ impl PassState {
         if self.candidates.len() != self.messages.values.len() {
             self.candidates = self.messages.values.clone();
         }
-        let ix = graph.index();
-        let k = raw_message(
+        let (k, start) = raw_message(
             graph,
-            &ix,
             &self.messages.values,
             e.0,
             self.mode,
             &mut self.scratch,
         );
         let out = &mut self.scratch.out[..k];
-        let start = ix.edge_offset[e.0];
         let current = &self.messages.values[start..start + k];
         let candidate = &mut self.candidates[start..start + k];
         if self.normalisation == Normalisation::Max && k <= 16 {
@@ -984,18 +1004,17 @@ impl PassState {
         }
         let old = &self.messages.values;
         let (mode, how, damping) = (self.mode, self.normalisation, self.damping);
+        let sizes = (self.scratch.incoming.len(), self.scratch.out.len());
         let (residual, contradictions) = chunks
             .into_par_iter()
             .map(|(variables, out)| {
-                let mut scratch = Scratch::default();
+                let mut scratch = Scratch::with_sizes(sizes.0, sizes.1);
                 let base = graph.variable_message_range(order[variables.start]).start;
                 let mut residual = 0.0f64;
                 let mut contradictions = 0usize;
-                let ix = graph.index();
                 for &v in &order[variables] {
                     for &e in graph.variable_edges(v) {
-                        let k = raw_message(graph, &ix, old, e.0, mode, &mut scratch);
-                        let start = ix.edge_offset[e.0];
+                        let (k, start) = raw_message(graph, old, e.0, mode, &mut scratch);
                         let (r, ok) = commit_raw_into(
                             &old[start..start + k],
                             &mut out[start - base..start - base + k],

@@ -73,10 +73,6 @@ pub(crate) struct MessageIndex<'g> {
     pub(crate) cardinalities: &'g [usize],
     pub(crate) factor_edge_start: &'g [usize],
     pub(crate) edge_factor: &'g [FactorId],
-    /// Per edge of a pairwise factor: where the *other* scope position's incoming
-    /// messages live (see [`PairSource`]); empty when the buffer is too large for
-    /// 32-bit offsets (the engine then takes its general path).
-    pub(crate) pair_source: &'g [PairSource],
 }
 
 /// For an edge of a pairwise factor, the message block of the factor's other variable:
@@ -92,6 +88,8 @@ pub(crate) struct PairSource {
     pub(crate) states: u32,
     /// Number of states of this edge's variable.
     pub(crate) target_states: u32,
+    /// Where this edge's message starts in the buffer.
+    pub(crate) target: u32,
     /// The factor.
     pub(crate) factor: u32,
     /// This edge's scope position (0 or 1).
@@ -111,7 +109,7 @@ struct Layout {
     order: Vec<VariableId>,
     /// Total buffer length.
     total: usize,
-    /// See [`MessageIndex::pair_source`].
+    /// See [`FactorGraph::pair_sources`].
     pair_source: Vec<PairSource>,
 }
 
@@ -293,6 +291,14 @@ impl FactorGraph {
         e.0 - self.factor_edge_start[self.edge_factor[e.0].0]
     }
 
+    /// Per edge of a pairwise factor: where the *other* scope position's incoming
+    /// messages live (see [`PairSource`]); empty when the buffer is too large for
+    /// 32-bit offsets (the engine then takes its general path).
+    #[inline]
+    pub(crate) fn pair_sources(&self) -> &[PairSource] {
+        &self.layout().pair_source
+    }
+
     /// Flat views of the structure for the message-passing inner loops.
     #[inline]
     pub(crate) fn index(&self) -> MessageIndex<'_> {
@@ -305,7 +311,6 @@ impl FactorGraph {
             cardinalities: &self.cardinalities,
             factor_edge_start: &self.factor_edge_start,
             edge_factor: &self.edge_factor,
-            pair_source: &layout.pair_source,
         }
     }
 
@@ -347,6 +352,7 @@ impl FactorGraph {
                             own: narrow(edge_offset[other]),
                             states: narrow(self.cardinalities[u]),
                             target_states: narrow(self.cardinalities[v]),
+                            target: narrow(edge_offset[e]),
                             factor: narrow(self.edge_factor[e].0),
                             slot: narrow(slot),
                         };
