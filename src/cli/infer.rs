@@ -63,6 +63,8 @@ pub fn run(args: InferArgs, task: Task) -> CliResult {
             .apply(&mut graph)
             .map_err(|e| CliError(format!("{}: {e}", path.display())))?;
     }
+    // Potts tables (as UAI files write them) pass their messages in O(K).
+    graph.specialise_factors();
     if args.algorithm == "trws" {
         return run_trws(&args, &graph, task);
     }
