@@ -965,6 +965,20 @@ impl PassState {
             return 0.0;
         }
         let range = graph.message_range(e);
+        if self.damping == 0.0 {
+            // Undamped: copy and measure in one pass.
+            let mut d = 0.0f64;
+            for (o, &c) in self.messages.values[range.clone()]
+                .iter_mut()
+                .zip(&self.candidates[range])
+            {
+                let diff = (c - *o).abs();
+                d = if diff > d { diff } else { d };
+                *o = c;
+            }
+            self.residual = self.residual.max(d);
+            return 0.0;
+        }
         let r = commit(
             &mut self.messages.values[range.clone()],
             &self.candidates[range.clone()],

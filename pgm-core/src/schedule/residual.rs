@@ -124,8 +124,14 @@ impl IndexedMaxHeap {
         self.heap.first().map(|&(k, e)| (e, Self::priority(k)))
     }
 
+    /// Sets an edge's priority; a priority of 0 takes the edge out of the heap (such an
+    /// edge is never committed, and a smaller heap is cheaper to sift).
     fn set(&mut self, edge: usize, priority: f64) {
         let item = (Self::key(priority), edge);
+        if item.0 == 0 {
+            self.remove(edge);
+            return;
+        }
         let pos = self.positions[edge];
         if pos == usize::MAX {
             self.heap.push(item);
@@ -137,6 +143,24 @@ impl IndexedMaxHeap {
             } else {
                 self.sift_down(pos, item);
             }
+        }
+    }
+
+    fn remove(&mut self, edge: usize) {
+        let pos = self.positions[edge];
+        if pos == usize::MAX {
+            return;
+        }
+        self.positions[edge] = usize::MAX;
+        let Some(last) = self.heap.pop() else { return };
+        if pos == self.heap.len() {
+            return;
+        }
+        // The last element fills the hole, moving up or down from there.
+        if pos > 0 && Self::before(last, self.heap[(pos - 1) / 4]) {
+            self.sift_up(pos, last);
+        } else {
+            self.sift_down(pos, last);
         }
     }
 
@@ -215,7 +239,7 @@ mod tests {
             let expected = current
                 .iter()
                 .enumerate()
-                .filter_map(|(e, p)| p.map(|p| (e, p)))
+                .filter_map(|(e, p)| p.filter(|&p| p > 0.0).map(|p| (e, p)))
                 .fold(None, |best: Option<(usize, f64)>, (e, p)| match best {
                     Some((_, q)) if q >= p => best,
                     _ => Some((e, p)),
