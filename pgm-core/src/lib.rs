@@ -13,7 +13,7 @@
 //! workspace root.
 //!
 //! 1. **Features.** A [`FeatureSet`] names the weights in templates; a
-//!    [`LogLinearModel`](learning::LogLinearModel) per image holds one clique per
+//!    [`LogLinearModel`] per image holds one clique per
 //!    pixel (`[x = c]` and `[x = c]·z` for each class `c`, where `z` is the noisy
 //!    intensity) and one per pair of neighbours (`[x_i = x_j]`), so that every
 //!    log-potential is `w · f(x, z)`.
