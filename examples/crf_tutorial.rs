@@ -263,7 +263,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             *total += a / test as f64;
         }
         println!(
-            "{index:>5} {:>10.3} {:>9.3} {:>9.3} {:>9.3} {:>11.2} {:>11.2} {:>11.2} {:>9.3} {:>9.1}",
+            "{index:>5} {:>10.3} {:>9.3} {:>9.3} {:>9.3} {:>11.2} {:>11.2} {:>11.2} {:>9.1e} {:>9.1}",
             accuracies[0],
             accuracies[1],
             accuracies[2],

@@ -579,7 +579,6 @@ impl State {
     /// Fills `incoming` for the factor of `at` towards its variable: variables decoded
     /// in this pass (with `decode`) as indicators, the others as the reweighted
     /// variable-to-factor messages `n_{j→α} = γ_j θ̂_j − m_{α→j}`.
-    #[inline]
     fn fill_incoming(&mut self, graph: &FactorGraph, at: Incidence, decode: bool) {
         let a = at.factor;
         let offsets =
@@ -641,100 +640,35 @@ impl State {
     fn pass(&mut self, graph: &FactorGraph, forward: bool, decode: bool) -> PassOutcome {
         self.passes += 1;
         let n = self.order.len();
-        let mut bound = self.constant;
-        let mut score = self.constant;
-        let mut infeasible = false;
+        let mut outcome = PassOutcome {
+            bound: self.constant,
+            score: self.constant,
+            infeasible: false,
+        };
         for step in 0..n {
             let i = if forward {
                 self.order[step]
             } else {
                 self.order[n - 1 - step]
             };
-            let k = self.cardinality[i];
-            let (start, end) = (
-                self.variable_edges_start[i],
-                self.variable_edges_start[i + 1],
-            );
-            // 1. Messages from the factors that reach back in this pass.
-            for index in start..end {
-                let at = self.variable_edges[index];
-                if !at.receives(forward) {
-                    continue;
-                }
-                self.fill_incoming(graph, at, false);
-                self.factor_message(graph, at, k);
-                let out = &self.out[..k];
-                let c = crate::logspace::max(out);
-                let m = &mut self.messages[at.message..at.message + k];
-                if c.is_finite() {
-                    for (m, &o) in m.iter_mut().zip(out) {
-                        *m = o - c;
-                    }
-                } else {
-                    // No state of the variable is feasible for this factor.
-                    infeasible = true;
-                    m.iter_mut().for_each(|m| *m = f64::NEG_INFINITY);
-                }
-                if at.closes(forward) {
-                    self.factor_constant[at.factor] = c;
-                }
+            // Few states: the same code with the state count fixed at compile time,
+            // so the many short loops over states unroll.
+            match self.cardinality[i] {
+                2 => self.visit::<2>(graph, i, forward, decode, &mut outcome),
+                3 => self.visit::<3>(graph, i, forward, decode, &mut outcome),
+                4 => self.visit::<4>(graph, i, forward, decode, &mut outcome),
+                5 => self.visit::<5>(graph, i, forward, decode, &mut outcome),
+                6 => self.visit::<6>(graph, i, forward, decode, &mut outcome),
+                7 => self.visit::<7>(graph, i, forward, decode, &mut outcome),
+                8 => self.visit::<8>(graph, i, forward, decode, &mut outcome),
+                _ => self.visit::<0>(graph, i, forward, decode, &mut outcome),
             }
-            // 2. The reparametrised unary.
-            let block = self.variable_offset[i]..self.variable_offset[i + 1];
-            {
-                let theta_hat = &mut self.theta_hat[block.clone()];
-                theta_hat.copy_from_slice(&self.theta[block.clone()]);
-                for at in &self.variable_edges[start..end] {
-                    let m = &self.messages[at.message..at.message + k];
-                    for (t, &m) in theta_hat.iter_mut().zip(m) {
-                        *t += m;
-                    }
-                }
-            }
-            let best = crate::logspace::max(&self.theta_hat[block.clone()]);
-            if best == f64::NEG_INFINITY {
-                infeasible = true;
-            } else {
-                let w = if forward {
-                    self.weight_forward[i]
-                } else {
-                    self.weight_backward[i]
-                };
-                bound += w * best;
-            }
-            if !decode {
-                continue;
-            }
-            // 3. Decoding, conditioned on the variables decoded earlier in this pass.
-            self.score[..k].copy_from_slice(&self.theta[block.clone()]);
-            self.closing[..k].copy_from_slice(&self.theta[block.clone()]);
-            for index in start..end {
-                let at = self.variable_edges[index];
-                if at.receives(forward) {
-                    self.fill_incoming(graph, at, true);
-                    self.factor_message(graph, at, k);
-                    for (s, &o) in self.score[..k].iter_mut().zip(&self.out[..k]) {
-                        *s += o;
-                    }
-                    if at.closes(forward) {
-                        // Every other variable of the factor is decoded: `out` is θ_α
-                        // at their states, a term of the assignment's log-score.
-                        for (s, &o) in self.closing[..k].iter_mut().zip(&self.out[..k]) {
-                            *s += o;
-                        }
-                    }
-                } else {
-                    let m = &self.messages[at.message..at.message + k];
-                    for (s, &m) in self.score[..k].iter_mut().zip(m) {
-                        *s += m;
-                    }
-                }
-            }
-            let x = first_argmax(&self.score[..k]);
-            self.assignment[i] = x;
-            self.decoded_in[i] = self.passes;
-            score += self.closing[x];
         }
+        let PassOutcome {
+            mut bound,
+            score,
+            infeasible,
+        } = outcome;
         if infeasible {
             bound = f64::NEG_INFINITY;
         } else {
@@ -748,10 +682,162 @@ impl State {
             infeasible,
         }
     }
+
+    /// Computes the message of the factor of `at` to its variable (`k` states) into
+    /// `out[..k]`, from the reweighted messages of the factor's other variables (or,
+    /// with `decode`, indicators of those decoded in this pass). Pairwise factors whose
+    /// other variable has `STATES` states get loops of fixed length.
+    #[inline(always)]
+    fn incoming_message<const STATES: usize>(
+        &mut self,
+        graph: &FactorGraph,
+        at: Incidence,
+        k: usize,
+        decode: bool,
+    ) {
+        if at.other_variable == usize::MAX {
+            self.fill_incoming(graph, at, decode);
+            self.factor_message(graph, at, k);
+            return;
+        }
+        let u = at.other_variable;
+        let other = self.cardinality[u];
+        let total = k + other;
+        let (offsets, position) = if at.slot == 0 {
+            ([0, k, total], k)
+        } else {
+            ([0, other, total], 0)
+        };
+        let dst = &mut self.incoming[position..position + other];
+        if decode && self.decoded_in[u] == self.passes {
+            indicator(dst, self.assignment[u]);
+        } else {
+            let start = self.variable_offset[u];
+            let theta_hat = &self.theta_hat[start..start + other];
+            let message = &self.messages[at.other_message..at.other_message + other];
+            if STATES != 0 && other == STATES {
+                reweighted(
+                    &mut dst[..STATES],
+                    &theta_hat[..STATES],
+                    &message[..STATES],
+                    self.gamma[u],
+                );
+            } else {
+                reweighted(dst, theta_hat, message, self.gamma[u]);
+            }
+        }
+        let incoming = Incoming::new(&self.incoming[..total], &offsets);
+        graph.factor(FactorId(at.factor)).message(
+            at.slot,
+            &incoming,
+            Mode::MaxProduct,
+            &mut self.out[..k],
+        );
+    }
+
+    /// Visits variable `i` in a pass: receives, recomputes `θ̂_i`, adds to the bound,
+    /// decodes. `STATES` is the variable's state count when fixed at compile time, 0
+    /// when read at run time.
+    #[inline(always)]
+    fn visit<const STATES: usize>(
+        &mut self,
+        graph: &FactorGraph,
+        i: usize,
+        forward: bool,
+        decode: bool,
+        outcome: &mut PassOutcome,
+    ) {
+        let k = if STATES == 0 {
+            self.cardinality[i]
+        } else {
+            STATES
+        };
+        let (start, end) = (
+            self.variable_edges_start[i],
+            self.variable_edges_start[i + 1],
+        );
+        // 1. Messages from the factors that reach back in this pass.
+        for index in start..end {
+            let at = self.variable_edges[index];
+            if !at.receives(forward) {
+                continue;
+            }
+            self.incoming_message::<STATES>(graph, at, k, false);
+            let out = &self.out[..k];
+            let c = crate::logspace::max(out);
+            let m = &mut self.messages[at.message..at.message + k];
+            if c.is_finite() {
+                for (m, &o) in m.iter_mut().zip(out) {
+                    *m = o - c;
+                }
+            } else {
+                // No state of the variable is feasible for this factor.
+                outcome.infeasible = true;
+                m.iter_mut().for_each(|m| *m = f64::NEG_INFINITY);
+            }
+            if at.closes(forward) {
+                self.factor_constant[at.factor] = c;
+            }
+        }
+        // 2. The reparametrised unary.
+        let block = self.variable_offset[i]..self.variable_offset[i + 1];
+        {
+            let theta_hat = &mut self.theta_hat[block.clone()];
+            theta_hat.copy_from_slice(&self.theta[block.clone()]);
+            for at in &self.variable_edges[start..end] {
+                let m = &self.messages[at.message..at.message + k];
+                for (t, &m) in theta_hat.iter_mut().zip(m) {
+                    *t += m;
+                }
+            }
+        }
+        let best = crate::logspace::max(&self.theta_hat[block.clone()]);
+        if best == f64::NEG_INFINITY {
+            outcome.infeasible = true;
+        } else {
+            let w = if forward {
+                self.weight_forward[i]
+            } else {
+                self.weight_backward[i]
+            };
+            outcome.bound += w * best;
+        }
+        if !decode {
+            return;
+        }
+        // 3. Decoding, conditioned on the variables decoded earlier in this pass.
+        self.score[..k].copy_from_slice(&self.theta[block.clone()]);
+        self.closing[..k].copy_from_slice(&self.theta[block.clone()]);
+        for index in start..end {
+            let at = self.variable_edges[index];
+            if at.receives(forward) {
+                self.incoming_message::<STATES>(graph, at, k, true);
+                for (s, &o) in self.score[..k].iter_mut().zip(&self.out[..k]) {
+                    *s += o;
+                }
+                if at.closes(forward) {
+                    // Every other variable of the factor is decoded: `out` is θ_α
+                    // at their states, a term of the assignment's log-score.
+                    for (s, &o) in self.closing[..k].iter_mut().zip(&self.out[..k]) {
+                        *s += o;
+                    }
+                }
+            } else {
+                let m = &self.messages[at.message..at.message + k];
+                for (s, &m) in self.score[..k].iter_mut().zip(m) {
+                    *s += m;
+                }
+            }
+        }
+        let x = first_argmax(&self.score[..k]);
+        self.assignment[i] = x;
+        self.decoded_in[i] = self.passes;
+        outcome.score += self.closing[x];
+    }
 }
 
 /// An indicator log-vector: 0 at `state`, −∞ elsewhere.
-#[inline]
+#[inline(always)]
 fn indicator(dst: &mut [f64], state: usize) {
     dst.iter_mut().for_each(|d| *d = f64::NEG_INFINITY);
     dst[state] = 0.0;
@@ -759,7 +845,7 @@ fn indicator(dst: &mut [f64], state: usize) {
 
 /// `dst = γ θ̂ − m`, −∞ where `θ̂` is −∞ (an infeasible state; `m` is finite wherever
 /// `θ̂` is, as `θ̂` includes `m`).
-#[inline]
+#[inline(always)]
 fn reweighted(dst: &mut [f64], theta_hat: &[f64], message: &[f64], gamma: f64) {
     for ((d, &t), &m) in dst.iter_mut().zip(theta_hat).zip(message) {
         *d = if t == f64::NEG_INFINITY {
