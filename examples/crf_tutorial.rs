@@ -20,6 +20,12 @@
 //! 4. **Evaluation**: pixel accuracy against the ground truth, next to the pixel-wise
 //!    classifier that ignores the neighbours.
 //!
+//! The certificate earns its keep in step 4: when TRW-S closes the gap, its labelling
+//! is the best the learned model has, so a labelling that is still wrong points at the
+//! model (its features, or pseudo-likelihood over-trusting neighbours), not at the
+//! inference. With the defaults TRW-S closes the gap on every test image and beats
+//! BP, whose labellings score lower under the same model.
+//!
 //! Run: `cargo run --release --example crf_tutorial -- [SIDE] [TRAIN] [TEST] [SEED]`
 //! (defaults 48 8 4 1). Exits non-zero if the CRF does not beat the pixel-wise
 //! classifier or a TRW-S bound is below its own assignment's score.

@@ -202,7 +202,8 @@ pub struct TrwsResult {
     pub assignment: Vec<usize>,
     /// Its log-score (sum of log-potentials; −∞ if it hits a hard zero).
     pub log_score: f64,
-    /// The lowest upper bound on the best log-score seen in the run.
+    /// The lowest upper bound on the best log-score seen in the run (raised to
+    /// `log_score` should rounding ever put it a hair below).
     pub bound: f64,
     /// `bound − log_score` (0 when both are −∞).
     pub gap: f64,
