@@ -52,18 +52,19 @@
 //! normalising constant of the last message `α` sent in the pass and
 //! `w_i = 1 − γ_i · #(factors of i reaching ahead in the pass)`. Its dual value
 //! `U = Σ_i w_i max θ̂_i + Σ_α c_α + (constant factors)` is an upper bound on every
-//! assignment's log-score, and no step of a pass increases it (step 1 moves a
-//! factor's max-marginal onto `θ̂_i`, step 2 hands `γ_i θ̂_i` to each forward factor
-//! with `Σ γ_i ≤ 1`; Kolmogorov 2015), so it is computed in O(Σ_i K_i) per pass. Hard zeros (−∞) are exact:
-//! a state that can only score −∞ stays −∞ and never meets a subtraction, and a model
-//! with no finite-score assignment ends with bound −∞ ([`TrwsTermination::Infeasible`]).
+//! assignment's log-score, and no step of a pass increases it (receiving a message
+//! moves a factor's max-marginal onto `θ̂_i`; the reweighted messages hand `γ_i θ̂_i`
+//! to each factor reaching ahead, with `Σ γ_i ≤ 1`; Kolmogorov 2015), so it is
+//! computed in O(Σ_i K_i) per pass. Hard zeros (−∞) are exact: a state that can only
+//! score −∞ stays −∞ and never meets a subtraction, and a model with no finite-score
+//! assignment ends with bound −∞ ([`TrwsTermination::Infeasible`]).
 //!
 //! ```
 //! use pgm_core::trws::{TrwsParams, TrwsTermination};
 //! use pgm_core::exact::brute_force;
 //! use pgm_core::{FactorGraph, PottsFactor, TableFactor, VariableId};
 //!
-//! // A frustrated 4-cycle with three labels: loopy, so max-product has no guarantee.
+//! // A 4-cycle with three labels: loopy, so max-product alone has no guarantee.
 //! let mut g = FactorGraph::with_variables(&[3; 4]).unwrap();
 //! for v in 0..4 {
 //!     let t = vec![0.3 * v as f64, -0.2, 0.1 * (v % 2) as f64];

@@ -4,7 +4,7 @@
 use super::{CliError, CliResult};
 use clap::Args;
 use pgm_core::uai::{mar_result, mpe_result, Evidence, UaiModel};
-use pgm_core::{BeliefPropagation, FactorGraph, Mode, ScheduleKind, TrwsParams};
+use pgm_core::{BeliefPropagation, FactorGraph, Mode, ScheduleKind, TrwsParams, TrwsTermination};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
@@ -129,6 +129,9 @@ fn run_trws(args: &InferArgs, graph: &FactorGraph, task: Task) -> CliResult {
     let started = Instant::now();
     let result = trws.run(graph).map_err(CliError::from_display)?;
     let seconds = started.elapsed().as_secs_f64();
+    if result.termination == TrwsTermination::Infeasible {
+        eprintln!("pgm: warning: no assignment has a finite log-score (the evidence or hard zeros contradict each other)");
+    }
     if !result.converged {
         eprintln!(
             "pgm: warning: TRW-S stopped at its iteration limit ({} iterations) before the bound settled; the assignment is at most {} below the optimum",
