@@ -1,9 +1,10 @@
-//! Inference speed: one max-product iteration on a 100×100 Potts grid with 5 labels
-//! per schedule (one thread; flooding also on two), and one forward-backward sweep over
-//! a chain of 361 variables with 362 states (dense pairwise tables and the O(K)
-//! shifted-identity factor). The grid is the distribution of
-//! `gen_models.py potts --n 100 --k 5`: unary log-potentials N(0, 1), Potts log-potential
-//! 1 for equal labels (our own seeded draws; timing does not depend on the values).
+//! Inference speed: max-product iterations on a 100×100 Potts grid with 5 labels per
+//! schedule (one thread; flooding also on two) and TRW-S iterations on the same grid,
+//! with the pairwise factors as O(K) Potts factors and as dense 5×5 tables (the form a
+//! UAI file gives); and one forward-backward sweep over a chain of 361 variables with
+//! 362 states (dense pairwise tables and the O(K) shifted-identity factor). The grid is
+//! the distribution of `gen_models.py potts --n 100 --k 5`: unary log-potentials
+//! N(0, 1), log-potential 1 for equal labels (our own seeded draws).
 //!
 //! Run: `cargo bench --bench inference`. Grid figures are for 10 iterations from
 //! uniform messages (divide by 10 for one iteration).
@@ -11,14 +12,16 @@
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
 use pgm_core::{
     BeliefPropagation, FactorGraph, Flooding, Messages, Mode, PottsFactor, Residual, Schedule,
-    Sequential, ShiftedIdentityFactor, TableFactor, VariableId,
+    Sequential, ShiftedIdentityFactor, TableFactor, TrwsParams, VariableId,
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 use std::time::Duration;
 
-fn potts_grid(n: usize, k: usize, seed: u64) -> FactorGraph {
+/// The grid in the factor order of `gen_models.py potts`: unaries, horizontal pairs,
+/// vertical pairs; pairs as Potts factors or as dense tables.
+fn potts_grid(n: usize, k: usize, seed: u64, dense: bool) -> FactorGraph {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut g = FactorGraph::with_variables(&vec![k; n * n]).unwrap();
     for v in 0..n * n {
@@ -26,18 +29,27 @@ fn potts_grid(n: usize, k: usize, seed: u64) -> FactorGraph {
         g.add_factor(TableFactor::new(vec![VariableId(v)], vec![k], t).unwrap())
             .unwrap();
     }
+    let pair = |g: &mut FactorGraph, a: usize, b: usize| {
+        let (a, b) = (VariableId(a), VariableId(b));
+        if dense {
+            let t = (0..k * k)
+                .map(|i| if i / k == i % k { 1.0 } else { 0.0 })
+                .collect();
+            g.add_factor(TableFactor::new(vec![a, b], vec![k, k], t).unwrap())
+                .unwrap();
+        } else {
+            g.add_factor(PottsFactor::new(a, b, k, 1.0, 0.0).unwrap())
+                .unwrap();
+        }
+    };
     for r in 0..n {
         for c in 0..n - 1 {
-            let v = r * n + c;
-            g.add_factor(PottsFactor::new(VariableId(v), VariableId(v + 1), k, 1.0, 0.0).unwrap())
-                .unwrap();
+            pair(&mut g, r * n + c, r * n + c + 1);
         }
     }
     for r in 0..n - 1 {
         for c in 0..n {
-            let v = r * n + c;
-            g.add_factor(PottsFactor::new(VariableId(v), VariableId(v + n), k, 1.0, 0.0).unwrap())
-                .unwrap();
+            pair(&mut g, r * n + c, (r + 1) * n + c);
         }
     }
     g
@@ -86,43 +98,61 @@ fn iterations(
 }
 
 fn grid(c: &mut Criterion) {
-    let graph = potts_grid(100, 5, 1);
-    let bp = BeliefPropagation::new(Mode::MaxProduct)
-        .tolerance(0.0)
-        .max_iterations(10);
-    let one = pool(1);
-    let two = pool(2);
-    let mut group = c.benchmark_group("potts_grid_100x100_k5_max_product_10_iterations");
-    group
-        .sample_size(20)
-        .measurement_time(Duration::from_secs(8));
-    type MakeSchedule = Box<dyn Fn() -> Box<dyn Schedule>>;
-    let runs: Vec<(&str, &rayon::ThreadPool, MakeSchedule)> = vec![
-        ("flooding_1_thread", &one, Box::new(|| Box::new(Flooding))),
-        ("flooding_2_threads", &two, Box::new(|| Box::new(Flooding))),
-        (
-            "sequential_1_thread",
-            &one,
-            Box::new(|| Box::new(Sequential::default())),
-        ),
-        (
-            "residual_1_thread",
-            &one,
-            Box::new(|| Box::new(Residual::default())),
-        ),
-    ];
-    for (name, pool, make) in runs {
-        group.bench_function(name, |b| {
-            b.iter_batched(
-                || (make(), Messages::uniform(&graph, Mode::MaxProduct)),
-                |(mut schedule, start)| {
-                    pool.install(|| iterations(&bp, &graph, schedule.as_mut(), start))
-                },
-                BatchSize::LargeInput,
-            )
+    for (label, dense) in [("potts_factors", false), ("dense_tables", true)] {
+        let graph = potts_grid(100, 5, 1, dense);
+        let bp = BeliefPropagation::new(Mode::MaxProduct)
+            .tolerance(0.0)
+            .max_iterations(10);
+        let one = pool(1);
+        let two = pool(2);
+        let mut group = c.benchmark_group(format!(
+            "potts_grid_100x100_k5_{label}_max_product_10_iterations"
+        ));
+        group
+            .sample_size(20)
+            .measurement_time(Duration::from_secs(8));
+        type MakeSchedule = Box<dyn Fn() -> Box<dyn Schedule>>;
+        let runs: Vec<(&str, &rayon::ThreadPool, MakeSchedule)> = vec![
+            ("flooding_1_thread", &one, Box::new(|| Box::new(Flooding))),
+            ("flooding_2_threads", &two, Box::new(|| Box::new(Flooding))),
+            (
+                "sequential_1_thread",
+                &one,
+                Box::new(|| Box::new(Sequential::default())),
+            ),
+            (
+                "residual_1_thread",
+                &one,
+                Box::new(|| Box::new(Residual::default())),
+            ),
+        ];
+        for (name, pool, make) in runs {
+            group.bench_function(name, |b| {
+                b.iter_batched(
+                    || (make(), Messages::uniform(&graph, Mode::MaxProduct)),
+                    |(mut schedule, start)| {
+                        pool.install(|| iterations(&bp, &graph, schedule.as_mut(), start))
+                    },
+                    BatchSize::LargeInput,
+                )
+            });
+        }
+        // TRW-S: ten iterations (forward and backward pass each), bound and decoding
+        // included, tolerance 0 so that all ten run.
+        let trws = TrwsParams::default()
+            .max_iterations(10)
+            .tolerance(0.0)
+            .check()
+            .unwrap();
+        group.bench_function("trws_1_thread", |b| {
+            b.iter(|| {
+                let r = one.install(|| trws.run(&graph)).unwrap();
+                assert_eq!(r.iterations, 10);
+                std::hint::black_box(r);
+            })
         });
+        group.finish();
     }
-    group.finish();
 }
 
 fn chains(c: &mut Criterion) {

@@ -303,3 +303,184 @@ fn sizes_in_a_model_file_are_checked_before_they_are_used() {
         "{err}"
     );
 }
+
+/// An 8×8 Potts grid with three labels and couplings of both signs: loopy and
+/// frustrated, so neither BP nor TRW-S settles in one iteration.
+fn frustrated_grid() -> FactorGraph {
+    let side = 8;
+    let mut rng = ChaCha8Rng::seed_from_u64(17);
+    let mut g = FactorGraph::with_variables(&[3; 64]).unwrap();
+    for v in 0..side * side {
+        let t = (0..3).map(|_| rng.random_range(-1.0..1.0)).collect();
+        g.add_factor(TableFactor::new(vec![VariableId(v)], vec![3], t).unwrap())
+            .unwrap();
+    }
+    for r in 0..side {
+        for c in 0..side {
+            let v = r * side + c;
+            let mut pairs = Vec::new();
+            if c + 1 < side {
+                pairs.push(v + 1);
+            }
+            if r + 1 < side {
+                pairs.push(v + side);
+            }
+            for u in pairs {
+                let w: f64 = rng.random_range(-2.0..2.0);
+                let t = (0..9)
+                    .map(|i| if i / 3 == i % 3 { w } else { 0.0 })
+                    .collect();
+                g.add_factor(
+                    TableFactor::new(vec![VariableId(v), VariableId(u)], vec![3, 3], t).unwrap(),
+                )
+                .unwrap();
+            }
+        }
+    }
+    g
+}
+
+#[test]
+fn a_run_stopped_by_its_iteration_limit_says_so_on_stderr() {
+    let dir = temp_dir("unconverged");
+    let model = dir.join("grid.uai");
+    UaiModel::from_factor_graph(&frustrated_grid())
+        .write(&model)
+        .unwrap();
+    let model = model.to_str().unwrap();
+    for command in ["map", "marginals"] {
+        for schedule in ["flooding", "sequential", "residual"] {
+            let (out, err, ok) = pgm(&[command, model, "--schedule", schedule, "--max-iters", "1"]);
+            assert!(ok, "{err}");
+            assert!(!out.is_empty());
+            assert!(
+                err.contains("warning")
+                    && err.contains("iteration limit")
+                    && err.contains(schedule),
+                "{command} {schedule}: {err:?}"
+            );
+        }
+    }
+    let (_, err, ok) = pgm(&["map", model, "--algorithm", "trws", "--max-iters", "1"]);
+    assert!(ok, "{err}");
+    assert!(
+        err.contains("warning") && err.contains("TRW-S") && err.contains("iteration limit"),
+        "{err:?}"
+    );
+    // A converged run prints nothing on stderr.
+    let tree = dir.join("tree.uai");
+    UaiModel::from_factor_graph(&random_tree(5))
+        .write(&tree)
+        .unwrap();
+    for command in ["map", "marginals"] {
+        for schedule in ["flooding", "sequential", "residual"] {
+            let (_, err, ok) = pgm(&[command, tree.to_str().unwrap(), "--schedule", schedule]);
+            assert!(ok && err.is_empty(), "{command} {schedule}: {err:?}");
+        }
+    }
+}
+
+#[test]
+fn damping_changes_no_fixed_point_under_any_schedule() {
+    // A star: x0 with ten leaves copying it with probability 0.9, three leaves
+    // observed in state 1 (the shape of hardening case B15).
+    let mut g = FactorGraph::with_variables(&[2; 11]).unwrap();
+    g.add_factor(TableFactor::new(vec![VariableId(0)], vec![2], vec![0.0, 0.0]).unwrap())
+        .unwrap();
+    let (hi, lo) = (0.9f64.ln(), 0.1f64.ln());
+    for leaf in 1..11 {
+        g.add_factor(
+            TableFactor::new(
+                vec![VariableId(0), VariableId(leaf)],
+                vec![2, 2],
+                vec![hi, lo, lo, hi],
+            )
+            .unwrap(),
+        )
+        .unwrap();
+    }
+    let dir = temp_dir("damping");
+    let model = dir.join("star.uai");
+    UaiModel::from_factor_graph(&g).write(&model).unwrap();
+    let evid = dir.join("star.uai.evid");
+    std::fs::write(&evid, "3 1 1 2 1 3 1\n").unwrap();
+    Evidence::read(&evid, g.cardinalities())
+        .unwrap()
+        .apply(&mut g)
+        .unwrap();
+    let exact = brute_force(&g, BruteForceLimit::default()).unwrap();
+    for damping in ["0", "0.5", "0.9"] {
+        for schedule in ["flooding", "sequential", "residual"] {
+            let (out, err, ok) = pgm(&[
+                "marginals",
+                model.to_str().unwrap(),
+                "--evidence",
+                evid.to_str().unwrap(),
+                "--schedule",
+                schedule,
+                "--damping",
+                damping,
+                "--stats",
+            ]);
+            assert!(ok, "{err}");
+            let stats: serde_json::Value = serde_json::from_str(err.trim()).unwrap();
+            assert_eq!(
+                stats["converged"],
+                serde_json::json!(true),
+                "{schedule} {damping}"
+            );
+            let values = numbers(out.lines().nth(1).unwrap());
+            let p1 = values[3];
+            let q1 = exact.marginals[0][1];
+            assert!(
+                (p1 - q1).abs() < 1e-6,
+                "{schedule}, damping {damping}: P(x0 = 1) = {p1}, exact {q1}"
+            );
+        }
+    }
+}
+
+#[test]
+fn trws_map_is_exact_on_trees_and_reports_its_bound() {
+    let dir = temp_dir("trws");
+    for seed in 0..8 {
+        let graph = random_tree(seed);
+        let model = dir.join(format!("tree{seed}.uai"));
+        UaiModel::from_factor_graph(&graph).write(&model).unwrap();
+        let Ok(exact) = brute_force(&graph, BruteForceLimit::default()) else {
+            continue;
+        };
+        let (out, err, ok) = pgm(&[
+            "map",
+            model.to_str().unwrap(),
+            "--algorithm",
+            "trws",
+            "--stats",
+        ]);
+        assert!(ok, "{err}");
+        let values = numbers(out.lines().nth(1).unwrap());
+        let assignment: Vec<usize> = values[1..].iter().map(|&x| x as usize).collect();
+        let score = graph.log_score(&assignment).unwrap();
+        assert!((score - exact.map_log_score).abs() < 1e-9, "seed {seed}");
+        let stats: serde_json::Value = serde_json::from_str(err.trim()).unwrap();
+        assert_eq!(stats["algorithm"], "trws");
+        assert_eq!(stats["converged"], serde_json::json!(true));
+        let bound = stats["bound"].as_f64().unwrap();
+        let reported = stats["score"].as_f64().unwrap();
+        let gap = stats["gap"].as_f64().unwrap();
+        assert!((reported - score).abs() < 1e-9);
+        assert!(
+            (bound - exact.map_log_score).abs() < 1e-6,
+            "seed {seed}: bound {bound}"
+        );
+        assert!((0.0..1e-6).contains(&gap), "seed {seed}: gap {gap}");
+        assert!(stats["iterations"].as_u64().unwrap() >= 1);
+    }
+    let model = dir.join("tree0.uai");
+    let (out, err, ok) = pgm(&["marginals", model.to_str().unwrap(), "--algorithm", "trws"]);
+    assert!(!ok && out.is_empty());
+    assert!(
+        err.contains("--algorithm trws") && err.contains("MAP"),
+        "{err}"
+    );
+}

@@ -24,8 +24,10 @@ use crate::factor::{Incoming, Mode};
 use crate::graph::{EdgeId, FactorGraph, FactorId, VariableId};
 use crate::hook::{Potentials, UpdateHook};
 use crate::logspace::{self, Normalisation};
+use crate::observer::{BpProgress, Observe};
 use crate::schedule::{MessagePasser, Schedule, Visit};
 use rayon::prelude::*;
+use std::ops::ControlFlow;
 use std::time::{Duration, Instant};
 
 /// Factor-to-variable messages of one graph, normalised; the state of a run, returned
@@ -124,11 +126,47 @@ pub struct BpResult {
     pub residual: f64,
     /// True when the run stopped because its time budget was spent.
     pub out_of_time: bool,
+    /// True when an observer stopped the run (see [`BeliefPropagation::run_observed`]).
+    pub stopped_by_observer: bool,
     /// Number of message updates whose every entry was −∞ (contradictory evidence);
     /// such messages are replaced by uniform ones.
     pub contradictions: usize,
     /// The final messages, for a warm start.
     pub messages: Messages,
+}
+
+impl BpResult {
+    /// Why the run stopped.
+    pub fn termination(&self) -> Termination {
+        Termination::of(self.converged, self.out_of_time, self.stopped_by_observer)
+    }
+}
+
+/// Why a run of message passing stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Termination {
+    /// The fixed-point residual fell within the tolerance (and the hook was stable).
+    Converged,
+    /// The iteration limit was reached without convergence.
+    IterationLimit,
+    /// The time budget was spent.
+    TimeBudget,
+    /// An observer asked to stop.
+    Observer,
+}
+
+impl Termination {
+    fn of(converged: bool, out_of_time: bool, stopped_by_observer: bool) -> Self {
+        if converged {
+            Termination::Converged
+        } else if stopped_by_observer {
+            Termination::Observer
+        } else if out_of_time {
+            Termination::TimeBudget
+        } else {
+            Termination::IterationLimit
+        }
+    }
 }
 
 /// Loopy belief propagation with a pluggable [`Schedule`].
@@ -228,7 +266,51 @@ impl BeliefPropagation {
         schedule: &mut S,
         messages: Messages,
     ) -> Result<BpResult> {
-        let p = self.drive_messages(GraphRef::Shared(graph), None, schedule, messages)?;
+        let p = self.drive_messages(GraphRef::Shared(graph), None, schedule, messages, None)?;
+        Ok(self.finish(graph, p))
+    }
+
+    /// Runs from `start` (uniform messages when `None`) and reports every iteration to
+    /// `observer`, which may stop the run (see [`Observe`]). Works with every schedule.
+    pub fn run_observed<S: Schedule + ?Sized>(
+        &self,
+        graph: &FactorGraph,
+        schedule: &mut S,
+        start: Option<Messages>,
+        observer: &mut dyn Observe<BpProgress>,
+    ) -> Result<BpResult> {
+        let messages = start.unwrap_or_else(|| Messages::uniform(graph, self.mode));
+        let p = self.drive_messages(
+            GraphRef::Shared(graph),
+            None,
+            schedule,
+            messages,
+            Some(observer),
+        )?;
+        Ok(self.finish(graph, p))
+    }
+
+    /// [`run_with_hook`](Self::run_with_hook) with an observer that sees every
+    /// iteration and may stop the run.
+    pub fn run_with_hook_observed<S: Schedule + ?Sized>(
+        &self,
+        graph: &mut FactorGraph,
+        schedule: &mut S,
+        hook: &mut dyn UpdateHook,
+        start: Option<Messages>,
+        observer: &mut dyn Observe<BpProgress>,
+    ) -> Result<BpResult> {
+        let messages = match start {
+            Some(m) => m,
+            None => Messages::uniform(graph, self.mode),
+        };
+        let p = self.drive_messages(
+            GraphRef::Exclusive(graph),
+            Some(hook),
+            schedule,
+            messages,
+            Some(observer),
+        )?;
         Ok(self.finish(graph, p))
     }
 
@@ -259,7 +341,13 @@ impl BeliefPropagation {
             Some(m) => m,
             None => Messages::uniform(graph, self.mode),
         };
-        self.drive_messages(GraphRef::Exclusive(graph), Some(hook), schedule, messages)
+        self.drive_messages(
+            GraphRef::Exclusive(graph),
+            Some(hook),
+            schedule,
+            messages,
+            None,
+        )
     }
 
     fn drive_messages<S: Schedule + ?Sized>(
@@ -268,11 +356,13 @@ impl BeliefPropagation {
         hook: Option<&mut dyn UpdateHook>,
         schedule: &mut S,
         messages: Messages,
+        mut observer: Option<&mut dyn Observe<BpProgress>>,
     ) -> Result<Propagation> {
         self.check()?;
         messages.check_layout(graph.get())?;
         schedule.prepare(graph.get())?;
         let start = Instant::now();
+        let scratch = Scratch::for_graph(graph.get());
         let mut passer = Passer {
             graph,
             hook,
@@ -286,7 +376,7 @@ impl BeliefPropagation {
                 messages,
                 candidates: Vec::new(),
                 flood_buffer: Vec::new(),
-                scratch: Scratch::default(),
+                scratch,
                 residual: 0.0,
                 contradictions: 0,
             },
@@ -297,14 +387,28 @@ impl BeliefPropagation {
         let mut converged = false;
         let mut residual = f64::INFINITY;
         let mut out_of_time = false;
+        let mut stopped_by_observer = false;
         while iterations < self.max_iterations {
             passer.state.residual = 0.0;
             let reported = schedule.iteration(&mut passer);
             iterations += 1;
             residual = reported.unwrap_or(passer.state.residual);
             let hook_stable = passer.after_iteration(iterations);
-            if residual <= self.tolerance && hook_stable {
-                converged = true;
+            converged = residual <= self.tolerance && hook_stable;
+            if let Some(observer) = observer.as_deref_mut() {
+                let progress = BpProgress {
+                    iteration: iterations,
+                    residual,
+                    converged,
+                    contradictions: passer.state.contradictions,
+                    elapsed: start.elapsed(),
+                };
+                if let ControlFlow::Break(()) = observer.observe(&progress) {
+                    stopped_by_observer = !converged;
+                    break;
+                }
+            }
+            if converged {
                 break;
             }
             if passer.out_of_time() {
@@ -318,6 +422,7 @@ impl BeliefPropagation {
             converged,
             residual,
             out_of_time,
+            stopped_by_observer,
             contradictions: passer.state.contradictions,
         })
     }
@@ -330,7 +435,7 @@ impl BeliefPropagation {
         schedule: &mut S,
         messages: Messages,
     ) -> Result<Propagation> {
-        self.drive_messages(GraphRef::Shared(graph), None, schedule, messages)
+        self.drive_messages(GraphRef::Shared(graph), None, schedule, messages, None)
     }
 
     /// Decodes the assignment and beliefs of a finished propagation.
@@ -354,6 +459,7 @@ impl BeliefPropagation {
             converged: p.converged,
             residual: p.residual,
             out_of_time: p.out_of_time,
+            stopped_by_observer: p.stopped_by_observer,
             contradictions: p.contradictions,
             messages,
         }
@@ -373,6 +479,8 @@ pub struct Propagation {
     pub residual: f64,
     /// Whether the time budget stopped the run.
     pub out_of_time: bool,
+    /// Whether an observer stopped the run.
+    pub stopped_by_observer: bool,
     /// Number of all-zero message updates.
     pub contradictions: usize,
 }
@@ -397,6 +505,35 @@ struct Scratch {
     incoming: Vec<f64>,
     offsets: Vec<usize>,
     out: Vec<f64>,
+}
+
+impl Scratch {
+    /// Buffers large enough for every message of `graph` (so the inner loops never
+    /// grow them): the largest sum of a factor's scope cardinalities, the largest
+    /// cardinality.
+    fn for_graph(graph: &FactorGraph) -> Self {
+        let ix = graph.index();
+        let widest = ix
+            .factor_edge_start
+            .windows(2)
+            .map(|w| {
+                (w[0]..w[1])
+                    .map(|e| ix.cardinalities[ix.edge_variable[e].0])
+                    .sum::<usize>()
+            })
+            .max()
+            .unwrap_or(0);
+        let largest = ix.cardinalities.iter().copied().max().unwrap_or(0);
+        Scratch::with_sizes(widest, largest)
+    }
+
+    fn with_sizes(incoming: usize, out: usize) -> Self {
+        Scratch {
+            incoming: vec![0.0; incoming],
+            offsets: Vec::new(),
+            out: vec![0.0; out],
+        }
+    }
 }
 
 struct PassState {
@@ -508,6 +645,109 @@ fn gather(
     }
 }
 
+/// Computes the unnormalised message of edge `e` from `messages` into
+/// `scratch.out[..k]`; returns `k` (the states of the edge's variable) and where the
+/// edge's message starts in the buffer.
+///
+/// Pairwise factors take the fast path: the one incoming variable-to-factor message
+/// is a leave-one-out sum over the other variable's contiguous block
+/// ([`leave_one_out`]), written straight where [`Incoming`] expects it. Other arities
+/// gather every position ([`gather`]). Both give bit-identical sums. `scratch` must
+/// be sized for the graph ([`Scratch::for_graph`]).
+#[inline]
+fn raw_message(
+    graph: &FactorGraph,
+    messages: &[f64],
+    e: usize,
+    mode: Mode,
+    scratch: &mut Scratch,
+) -> (usize, usize) {
+    if let Some(p) = graph.pair_sources().get(e).filter(|p| p.target_states > 0) {
+        let k = p.target_states as usize;
+        let other = p.states as usize;
+        let total = k + other;
+        let slot = p.slot as usize;
+        let (offsets, at) = if slot == 0 {
+            ([0, k, total], k)
+        } else {
+            ([0, other, total], 0)
+        };
+        let (start, end, own) = (p.start as usize, p.end as usize, p.own as usize);
+        leave_one_out(
+            &messages[start..end],
+            own - start,
+            other,
+            &mut scratch.incoming[at..at + other],
+        );
+        let incoming = Incoming::new(&scratch.incoming[..total], &offsets);
+        graph.factor(FactorId(p.factor as usize)).message(
+            slot,
+            &incoming,
+            mode,
+            &mut scratch.out[..k],
+        );
+        return (k, p.target as usize);
+    }
+    let ix = graph.index();
+    let a = ix.edge_factor[e];
+    let slot = e - ix.factor_edge_start[a.0];
+    let k = ix.cardinalities[ix.edge_variable[e].0];
+    if scratch.out.len() < k {
+        scratch.out.resize(k, 0.0);
+    }
+    gather(graph, messages, a, Some(slot), scratch);
+    let incoming = Incoming::new(&scratch.incoming, &scratch.offsets);
+    graph
+        .factor(a)
+        .message(slot, &incoming, mode, &mut scratch.out[..k]);
+    (k, ix.edge_offset[e])
+}
+
+/// `dst = Σ` of the `k`-long messages of `block` except the one starting at `own`
+/// (all zeros when `own` is the only one): a variable-to-factor message, computed
+/// without subtraction. Small `k` get loops the compiler unrolls.
+#[inline]
+fn leave_one_out(block: &[f64], own: usize, k: usize, dst: &mut [f64]) {
+    match k {
+        2 => leave_one_out_fixed::<2>(block, own, dst),
+        3 => leave_one_out_fixed::<3>(block, own, dst),
+        4 => leave_one_out_fixed::<4>(block, own, dst),
+        5 => leave_one_out_fixed::<5>(block, own, dst),
+        6 => leave_one_out_fixed::<6>(block, own, dst),
+        7 => leave_one_out_fixed::<7>(block, own, dst),
+        8 => leave_one_out_fixed::<8>(block, own, dst),
+        _ => {
+            dst.iter_mut().for_each(|d| *d = 0.0);
+            let mut start = 0;
+            for chunk in block.chunks_exact(k.max(1)) {
+                if start != own {
+                    for (d, c) in dst.iter_mut().zip(chunk) {
+                        *d += c;
+                    }
+                }
+                start += k;
+            }
+        }
+    }
+}
+
+#[inline(always)]
+fn leave_one_out_fixed<const K: usize>(block: &[f64], own: usize, dst: &mut [f64]) {
+    // Starting from +0.0 gives the same sums as starting from the first message
+    // (x + 0.0 = x for every x but −0.0, and −0.0 and +0.0 are the same log-value).
+    let mut acc = [0.0f64; K];
+    let mut start = 0;
+    for chunk in block.chunks_exact(K) {
+        if start != own {
+            for x in 0..K {
+                acc[x] += chunk[x];
+            }
+        }
+        start += K;
+    }
+    dst[..K].copy_from_slice(&acc);
+}
+
 /// Computes the normalised message of scope position `slot` of factor `a` into
 /// `scratch.out`, assuming `gather` was called. Returns false on a contradiction.
 fn compute(
@@ -569,6 +809,33 @@ fn commit_raw(old: &mut [f64], raw: &mut [f64], damping: f64, how: Normalisation
     (commit(old, raw, damping, how), ok)
 }
 
+/// [`commit_raw`] for flooding: the message moves from `old` (the previous
+/// iteration's buffer) to `dst` (the next one's).
+#[inline]
+fn commit_raw_into(
+    old: &[f64],
+    dst: &mut [f64],
+    raw: &mut [f64],
+    damping: f64,
+    how: Normalisation,
+) -> (f64, bool) {
+    if damping == 0.0 && how == Normalisation::Max && raw.len() <= 16 {
+        let m = logspace::max(raw);
+        if m.is_finite() {
+            let mut d = 0.0f64;
+            for ((o, n), &x) in old.iter().zip(dst.iter_mut()).zip(raw.iter()) {
+                let v = x - m;
+                let diff = (v - *o).abs();
+                d = if diff > d { diff } else { d };
+                *n = v;
+            }
+            return (d, true);
+        }
+    }
+    dst.copy_from_slice(old);
+    commit_raw(dst, raw, damping, how)
+}
+
 /// Writes `new` over `old` with damping; returns the undamped change.
 fn commit(old: &mut [f64], new: &[f64], damping: f64, how: Normalisation) -> f64 {
     let residual = logspace::distance(new, old);
@@ -590,6 +857,14 @@ fn commit(old: &mut [f64], new: &[f64], damping: f64, how: Normalisation) -> f64
 impl PassState {
     /// Updates the messages of factor `a` to every scope position except `except`.
     fn update_factor_except(&mut self, graph: &FactorGraph, a: FactorId, except: Option<usize>) {
+        if graph.factor_edges(a).len() == 2 {
+            for (slot, e) in graph.factor_edges(a).enumerate() {
+                if Some(slot) != except {
+                    self.update_edge(graph, EdgeId(e));
+                }
+            }
+            return;
+        }
         let skip = match (except, graph.factor(a).scope().len()) {
             // A single-target update only needs the other positions' messages.
             (_, 1) => Some(0),
@@ -604,16 +879,21 @@ impl PassState {
     }
 
     fn update_edge(&mut self, graph: &FactorGraph, e: EdgeId) {
-        let a = graph.edge_factor(e);
-        let slot = graph.edge_slot(e);
-        gather(
+        let (k, start) = raw_message(
             graph,
             &self.messages.values,
-            a,
-            Some(slot),
+            e.0,
+            self.mode,
             &mut self.scratch,
         );
-        self.send(graph, a, slot, e);
+        let (r, ok) = commit_raw(
+            &mut self.messages.values[start..start + k],
+            &mut self.scratch.out[..k],
+            self.damping,
+            self.normalisation,
+        );
+        self.contradictions += usize::from(!ok);
+        self.residual = self.residual.max(r);
     }
 
     /// Computes the message of edge `e` (scope position `slot` of factor `a`) from the
@@ -647,42 +927,73 @@ impl PassState {
         if self.candidates.len() != self.messages.values.len() {
             self.candidates = self.messages.values.clone();
         }
-        let a = graph.edge_factor(e);
-        let slot = graph.edge_slot(e);
-        gather(
+        let (k, start) = raw_message(
             graph,
             &self.messages.values,
-            a,
-            Some(slot),
+            e.0,
+            self.mode,
             &mut self.scratch,
         );
-        if !compute(
-            graph,
-            a,
-            slot,
-            self.mode,
-            self.normalisation,
-            &mut self.scratch,
-        ) {
+        let out = &mut self.scratch.out[..k];
+        let current = &self.messages.values[start..start + k];
+        let candidate = &mut self.candidates[start..start + k];
+        if self.normalisation == Normalisation::Max && k <= 16 {
+            // One fused pass: normalise, compare, store.
+            let m = logspace::max(out);
+            if m.is_finite() {
+                let mut d = 0.0f64;
+                for ((c, &x), &o) in candidate.iter_mut().zip(out.iter()).zip(current) {
+                    let v = x - m;
+                    let diff = (v - o).abs();
+                    d = if diff > d { diff } else { d };
+                    *c = v;
+                }
+                return d;
+            }
+        }
+        if !logspace::normalise(out, self.normalisation) {
             self.contradictions += 1;
         }
-        let range = graph.message_range(e);
-        self.candidates[range.clone()].copy_from_slice(&self.scratch.out);
-        logspace::distance(&self.scratch.out, &self.messages.values[range])
+        candidate.copy_from_slice(out);
+        logspace::distance(out, current)
     }
 
-    fn commit_candidate(&mut self, graph: &FactorGraph, e: EdgeId) {
+    /// Commits the candidate of `e`; returns the change still pending (candidate
+    /// against the committed message, 0 without damping).
+    fn commit_candidate(&mut self, graph: &FactorGraph, e: EdgeId) -> f64 {
         if self.candidates.len() != self.messages.values.len() {
-            return;
+            return 0.0;
         }
         let range = graph.message_range(e);
+        if self.damping == 0.0 {
+            // Undamped: copy and measure in one pass.
+            let mut d = 0.0f64;
+            for (o, &c) in self.messages.values[range.clone()]
+                .iter_mut()
+                .zip(&self.candidates[range])
+            {
+                let diff = (c - *o).abs();
+                d = if diff > d { diff } else { d };
+                *o = c;
+            }
+            self.residual = self.residual.max(d);
+            return 0.0;
+        }
         let r = commit(
             &mut self.messages.values[range.clone()],
-            &self.candidates[range],
+            &self.candidates[range.clone()],
             self.damping,
             self.normalisation,
         );
         self.residual = self.residual.max(r);
+        if self.damping == 0.0 {
+            0.0
+        } else {
+            logspace::distance(
+                &self.candidates[range.clone()],
+                &self.messages.values[range],
+            )
+        }
     }
 
     fn flood(&mut self, graph: &FactorGraph) {
@@ -707,23 +1018,24 @@ impl PassState {
         }
         let old = &self.messages.values;
         let (mode, how, damping) = (self.mode, self.normalisation, self.damping);
+        let sizes = (self.scratch.incoming.len(), self.scratch.out.len());
         let (residual, contradictions) = chunks
             .into_par_iter()
             .map(|(variables, out)| {
-                let mut scratch = Scratch::default();
+                let mut scratch = Scratch::with_sizes(sizes.0, sizes.1);
                 let base = graph.variable_message_range(order[variables.start]).start;
                 let mut residual = 0.0f64;
                 let mut contradictions = 0usize;
                 for &v in &order[variables] {
                     for &e in graph.variable_edges(v) {
-                        let a = graph.edge_factor(e);
-                        let slot = graph.edge_slot(e);
-                        gather(graph, old, a, Some(slot), &mut scratch);
-                        compute_raw(graph, a, slot, mode, &mut scratch);
-                        let range = graph.message_range(e);
-                        let dst = &mut out[range.start - base..range.end - base];
-                        dst.copy_from_slice(&old[range]);
-                        let (r, ok) = commit_raw(dst, &mut scratch.out, damping, how);
+                        let (k, start) = raw_message(graph, old, e.0, mode, &mut scratch);
+                        let (r, ok) = commit_raw_into(
+                            &old[start..start + k],
+                            &mut out[start - base..start - base + k],
+                            &mut scratch.out[..k],
+                            damping,
+                            how,
+                        );
                         contradictions += usize::from(!ok);
                         residual = residual.max(r);
                     }
@@ -771,9 +1083,14 @@ impl MessagePasser for Passer<'_, '_> {
     }
 
     fn commit_candidate(&mut self, e: EdgeId) {
+        self.commit_candidate_pending(e);
+    }
+
+    fn commit_candidate_pending(&mut self, e: EdgeId) -> f64 {
         self.before(Visit::Edge(e));
-        self.state.commit_candidate(self.graph.get(), e);
+        let pending = self.state.commit_candidate(self.graph.get(), e);
         self.after(Visit::Edge(e));
+        pending
     }
 
     fn out_of_time(&self) -> bool {

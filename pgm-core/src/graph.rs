@@ -72,6 +72,28 @@ pub(crate) struct MessageIndex<'g> {
     pub(crate) edge_variable: &'g [VariableId],
     pub(crate) cardinalities: &'g [usize],
     pub(crate) factor_edge_start: &'g [usize],
+    pub(crate) edge_factor: &'g [FactorId],
+}
+
+/// For an edge of a pairwise factor, the message block of the factor's other variable:
+/// `start..end` holds every message into that variable, `own` is where the message
+/// from this factor sits (left out of the variable-to-factor sum). Unused (zero) for
+/// edges of factors of other arities.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct PairSource {
+    pub(crate) start: u32,
+    pub(crate) end: u32,
+    pub(crate) own: u32,
+    /// Number of states of the other variable.
+    pub(crate) states: u32,
+    /// Number of states of this edge's variable.
+    pub(crate) target_states: u32,
+    /// Where this edge's message starts in the buffer.
+    pub(crate) target: u32,
+    /// The factor.
+    pub(crate) factor: u32,
+    /// This edge's scope position (0 or 1).
+    pub(crate) slot: u32,
 }
 
 /// Variable-major message layout.
@@ -87,6 +109,8 @@ struct Layout {
     order: Vec<VariableId>,
     /// Total buffer length.
     total: usize,
+    /// See [`FactorGraph::pair_sources`].
+    pair_source: Vec<PairSource>,
 }
 
 impl FactorGraph {
@@ -267,6 +291,14 @@ impl FactorGraph {
         e.0 - self.factor_edge_start[self.edge_factor[e.0].0]
     }
 
+    /// Per edge of a pairwise factor: where the *other* scope position's incoming
+    /// messages live (see [`PairSource`]); empty when the buffer is too large for
+    /// 32-bit offsets (the engine then takes its general path).
+    #[inline]
+    pub(crate) fn pair_sources(&self) -> &[PairSource] {
+        &self.layout().pair_source
+    }
+
     /// Flat views of the structure for the message-passing inner loops.
     #[inline]
     pub(crate) fn index(&self) -> MessageIndex<'_> {
@@ -278,6 +310,7 @@ impl FactorGraph {
             edge_variable: &self.edge_variable,
             cardinalities: &self.cardinalities,
             factor_edge_start: &self.factor_edge_start,
+            edge_factor: &self.edge_factor,
         }
     }
 
@@ -298,12 +331,41 @@ impl FactorGraph {
                 }
                 variable_end[v.0] = next;
             }
+            let mut pair_source = Vec::new();
+            if u32::try_from(next).is_ok() && u32::try_from(self.num_factors()).is_ok() {
+                pair_source = vec![PairSource::default(); self.num_edges()];
+                for w in self.factor_edge_start.windows(2) {
+                    if w[1] - w[0] != 2 {
+                        continue;
+                    }
+                    for (slot, (e, other)) in
+                        [(w[0], w[0] + 1), (w[0] + 1, w[0])].into_iter().enumerate()
+                    {
+                        let u = self.edge_variable[other].0;
+                        let v = self.edge_variable[e].0;
+                        // Offsets and state counts are at most `next`, which fits in
+                        // 32 bits; so does the factor index when the edges fit.
+                        let narrow = |x: usize| x as u32;
+                        pair_source[e] = PairSource {
+                            start: narrow(variable_start[u]),
+                            end: narrow(variable_end[u]),
+                            own: narrow(edge_offset[other]),
+                            states: narrow(self.cardinalities[u]),
+                            target_states: narrow(self.cardinalities[v]),
+                            target: narrow(edge_offset[e]),
+                            factor: narrow(self.edge_factor[e].0),
+                            slot: narrow(slot),
+                        };
+                    }
+                }
+            }
             Layout {
                 edge_offset,
                 variable_start,
                 variable_end,
                 order,
                 total: next,
+                pair_source,
             }
         })
     }
@@ -332,6 +394,52 @@ impl FactorGraph {
     /// consecutive variables of this order own consecutive blocks.
     pub fn layout_order(&self) -> &[VariableId] {
         &self.layout().order
+    }
+
+    /// Replaces every pairwise dense table whose log-table is a Potts table (both
+    /// variables with the same `K ≥ 2` states, one value on the diagonal, one off it:
+    /// what UAI files hold for Potts models) by the equivalent
+    /// [`PottsFactor`](crate::PottsFactor), whose messages cost O(K) instead of
+    /// O(K²). Scores are unchanged; max-product messages are the same numbers;
+    /// sum-product messages agree to rounding. Returns how many factors were replaced.
+    ///
+    /// ```
+    /// use pgm_core::{FactorGraph, TableFactor, VariableId};
+    /// let mut g = FactorGraph::with_variables(&[3, 3, 2]).unwrap();
+    /// let (a, b, c) = (VariableId(0), VariableId(1), VariableId(2));
+    /// let potts = vec![1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
+    /// g.add_factor(TableFactor::new(vec![a, b], vec![3, 3], potts).unwrap()).unwrap();
+    /// g.add_factor(TableFactor::new(vec![b, c], vec![3, 2], vec![0.0; 6]).unwrap()).unwrap();
+    /// assert_eq!(g.specialise_factors(), 1);
+    /// assert_eq!(g.factor(pgm_core::FactorId(0)).kind(), "potts");
+    /// assert_eq!(g.log_score(&[2, 2, 0]).unwrap(), 1.0);
+    /// ```
+    pub fn specialise_factors(&mut self) -> usize {
+        let mut replaced = 0;
+        for a in 0..self.factors.len() {
+            let factor = self.factors[a].as_ref();
+            let shape = factor.shape();
+            if factor.kind() != "table" || shape.len() != 2 || shape[0] != shape[1] || shape[0] < 2
+            {
+                continue;
+            }
+            let k = shape[0];
+            let table = factor.log_table();
+            let (same, different) = (table[0], table[1]);
+            let is_potts = table.iter().enumerate().all(|(i, &x)| {
+                let expected = if i / k == i % k { same } else { different };
+                x.to_bits() == expected.to_bits()
+            });
+            if !is_potts {
+                continue;
+            }
+            let scope = factor.scope();
+            if let Ok(potts) = crate::PottsFactor::new(scope[0], scope[1], k, same, different) {
+                self.factors[a] = Box::new(potts);
+                replaced += 1;
+            }
+        }
+        replaced
     }
 
     /// Checks that an assignment has one in-range state per variable.

@@ -418,3 +418,223 @@ fn uai_errors_name_file_line_and_expectation() {
     let ev = pgm_core::uai::Evidence::parse_str("e.evid", "1\n1 1 0\n", &[2, 2]).unwrap();
     assert_eq!(ev.0, vec![(1, 0)]);
 }
+
+/// The star of hardening case B15: x0 with ten binary leaves, each leaf copying x0
+/// with probability 0.9, three leaves observed in state 1.
+fn star_with_evidence() -> FactorGraph {
+    let mut g = FactorGraph::with_variables(&[2; 11]).unwrap();
+    g.add_factor(TableFactor::from_potentials(vec![VariableId(0)], vec![2], &[0.5, 0.5]).unwrap())
+        .unwrap();
+    for leaf in 1..11 {
+        g.add_factor(
+            TableFactor::from_potentials(
+                vec![VariableId(0), VariableId(leaf)],
+                vec![2, 2],
+                &[0.9, 0.1, 0.1, 0.9],
+            )
+            .unwrap(),
+        )
+        .unwrap();
+    }
+    for leaf in 1..4 {
+        g.add_factor(
+            TableFactor::new(
+                vec![VariableId(leaf)],
+                vec![2],
+                vec![f64::NEG_INFINITY, 0.0],
+            )
+            .unwrap(),
+        )
+        .unwrap();
+    }
+    g
+}
+
+#[test]
+fn damping_never_changes_the_fixed_point_on_the_b15_star() {
+    let g = star_with_evidence();
+    let exact = brute_force(&g, BruteForceLimit::default()).unwrap();
+    for damping in [0.0, 0.5, 0.9] {
+        for (name, mut schedule) in schedules() {
+            let r = BeliefPropagation::new(Mode::SumProduct)
+                .damping(damping)
+                .tolerance(1e-12)
+                .max_iterations(10_000)
+                .run(&g, &mut schedule)
+                .unwrap();
+            assert!(r.converged, "{name}, damping {damping}: not converged");
+            for (v, (b, e)) in r.beliefs.iter().zip(&exact.marginals).enumerate() {
+                for (p, q) in b.iter().zip(e) {
+                    assert!(
+                        (p - q).abs() < 1e-9,
+                        "{name}, damping {damping}: P(x{v}) = {b:?}, exact {e:?} after {} iterations",
+                        r.iterations
+                    );
+                }
+            }
+        }
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig {
+        cases: 100,
+        failure_persistence: Some(Box::new(FileFailurePersistence::Direct("proptest-regressions/inference.txt"))),
+        ..ProptestConfig::default()
+    })]
+
+    /// Damping changes the path to the fixed point, never the fixed point: on trees
+    /// (a unique fixed point, the exact one) every schedule with every damping ends at
+    /// the exact marginals and MAP score, and reports convergence only there.
+    #[test]
+    fn damping_never_changes_the_fixed_point(
+        spec in strategies::tree(9, 3, 5.0, 0.05)
+            .prop_filter("small enough to enumerate", |s| s.joint_states() <= MAX_STATES),
+        damping in prop_oneof![Just(0.3), Just(0.6), Just(0.9)],
+    ) {
+        let graph = spec.build();
+        let Ok(exact) = brute_force(&graph, BruteForceLimit(MAX_STATES)) else { return Ok(()); };
+        for (name, mut schedule) in schedules() {
+            let mar = BeliefPropagation::new(Mode::SumProduct)
+                .damping(damping)
+                .tolerance(1e-12)
+                .max_iterations(20_000)
+                .run(&graph, &mut schedule)
+                .unwrap();
+            prop_assert!(mar.converged, "{name}, damping {damping}: sum-product not converged");
+            for (v, (b, e)) in mar.beliefs.iter().zip(&exact.marginals).enumerate() {
+                for (p, q) in b.iter().zip(e) {
+                    prop_assert!((p - q).abs() < 1e-8, "{name}, damping {damping}: P(x{v}) = {b:?}, exact {e:?}");
+                }
+            }
+            let map = BeliefPropagation::new(Mode::MaxProduct)
+                .damping(damping)
+                .tolerance(1e-12)
+                .max_iterations(20_000)
+                .run(&graph, &mut schedule)
+                .unwrap();
+            prop_assert!(map.converged, "{name}, damping {damping}: max-product not converged");
+            prop_assert!(close(map.log_score, exact.map_log_score, 1e-9), "{name}, damping {damping}: {} vs {}", map.log_score, exact.map_log_score);
+        }
+    }
+}
+
+#[test]
+fn observer_sees_every_iteration_of_every_schedule() {
+    use pgm_core::observer::{BpProgress, History};
+    let g = star_with_evidence();
+    for (name, mut schedule) in schedules() {
+        let mut history = History::<BpProgress>::default();
+        let r = BeliefPropagation::new(Mode::SumProduct)
+            .damping(0.5)
+            .tolerance(1e-12)
+            .max_iterations(10_000)
+            .run_observed(&g, &mut schedule, None, &mut history)
+            .unwrap();
+        assert_eq!(history.0.len(), r.iterations, "{name}");
+        let last = history.0.last().unwrap();
+        assert_eq!(last.residual, r.residual, "{name}");
+        assert!(last.converged && r.converged, "{name}");
+        assert!(
+            history.0[..history.0.len() - 1]
+                .iter()
+                .all(|p| !p.converged && p.residual > 1e-12),
+            "{name}"
+        );
+        assert!(
+            history
+                .0
+                .iter()
+                .enumerate()
+                .all(|(i, p)| p.iteration == i + 1),
+            "{name}"
+        );
+        // Stopping after three iterations.
+        let mut stop = |p: &BpProgress| {
+            if p.iteration == 3 {
+                std::ops::ControlFlow::Break(())
+            } else {
+                std::ops::ControlFlow::Continue(())
+            }
+        };
+        let r = BeliefPropagation::new(Mode::SumProduct)
+            .damping(0.5)
+            .tolerance(1e-12)
+            .run_observed(&g, &mut schedule, None, &mut stop)
+            .unwrap();
+        assert_eq!(r.iterations, 3, "{name}");
+        assert!(r.stopped_by_observer && !r.converged, "{name}");
+        assert_eq!(r.termination(), pgm_core::Termination::Observer, "{name}");
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig {
+        cases: 60,
+        failure_persistence: Some(Box::new(FileFailurePersistence::Direct("proptest-regressions/inference.txt"))),
+        ..ProptestConfig::default()
+    })]
+
+    /// Potts tables written out densely (as UAI files hold them) and turned back into
+    /// Potts factors give the same max-product messages and decisions, and the same
+    /// sum-product beliefs to rounding, under every schedule.
+    #[test]
+    fn specialised_potts_tables_pass_the_same_messages(spec in strategies::potts_grid(4, 4, 5.0)) {
+        let mut dense_spec = spec.clone();
+        for f in &mut dense_spec.factors {
+            if let strategies::FactorSpec::Potts { a, b, same, different } = *f {
+                let k = spec.cardinalities[a];
+                let log_table = (0..k * k).map(|i| if i / k == i % k { same } else { different }).collect();
+                *f = strategies::FactorSpec::Table { scope: vec![a, b], log_table };
+            }
+        }
+        let dense = dense_spec.build();
+        let mut specialised = dense_spec.build();
+        let pairs = dense_spec.factors.iter().filter(|f| matches!(f, strategies::FactorSpec::Table { scope, .. } if scope.len() == 2)).count();
+        let k = spec.cardinalities[0];
+        prop_assert_eq!(specialised.specialise_factors(), if k >= 2 { pairs } else { 0 });
+        for (name, mut schedule) in schedules() {
+            let bp = BeliefPropagation::new(Mode::MaxProduct).max_iterations(15);
+            let a = bp.run(&dense, &mut schedule).unwrap();
+            let b = bp.run(&specialised, &mut schedule).unwrap();
+            prop_assert_eq!(&a.assignment, &b.assignment, "{}", name);
+            prop_assert_eq!(a.messages.as_slice(), b.messages.as_slice(), "{}", name);
+            let sp = BeliefPropagation::new(Mode::SumProduct).max_iterations(15);
+            let a = sp.run(&dense, &mut schedule).unwrap();
+            let b = sp.run(&specialised, &mut schedule).unwrap();
+            if name != "residual" {
+                for (x, y) in a.beliefs.iter().flatten().zip(b.beliefs.iter().flatten()) {
+                    prop_assert!((x - y).abs() < 1e-9, "{name}: {x} vs {y}");
+                }
+            }
+        }
+    }
+}
+
+proptest! {
+    /// Dense tables' messages (with their fixed-size fast paths for few states) equal
+    /// the enumeration of every joint state, for every arity-2 shape up to 10 × 10.
+    #[test]
+    fn dense_messages_match_enumeration(
+        k0 in 1usize..11, k1 in 1usize..11,
+        table in proptest::collection::vec(strategies::log_potential(30.0, 0.2), 100),
+        q in proptest::collection::vec(strategies::log_potential(30.0, 0.2), 20),
+    ) {
+        let factor = TableFactor::new(vec![VariableId(0), VariableId(1)], vec![k0, k1], table[..k0 * k1].to_vec()).unwrap();
+        let mut values = q[..k0].to_vec();
+        values.extend_from_slice(&q[10..10 + k1]);
+        let offsets = [0, k0, k0 + k1];
+        let incoming = Incoming::new(&values, &offsets);
+        for mode in [Mode::MaxProduct, Mode::SumProduct] {
+            for (target, k) in [(0usize, k0), (1, k1)] {
+                let mut fast = vec![0.0; k];
+                let mut enumerated = vec![0.0; k];
+                factor.message(target, &incoming, mode, &mut fast);
+                pgm_core::factor::enumerated_message(&factor, target, &incoming, mode, &mut enumerated);
+                for (a, b) in fast.iter().zip(&enumerated) {
+                    prop_assert!(close(*a, *b, 1e-12), "{mode:?} target {target}: {fast:?} vs {enumerated:?}");
+                }
+            }
+        }
+    }
+}

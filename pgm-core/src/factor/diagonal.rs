@@ -68,6 +68,21 @@ impl Factor for PottsFactor {
 
     fn message(&self, target: usize, incoming: &Incoming<'_>, mode: Mode, out: &mut [f64]) {
         let q = incoming.slot(1 - target);
+        if mode == Mode::MaxProduct && q.len() <= SMALL && q.len() == out.len() {
+            let (same, different) = (self.same, self.different);
+            // Fixed sizes let the compiler unroll the two loops.
+            match q.len() {
+                2 => potts_max_fixed::<2>(q, out, same, different),
+                3 => potts_max_fixed::<3>(q, out, same, different),
+                4 => potts_max_fixed::<4>(q, out, same, different),
+                5 => potts_max_fixed::<5>(q, out, same, different),
+                6 => potts_max_fixed::<6>(q, out, same, different),
+                7 => potts_max_fixed::<7>(q, out, same, different),
+                8 => potts_max_fixed::<8>(q, out, same, different),
+                _ => potts_max_small(q, out, same, different),
+            }
+            return;
+        }
         diagonal_message(q, out, 0, self.same, self.different, mode);
     }
 
@@ -160,6 +175,39 @@ impl Factor for ShiftedIdentityFactor {
     }
 }
 
+/// Max-product Potts message for few states (`q.len() == out.len() <= SMALL`,
+/// at least one): `out[y] = max(q[y] + same, different + max_{x ≠ y} q[x])`. Every
+/// target but the first maximiser of `q` sees the maximum as its best other state;
+/// that one sees the second largest entry. Branch-free loops.
+#[inline(always)]
+fn potts_max_small(q: &[f64], out: &mut [f64], same: f64, different: f64) {
+    let (mut best, mut best_at, mut second) = (q[0], 0usize, f64::NEG_INFINITY);
+    for (x, &v) in q.iter().enumerate().skip(1) {
+        let above = v > best;
+        let lower = if above { best } else { v };
+        second = if lower > second { lower } else { second };
+        best_at = if above { x } else { best_at };
+        best = if above { v } else { best };
+    }
+    let all = different + best;
+    for (o, &qy) in out.iter_mut().zip(q) {
+        let d = qy + same;
+        *o = if d > all { d } else { all };
+    }
+    let rest = different + second;
+    let d = q[best_at] + same;
+    out[best_at] = if d > rest { d } else { rest };
+}
+
+/// [`potts_max_small`] for exactly `K` states.
+#[inline(always)]
+fn potts_max_fixed<const K: usize>(q: &[f64], out: &mut [f64], same: f64, different: f64) {
+    if q.len() != K || out.len() != K {
+        return potts_max_small(q, out, same, different);
+    }
+    potts_max_small(&q[..K], &mut out[..K], same, different);
+}
+
 /// `out[y] = agg(q[y + offset] + on, off + agg_{x ≠ y + offset} q[x])`, with the first
 /// term absent when `y + offset` is out of range.
 /// Up to this many states, max-product messages use scalar single-pass loops.
@@ -180,17 +228,20 @@ pub(crate) fn diagonal_message(
     let hi = (n - offset).clamp(lo as isize, n_out) as usize;
     match mode {
         Mode::MaxProduct if q.len() <= SMALL && out.len() <= SMALL => {
-            // Few states: one branchy pass for the top two, then one pass over targets.
-            let (mut best, mut best_at, mut second) =
-                (f64::NEG_INFINITY, usize::MAX, f64::NEG_INFINITY);
-            for (x, &v) in q.iter().enumerate() {
-                if v > best || best_at == usize::MAX {
-                    second = best;
-                    best = v;
-                    best_at = x;
+            // Few states: one branch-free pass for the top two (the first position
+            // of the maximum, and the maximum of the rest), then one over targets.
+            let (mut best, mut best_at, mut second) = (q[0], 0usize, f64::NEG_INFINITY);
+            for (x, &v) in q.iter().enumerate().skip(1) {
+                let above = v > best;
+                second = if above {
+                    best
                 } else if v > second {
-                    second = v;
-                }
+                    v
+                } else {
+                    second
+                };
+                best_at = if above { x } else { best_at };
+                best = if above { v } else { best };
             }
             let all = off + best;
             if offset == 0 && out.len() == q.len() {

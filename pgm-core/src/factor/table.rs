@@ -151,6 +151,22 @@ fn pairwise_message(
     mode: Mode,
     out: &mut [f64],
 ) {
+    if mode == Mode::MaxProduct && k0 == k1 {
+        // Few states: fixed sizes let the compiler unroll both loops.
+        let fixed = match k0 {
+            2 => pairwise_max_fixed::<2>(t, target, incoming, out),
+            3 => pairwise_max_fixed::<3>(t, target, incoming, out),
+            4 => pairwise_max_fixed::<4>(t, target, incoming, out),
+            5 => pairwise_max_fixed::<5>(t, target, incoming, out),
+            6 => pairwise_max_fixed::<6>(t, target, incoming, out),
+            7 => pairwise_max_fixed::<7>(t, target, incoming, out),
+            8 => pairwise_max_fixed::<8>(t, target, incoming, out),
+            _ => false,
+        };
+        if fixed {
+            return;
+        }
+    }
     if target == 1 {
         // out[b] = agg_a (q0[a] + t[a, b]); row-wise accumulation keeps the inner loop contiguous.
         let q0 = incoming.slot(0);
@@ -209,6 +225,44 @@ fn pairwise_message(
             *o = m;
         }
     }
+}
+
+/// Max-product message of a `K × K` table: `out[b] = max_a (q0[a] + t[a, b])` to
+/// position 1, `out[a] = max_b (t[a, b] + q1[b])` to position 0. The same sums and
+/// maxima as the general loops, so the same numbers. Returns false (and writes
+/// nothing) when the slices do not have the sizes of a `K × K` table.
+#[inline(always)]
+fn pairwise_max_fixed<const K: usize>(
+    t: &[f64],
+    target: usize,
+    incoming: &Incoming<'_>,
+    out: &mut [f64],
+) -> bool {
+    let q = incoming.slot(1 - target);
+    if t.len() != K * K || q.len() != K || out.len() != K {
+        return false;
+    }
+    let (t, q, out) = (&t[..K * K], &q[..K], &mut out[..K]);
+    if target == 1 {
+        let mut acc = [f64::NEG_INFINITY; K];
+        for a in 0..K {
+            for b in 0..K {
+                let s = q[a] + t[a * K + b];
+                acc[b] = if s > acc[b] { s } else { acc[b] };
+            }
+        }
+        out.copy_from_slice(&acc);
+    } else {
+        for a in 0..K {
+            let mut m = f64::NEG_INFINITY;
+            for b in 0..K {
+                let s = t[a * K + b] + q[b];
+                m = if s > m { s } else { m };
+            }
+            out[a] = m;
+        }
+    }
+    true
 }
 
 /// Messages of tables of arity three and more: one walk over the table.

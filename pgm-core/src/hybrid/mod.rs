@@ -244,6 +244,7 @@ impl HybridInference {
             converged,
             residual,
             out_of_time,
+            stopped_by_observer,
             contradictions,
         } = propagation;
         // Algorithm 1, lines 16-21: re-solve from the decoded state, refresh, decode.
@@ -267,6 +268,7 @@ impl HybridInference {
             converged,
             residual,
             out_of_time,
+            stopped_by_observer,
             contradictions,
         };
         let discrete = self.bp.finish(graph, propagation);

@@ -65,6 +65,18 @@ pub trait MessagePasser {
     /// Commits the stored candidate of edge `e` (damped), raising the edge hooks.
     fn commit_candidate(&mut self, e: EdgeId);
 
+    /// Commits the stored candidate of edge `e` like
+    /// [`commit_candidate`](Self::commit_candidate) and returns the change that is
+    /// still pending on the edge: the distance between its candidate and the message
+    /// now committed. Without damping that is 0; with damping λ the committed message
+    /// moved only part of the way, and a schedule that forgot the rest would freeze
+    /// short of the fixed point. The candidate stays valid after the commit (a
+    /// message never reads itself). The default recomputes the candidate.
+    fn commit_candidate_pending(&mut self, e: EdgeId) -> f64 {
+        self.commit_candidate(e);
+        self.compute_candidate(e)
+    }
+
     /// True once the run's time budget is spent; long iterations should stop early.
     fn out_of_time(&self) -> bool;
 

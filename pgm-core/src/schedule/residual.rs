@@ -1,5 +1,10 @@
 //! Residual belief propagation (Elidan, McGraw and Koller, 2006): always commit the
 //! message whose recomputation would change it most.
+//!
+//! With damping a commit moves a message only part of the way to its candidate, so
+//! the committed edge keeps the rest of its residual in the queue
+//! ([`MessagePasser::commit_candidate_pending`]): damping changes the path to the
+//! fixed point, never the fixed point, and a damped run cannot stop half-way.
 
 use super::{MessagePasser, Schedule};
 use crate::graph::{EdgeId, FactorId};
@@ -50,8 +55,8 @@ impl Schedule for Residual {
                 break;
             }
             let e = EdgeId(e);
-            passer.commit_candidate(e);
-            self.heap.set(e.0, 0.0);
+            let pending = passer.commit_candidate_pending(e);
+            self.heap.set(e.0, pending);
             // Messages that read the changed message: every other factor of the target
             // variable, towards that factor's other variables.
             affected.clear();
@@ -77,11 +82,14 @@ impl Schedule for Residual {
 }
 
 /// A 4-ary max-heap over edge ids with updatable priorities: half the depth of a
-/// binary heap, and a node's four children share one cache line.
+/// binary heap, and a node's four children share one cache line. Priorities are
+/// stored as the bits of their absolute value, which order like the numbers for
+/// non-negative values (+∞ above every number, NaN above +∞, so that a NaN surfaces
+/// instead of hiding); sifts move a hole instead of swapping.
 #[derive(Clone, Debug, Default)]
 struct IndexedMaxHeap {
-    /// (priority, edge) pairs in heap order.
-    heap: Vec<(f64, usize)>,
+    /// (priority key, edge) pairs in heap order.
+    heap: Vec<(u64, usize)>,
     /// Heap position of each edge, `usize::MAX` when absent.
     positions: Vec<usize>,
 }
@@ -94,78 +102,151 @@ impl IndexedMaxHeap {
         }
     }
 
-    /// Higher priority first; equal priorities: lower edge id first. NaN sorts highest
-    /// so that it surfaces instead of hiding.
-    fn before(a: (f64, usize), b: (f64, usize)) -> bool {
-        if a.0 != b.0 {
-            a.0 > b.0 || a.0.is_nan()
-        } else {
-            a.1 < b.1
-        }
+    /// The order key of a priority (residuals are never negative; a negative value
+    /// counts as its absolute value).
+    #[inline]
+    fn key(priority: f64) -> u64 {
+        priority.abs().to_bits()
+    }
+
+    #[inline]
+    fn priority(key: u64) -> f64 {
+        f64::from_bits(key)
+    }
+
+    /// Higher priority first; equal priorities: lower edge id first.
+    #[inline]
+    fn before(a: (u64, usize), b: (u64, usize)) -> bool {
+        a.0 > b.0 || (a.0 == b.0 && a.1 < b.1)
     }
 
     fn top(&self) -> Option<(usize, f64)> {
-        self.heap.first().map(|&(p, e)| (e, p))
+        self.heap.first().map(|&(k, e)| (e, Self::priority(k)))
     }
 
+    /// Sets an edge's priority; a priority of 0 takes the edge out of the heap (such an
+    /// edge is never committed, and a smaller heap is cheaper to sift).
     fn set(&mut self, edge: usize, priority: f64) {
+        let item = (Self::key(priority), edge);
+        if item.0 == 0 {
+            self.remove(edge);
+            return;
+        }
         let pos = self.positions[edge];
         if pos == usize::MAX {
-            self.heap.push((priority, edge));
-            let i = self.heap.len() - 1;
-            self.positions[edge] = i;
-            self.sift_up(i);
+            self.heap.push(item);
+            self.sift_up(self.heap.len() - 1, item);
         } else {
-            let old = self.heap[pos].0;
-            self.heap[pos].0 = priority;
-            if Self::before((priority, edge), (old, edge)) {
-                self.sift_up(pos);
+            let old = self.heap[pos];
+            if Self::before(item, old) {
+                self.sift_up(pos, item);
             } else {
-                self.sift_down(pos);
+                self.sift_down(pos, item);
             }
         }
     }
 
-    fn swap(&mut self, i: usize, j: usize) {
-        self.heap.swap(i, j);
-        self.positions[self.heap[i].1] = i;
-        self.positions[self.heap[j].1] = j;
+    fn remove(&mut self, edge: usize) {
+        let pos = self.positions[edge];
+        if pos == usize::MAX {
+            return;
+        }
+        self.positions[edge] = usize::MAX;
+        let Some(last) = self.heap.pop() else { return };
+        if pos == self.heap.len() {
+            return;
+        }
+        // The last element fills the hole, moving up or down from there.
+        if pos > 0 && Self::before(last, self.heap[(pos - 1) / 4]) {
+            self.sift_up(pos, last);
+        } else {
+            self.sift_down(pos, last);
+        }
     }
 
-    fn sift_up(&mut self, mut i: usize) {
+    /// Places `item` at the hole `i` or above it.
+    #[inline]
+    fn sift_up(&mut self, mut i: usize, item: (u64, usize)) {
         while i > 0 {
             let parent = (i - 1) / 4;
-            if Self::before(self.heap[i], self.heap[parent]) {
-                self.swap(i, parent);
-                i = parent;
-            } else {
+            let p = self.heap[parent];
+            if !Self::before(item, p) {
                 break;
             }
+            self.heap[i] = p;
+            self.positions[p.1] = i;
+            i = parent;
         }
+        self.heap[i] = item;
+        self.positions[item.1] = i;
     }
 
-    fn sift_down(&mut self, mut i: usize) {
+    /// Places `item` at the hole `i` or below it.
+    #[inline]
+    fn sift_down(&mut self, mut i: usize, item: (u64, usize)) {
         let n = self.heap.len();
         loop {
             let first = 4 * i + 1;
-            let mut best = i;
-            for c in first..(first + 4).min(n) {
-                if Self::before(self.heap[c], self.heap[best]) {
-                    best = c;
-                }
-            }
-            if best == i {
+            if first >= n {
                 break;
             }
-            self.swap(i, best);
+            let last = (first + 4).min(n);
+            let mut best = first;
+            let mut best_item = self.heap[first];
+            for c in first + 1..last {
+                let candidate = self.heap[c];
+                if Self::before(candidate, best_item) {
+                    best = c;
+                    best_item = candidate;
+                }
+            }
+            if !Self::before(best_item, item) {
+                break;
+            }
+            self.heap[i] = best_item;
+            self.positions[best_item.1] = i;
             i = best;
         }
+        self.heap[i] = item;
+        self.positions[item.1] = i;
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::IndexedMaxHeap;
+
+    #[test]
+    fn heap_orders_like_a_sort() {
+        // Random priorities (with ties, zeros, +∞) and updates: the top is always the
+        // largest priority, lowest edge id among ties.
+        let mut h = IndexedMaxHeap::new(200);
+        let mut current = vec![None; 200];
+        let mut state = 12345u64;
+        for step in 0..5000 {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            let edge = (state >> 33) as usize % 200;
+            let priority = match (state >> 20) % 7 {
+                0 => 0.0,
+                1 => f64::INFINITY,
+                2 => 1.5,
+                _ => ((state >> 40) % 1000) as f64 / 7.0,
+            };
+            h.set(edge, priority);
+            current[edge] = Some(priority);
+            let expected = current
+                .iter()
+                .enumerate()
+                .filter_map(|(e, p)| p.filter(|&p| p > 0.0).map(|p| (e, p)))
+                .fold(None, |best: Option<(usize, f64)>, (e, p)| match best {
+                    Some((_, q)) if q >= p => best,
+                    _ => Some((e, p)),
+                });
+            assert_eq!(h.top(), expected, "step {step}");
+        }
+    }
 
     #[test]
     fn heap_orders_and_updates() {
