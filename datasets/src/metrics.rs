@@ -8,8 +8,10 @@
 //!   cluster); `V = 0` when `H + C = 0`. See [`homogeneity_completeness_v_measure`].
 //! - Association (joint-model paper, Table I): accuracy, string edit distance (SED)
 //!   and outlier figures ([`association_accuracy`], [`association_edit_distance`],
-//!   [`outlier_stats`]); clustering accuracy and SED (Table II) through
-//!   [`clustering_edit_distance`].
+//!   [`outlier_stats`]); clustering accuracy and SED (Table II) with the outlier
+//!   cluster ([`clustering_accuracy_matched`], [`clustering_sed`]; the older
+//!   [`clustering_accuracy`] and [`clustering_edit_distance`] have no outlier
+//!   cluster).
 //! - Motion (Table III): rotation and translation error ([`motion_error`]), and the
 //!   [`percentile`] used to summarise them.
 //!
@@ -23,11 +25,35 @@
 //! its own and never renamed); the distance is then invariant to renaming clusters
 //! in either labelling. It is cheaper than the minimum over all label matchings and
 //! equal to it whenever the first-appearance order of the clusters agrees.
+//!
+//! **Clustering accuracy with an outlier cluster** (Table II of the joint paper, which
+//! calls it "the percentage of correctly clustered points"; [`clustering_accuracy_matched`]).
+//! Both sides are per-beam [`JointCluster`]s: `Object(id)` or `Outlier`. The truth
+//! comes from a pair's ground truth ([`joint_truth`]): every beam with a true label is
+//! scored; it is `Outlier` when its true association is the outlier state (the
+//! surface is not seen in the reference scan), otherwise `Object(label)` (label 0,
+//! the background, is an object like the others). A scored beam is correct when
+//! - its truth is `Outlier` and it is predicted in the outlier cluster (outliers must
+//!   be outliers in both), or
+//! - its truth is `Object(l)` and it is predicted in the cluster `Object(k)` that the
+//!   matching maps to `l`.
+//!
+//! The matching is one to one between true objects and predicted clusters and
+//! maximises the number of returns on which they agree (the returns with truth
+//! `Object(l)` predicted `Object(k)`, summed over the matched pairs `(l, k)`); it is
+//! found by the Hungarian method ([`maximum_weight_matching`]). A true object or a
+//! predicted cluster left unmatched (there are more of one than of the other) has all
+//! its returns wrong, and so do the returns predicted `Outlier` or not predicted at
+//! all whose truth is an object. The accuracy is correct / scored beams.
+//!
+//! The clustering SED ([`clustering_sed`]) is [`clustering_edit_distance`] with the
+//! outlier cluster on both sides as the one symbol that is never renamed.
 
 use crate::error::{Error, Result};
 use crate::pair::Association;
+use pgm_features::methods::JointCluster;
 use pgm_features::Pose2;
-use std::collections::HashMap;
+use std::collections::{BTreeMap, HashMap};
 use std::hash::Hash;
 
 /// Homogeneity, completeness and V-measure of one clustering.
@@ -243,6 +269,200 @@ pub fn clustering_accuracy(
     );
     let hits = t.iter().zip(&p).filter(|(a, b)| a == b).count();
     Ok(Some(hits as f64 / t.len() as f64))
+}
+
+/// The one-to-one matching of rows to columns that maximises the summed weight
+/// (the assignment problem, solved by the Hungarian method of Kuhn and Munkres,
+/// `pathfinding::kuhn_munkres`, O(n³)). `weights` is a rectangular matrix (every row as
+/// long as the first); the result gives each row its column, `None` for the rows left
+/// over when there are more rows than columns. With non-negative weights every row
+/// (or every column, whichever are fewer) is matched, some possibly with weight 0.
+///
+/// # Errors
+/// When the rows differ in length.
+pub fn maximum_weight_matching(weights: &[Vec<i64>]) -> Result<Vec<Option<usize>>> {
+    let rows = weights.len();
+    let cols = weights.first().map_or(0, Vec::len);
+    if let Some((r, row)) = weights.iter().enumerate().find(|(_, w)| w.len() != cols) {
+        return Err(Error::Mismatch {
+            what: format!(
+                "matching: row {r} has {} weights, row 0 has {cols}",
+                row.len()
+            ),
+        });
+    }
+    if rows == 0 || cols == 0 {
+        return Ok(vec![None; rows]);
+    }
+    let matrix = pathfinding::matrix::Matrix::from_rows(weights.iter().cloned()).map_err(|e| {
+        Error::Mismatch {
+            what: format!("matching: {e}"),
+        }
+    })?;
+    // kuhn_munkres assigns every row a column and needs rows <= columns.
+    let mut matched = vec![None; rows];
+    if rows <= cols {
+        let (_, column_of_row) = pathfinding::kuhn_munkres::kuhn_munkres(&matrix);
+        for (r, c) in column_of_row.into_iter().enumerate() {
+            matched[r] = Some(c);
+        }
+    } else {
+        let (_, row_of_column) = pathfinding::kuhn_munkres::kuhn_munkres(&matrix.transposed());
+        for (c, r) in row_of_column.into_iter().enumerate() {
+            matched[r] = Some(c);
+        }
+    }
+    Ok(matched)
+}
+
+/// The ground truth of a pair as [`JointCluster`]s, one per beam of the current scan
+/// (see the module docs): `None` where there is no true label, `Outlier` where the true
+/// association is the outlier state, else `Object(label)`. Without true associations
+/// (`associations = None`) no beam is a true outlier.
+///
+/// # Errors
+/// When the lengths differ.
+pub fn joint_truth(
+    labels: &[Option<u32>],
+    associations: Option<&[Option<Association>]>,
+) -> Result<Vec<Option<JointCluster>>> {
+    if let Some(a) = associations {
+        check_lengths("joint truth (labels, associations)", labels.len(), a.len())?;
+    }
+    Ok(labels
+        .iter()
+        .enumerate()
+        .map(|(k, label)| {
+            let label = (*label)?;
+            let outlier = associations.is_some_and(|a| a[k] == Some(Association::Outlier));
+            Some(if outlier {
+                JointCluster::Outlier
+            } else {
+                JointCluster::Object(label as usize)
+            })
+        })
+        .collect())
+}
+
+/// How a predicted clustering with an outlier cluster matches the truth (see the
+/// module docs and [`match_clusterings`]).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct ClusterMatching {
+    /// Beams with a ground-truth cluster.
+    pub scored: usize,
+    /// Of those, the correct ones (module docs).
+    pub correct: usize,
+    /// Of those, true outliers predicted in the outlier cluster.
+    pub outliers_correct: usize,
+    /// The matched pairs `(true object id, predicted cluster, returns in both)`, in
+    /// increasing order of the true id; pairs that share no return are left out.
+    pub matches: Vec<(usize, usize, usize)>,
+    /// Returns of every true object (beams whose truth is `Object(id)`), by id.
+    pub object_returns: BTreeMap<usize, usize>,
+}
+
+impl ClusterMatching {
+    /// `correct / scored`, `None` without a scored beam.
+    pub fn accuracy(&self) -> Option<f64> {
+        (self.scored > 0).then(|| self.correct as f64 / self.scored as f64)
+    }
+}
+
+/// Matches the predicted clusters to the true objects one to one, maximising the
+/// returns on which they agree, and counts the correct beams (module docs).
+///
+/// # Errors
+/// When the lengths differ.
+pub fn match_clusterings(
+    truth: &[Option<JointCluster>],
+    predicted: &[Option<JointCluster>],
+) -> Result<ClusterMatching> {
+    check_lengths("clustering accuracy", truth.len(), predicted.len())?;
+    let mut out = ClusterMatching::default();
+    let mut overlap: BTreeMap<(usize, usize), usize> = BTreeMap::new();
+    let mut clusters: Vec<usize> = Vec::new();
+    for (t, p) in truth.iter().zip(predicted) {
+        let Some(t) = t else { continue };
+        out.scored += 1;
+        match (t, p) {
+            (JointCluster::Outlier, Some(JointCluster::Outlier)) => out.outliers_correct += 1,
+            (JointCluster::Object(l), p) => {
+                *out.object_returns.entry(*l).or_default() += 1;
+                if let Some(JointCluster::Object(k)) = p {
+                    *overlap.entry((*l, *k)).or_default() += 1;
+                    clusters.push(*k);
+                }
+            }
+            _ => {}
+        }
+    }
+    clusters.sort_unstable();
+    clusters.dedup();
+    let objects: Vec<usize> = out.object_returns.keys().copied().collect();
+    let weights: Vec<Vec<i64>> = objects
+        .iter()
+        .map(|l| {
+            clusters
+                .iter()
+                .map(|k| overlap.get(&(*l, *k)).map_or(0, |&n| n as i64))
+                .collect()
+        })
+        .collect();
+    let matched = maximum_weight_matching(&weights)?;
+    for (row, column) in matched.iter().enumerate() {
+        let Some(column) = *column else { continue };
+        let (l, k) = (objects[row], clusters[column]);
+        let n = overlap.get(&(l, k)).copied().unwrap_or(0);
+        if n > 0 {
+            out.matches.push((l, k, n));
+        }
+    }
+    out.correct = out.outliers_correct + out.matches.iter().map(|m| m.2).sum::<usize>();
+    Ok(out)
+}
+
+/// The clustering accuracy of the joint paper's Table II (0–1): clusters mapped to
+/// true objects one to one by the matching that maximises agreement, outliers correct
+/// only when outliers in both (module docs); `None` when no beam has a ground-truth
+/// cluster. Build `truth` with [`joint_truth`].
+///
+/// # Errors
+/// When the lengths differ.
+pub fn clustering_accuracy_matched(
+    truth: &[Option<JointCluster>],
+    predicted: &[Option<JointCluster>],
+) -> Result<Option<f64>> {
+    Ok(match_clusterings(truth, predicted)?.accuracy())
+}
+
+/// The clustering string edit distance of the joint paper's Table II: the Levenshtein
+/// distance between the two cluster sequences over the beams with a ground-truth
+/// cluster, each renamed by first appearance as in [`clustering_edit_distance`], with
+/// the outlier cluster (and a beam without a prediction) as the one symbol that is
+/// never renamed. Without outliers it equals [`clustering_edit_distance`] of the
+/// labels.
+///
+/// # Errors
+/// When the lengths differ.
+pub fn clustering_sed(
+    truth: &[Option<JointCluster>],
+    predicted: &[Option<JointCluster>],
+) -> Result<usize> {
+    check_lengths("clustering edit distance", truth.len(), predicted.len())?;
+    let object = |c: &Option<JointCluster>| match c {
+        Some(JointCluster::Object(k)) => Some(*k),
+        _ => None,
+    };
+    let (t, p): (Vec<Option<usize>>, Vec<Option<usize>>) = truth
+        .iter()
+        .zip(predicted)
+        .filter(|(t, _)| t.is_some())
+        .map(|(t, p)| (object(t), object(p)))
+        .unzip();
+    Ok(edit_distance(
+        &rename_by_first_appearance(&t),
+        &rename_by_first_appearance(&p),
+    ))
 }
 
 /// Share (0–1) of beams with a ground-truth association whose predicted association

@@ -1,7 +1,9 @@
 //! The interfaces through which evaluation runs a method on scan pairs, in the spirit
 //! of linfa's `Predict`: a [`ScanMatcher`] estimates the ego-motion of a pair, a
 //! [`MotionClusterer`] labels the current scan's returns with clusters of common
-//! motion. Evaluation (`pgm_datasets::evaluation`), the command-line tool, the
+//! motion, a [`JointEstimator`] does both and associates the returns as well (the
+//! joint model, and the two-step pipelines it is compared with: [`TwoSteps`]).
+//! Evaluation (`pgm_datasets::evaluation`), the command-line tool, the
 //! examples and the tests are generic over them, so adding a model means adding an
 //! implementation, not a branch in the tool.
 //!
@@ -18,7 +20,7 @@
 //! ```
 
 use crate::association::{AssociationSource, PointAssociations};
-use crate::pair::{ClusterMotion, ScanPair};
+use crate::pair::{Association, ClusterMotion, ScanPair};
 use crate::registration::{IcpMatcher, IcpStatus};
 use crate::{Pose2, Result};
 use serde::Serialize;
@@ -190,5 +192,265 @@ impl<C: ClusterWithAssociations> MotionClusterer for Associated<C> {
     fn cluster(&self, pair: &ScanPair) -> Result<MotionClustering> {
         let associations = self.associations.associate(pair)?;
         self.method.cluster_with(pair, &associations)
+    }
+}
+
+/// A return's cluster in a [`JointEstimate`]: a motion cluster or the outlier cluster
+/// (returns whose surface the other scan does not show). Serialised as the cluster
+/// index, `-1` for the outlier cluster.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum JointCluster {
+    /// A motion cluster: an index into [`JointEstimate::motions`].
+    Object(usize),
+    /// The outlier cluster.
+    Outlier,
+}
+
+impl Serialize for JointCluster {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        match self {
+            JointCluster::Object(k) => s.serialize_u64(*k as u64),
+            JointCluster::Outlier => s.serialize_i64(-1),
+        }
+    }
+}
+
+/// A method's point associations, clustering and motions of one pair, together (the
+/// output of the joint model of van de Ven, Ramos and Tipaldi, and of the two-step
+/// pipelines it is compared with).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct JointEstimate {
+    /// Per beam of the current scan: its association (a reference beam or outlier),
+    /// `None` for beams without a return.
+    pub associations: Vec<Option<Association>>,
+    /// Per beam of the current scan: its cluster, `None` for beams without a return.
+    pub clusters: Vec<Option<JointCluster>>,
+    /// The motion of every motion cluster (maps its current points onto the reference
+    /// scan).
+    pub motions: Vec<Pose2>,
+    /// The static background: an index into `motions`.
+    pub background: usize,
+    /// The ego-motion estimate.
+    pub ego_motion: Pose2,
+    /// Iterations (message-passing sweeps, assignment rounds) the method reported.
+    pub iterations: usize,
+    /// Whether the method converged.
+    pub converged: bool,
+}
+
+impl JointEstimate {
+    /// The estimate of a two-step method: `associations` from an association source,
+    /// then `clustering` of a [`ClusterWithAssociations`] method on them. The clusters
+    /// are the clustering's labels (label 0, the background, becomes motion cluster 0;
+    /// the other labels follow in increasing order); a return the association source
+    /// calls an outlier, or that the clustering leaves unlabelled, is in the outlier
+    /// cluster. A label without a motion in `clustering.motions` takes the ego-motion.
+    /// The ego-motion is the association source's when it has one, else the
+    /// clustering's, else the background's motion; the iterations are the clustering's
+    /// (an association source reports none).
+    pub fn from_two_steps(
+        associations: PointAssociations,
+        clustering: MotionClustering,
+    ) -> JointEstimate {
+        let mut labels: Vec<u32> = clustering.labels.iter().flatten().copied().collect();
+        labels.push(0);
+        labels.sort_unstable();
+        labels.dedup();
+        let motion_of = |label: u32| {
+            clustering
+                .motions
+                .iter()
+                .find(|m| m.label == label)
+                .map(|m| m.motion)
+        };
+        let ego_motion = associations
+            .ego_motion
+            .or(clustering.ego_motion)
+            .or_else(|| motion_of(0))
+            .unwrap_or_default();
+        let motions = labels
+            .iter()
+            .map(|&l| motion_of(l).unwrap_or(ego_motion))
+            .collect();
+        let clusters = clustering
+            .labels
+            .iter()
+            .zip(&associations.associations)
+            .map(|(label, association)| match (label, association) {
+                (_, Some(Association::Outlier)) | (None, Some(_)) => Some(JointCluster::Outlier),
+                (Some(l), _) => Some(JointCluster::Object(
+                    labels.binary_search(l).expect("every label was collected"),
+                )),
+                (None, None) => None,
+            })
+            .collect();
+        JointEstimate {
+            associations: associations.associations,
+            clusters,
+            motions,
+            background: 0,
+            ego_motion,
+            iterations: clustering.iterations,
+            converged: clustering.converged,
+        }
+    }
+
+    /// The clusters as a [`MotionClustering`]: the background is label 0, the other
+    /// motion clusters 1, 2, … in the order of `motions`, and a return in the outlier
+    /// cluster is unlabelled (`None`), as CRF-Clustering leaves the returns of its
+    /// outlier state. So the V-measure counts the outlier cluster as a cluster of its
+    /// own, and the detection metrics count its returns as not moving.
+    pub fn to_motion_clustering(&self) -> MotionClustering {
+        let label_of = |k: usize| -> u32 {
+            if k == self.background {
+                0
+            } else if k < self.background {
+                k as u32 + 1
+            } else {
+                k as u32
+            }
+        };
+        MotionClustering {
+            labels: self
+                .clusters
+                .iter()
+                .map(|c| match c {
+                    Some(JointCluster::Object(k)) => Some(label_of(*k)),
+                    _ => None,
+                })
+                .collect(),
+            motions: self
+                .motions
+                .iter()
+                .enumerate()
+                .map(|(k, m)| ClusterMotion {
+                    label: label_of(k),
+                    motion: *m,
+                    kind: if k == self.background {
+                        "background"
+                    } else {
+                        "moving"
+                    }
+                    .into(),
+                })
+                .collect(),
+            ego_motion: Some(self.ego_motion),
+            iterations: self.iterations,
+            converged: self.converged,
+        }
+    }
+}
+
+/// Estimates the point associations, the clusters of common motion and their motions
+/// of scan pairs together (scan matching, moving-object detection and motion
+/// estimation), as the joint model does.
+///
+/// ```
+/// use pgm_features::methods::{JointCluster, JointEstimate, JointEstimator};
+/// use pgm_features::{Association, Pose2, Result, Scan, ScanPair};
+///
+/// /// Every return associated to the same beam, all in the background.
+/// struct Identity;
+///
+/// impl JointEstimator for Identity {
+///     fn name(&self) -> &str {
+///         "identity"
+///     }
+///
+///     fn estimate(&self, pair: &ScanPair) -> Result<JointEstimate> {
+///         let valid = &pair.current.valid;
+///         Ok(JointEstimate {
+///             associations: (0..valid.len()).map(|k| valid[k].then_some(Association::Point(k))).collect(),
+///             clusters: valid.iter().map(|&v| v.then_some(JointCluster::Object(0))).collect(),
+///             motions: vec![Pose2::identity()],
+///             background: 0,
+///             ego_motion: Pose2::identity(),
+///             iterations: 0,
+///             converged: true,
+///         })
+///     }
+/// }
+///
+/// let scan = Scan::from_ranges(vec![0.0, 0.1], vec![1.0, 1.0], 10.0);
+/// let pair = ScanPair { name: "p".into(), reference: scan.clone(), current: scan,
+///                       odometry: None, truth: None };
+/// let estimate = Identity.estimate(&pair).unwrap();
+/// assert_eq!(estimate.to_motion_clustering().labels, vec![Some(0), Some(0)]);
+/// ```
+pub trait JointEstimator: Send + Sync {
+    /// The method's name, as typed on the command line.
+    fn name(&self) -> &str;
+
+    /// The associations, clusters and motions of `pair`. Errors name the pair.
+    fn estimate(&self, pair: &ScanPair) -> Result<JointEstimate>;
+}
+
+impl<E: JointEstimator + ?Sized> JointEstimator for Box<E> {
+    fn name(&self) -> &str {
+        (**self).name()
+    }
+
+    fn estimate(&self, pair: &ScanPair) -> Result<JointEstimate> {
+        (**self).estimate(pair)
+    }
+}
+
+impl<E: JointEstimator + ?Sized> JointEstimator for Arc<E> {
+    fn name(&self) -> &str {
+        (**self).name()
+    }
+
+    fn estimate(&self, pair: &ScanPair) -> Result<JointEstimate> {
+        (**self).estimate(pair)
+    }
+}
+
+/// A [`ClusterWithAssociations`] method after an [`AssociationSource`], as one
+/// [`JointEstimator`] (the two-step pipelines the joint model is compared with:
+/// ICP or CRF-Matching, then motion K-Means or CRF-Clustering); see
+/// [`JointEstimate::from_two_steps`].
+pub struct TwoSteps<C> {
+    /// The clustering method.
+    pub method: C,
+    /// Where its associations come from.
+    pub associations: Arc<dyn AssociationSource>,
+    name: String,
+}
+
+impl<C: ClusterWithAssociations> TwoSteps<C> {
+    /// `method` after `source`, named `name`.
+    pub fn new(name: impl Into<String>, method: C, source: Arc<dyn AssociationSource>) -> Self {
+        Self {
+            method,
+            associations: source,
+            name: name.into(),
+        }
+    }
+}
+
+impl<C: ClusterWithAssociations> JointEstimator for TwoSteps<C> {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn estimate(&self, pair: &ScanPair) -> Result<JointEstimate> {
+        let associations = self.associations.associate(pair)?;
+        let clustering = self.method.cluster_with(pair, &associations)?;
+        Ok(JointEstimate::from_two_steps(associations, clustering))
+    }
+}
+
+/// A [`JointEstimator`]'s clusters as a [`MotionClusterer`]
+/// ([`JointEstimate::to_motion_clustering`]: outlier-cluster returns unlabelled), so
+/// the clustering evaluation scores a joint method like every other clusterer.
+pub struct JointClusters<E>(pub E);
+
+impl<E: JointEstimator> MotionClusterer for JointClusters<E> {
+    fn name(&self) -> String {
+        self.0.name().to_string()
+    }
+
+    fn cluster(&self, pair: &ScanPair) -> Result<MotionClustering> {
+        Ok(self.0.estimate(pair)?.to_motion_clustering())
     }
 }

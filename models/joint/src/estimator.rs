@@ -176,23 +176,10 @@ impl Default for Joint {
     }
 }
 
-/// A return's cluster in a [`JointResult`].
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ClusterLabel {
-    /// A motion cluster (an index into [`JointResult::motions`]).
-    Object(usize),
-    /// The outlier cluster.
-    Outlier,
-}
-
-impl Serialize for ClusterLabel {
-    fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
-        match self {
-            ClusterLabel::Object(k) => s.serialize_u64(*k as u64),
-            ClusterLabel::Outlier => s.serialize_i64(-1),
-        }
-    }
-}
+/// A return's cluster in a [`JointResult`]: a motion cluster (an index into
+/// [`JointResult::motions`]) or the outlier cluster; serialised as the index, `-1` for
+/// the outlier cluster.
+pub use pgm_features::methods::JointCluster as ClusterLabel;
 
 /// The result of the joint model on one pair.
 #[derive(Clone, Debug, PartialEq, Serialize)]
