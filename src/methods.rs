@@ -79,6 +79,19 @@ impl MethodOptions {
         Ok(self)
     }
 
+    /// Checks the parameters of every method, used or not: a value that means nothing
+    /// is an error even when the chosen method would not read it (`pgm cluster
+    /// --associations true --gate nan` is refused, not silently ignored).
+    pub fn check(&self) -> Result<(), MethodError> {
+        self.crf.check_ref().map_err(invalid)?;
+        self.kmeans.check_ref().map_err(invalid)?;
+        self.cbd.check_ref().map_err(invalid)?;
+        self.icp.check_ref().map_err(invalid)?;
+        self.nearest.check_ref().map_err(invalid)?;
+        self.segment.check_ref().map_err(invalid)?;
+        self.matching.check_ref().map_err(invalid)
+    }
+
     /// These options with the CRF-Clustering weights loaded from `path` (a file
     /// written by `pgm train clustering`).
     pub fn with_crf_weights(mut self, path: &std::path::Path) -> Result<Self, MethodError> {

@@ -40,6 +40,14 @@ pub enum PlotError {
         /// Number of beams of the current scan.
         beams: usize,
     },
+    /// The region to draw means nothing (see [`check_view`]).
+    #[error("view {view:?}: {problem}")]
+    View {
+        /// The region asked for, `[x_min, x_max, y_min, y_max]` metres.
+        view: [f64; 4],
+        /// What is wrong with it.
+        problem: String,
+    },
     /// The SVG file could not be written.
     #[error("cannot write {path}: {source}")]
     Io {
@@ -48,6 +56,51 @@ pub enum PlotError {
         /// The cause.
         source: std::io::Error,
     },
+}
+
+/// Largest distance (m) from the sensor a drawn region may reach: the readers' limit
+/// on ranges ([`pgm_datasets::error::limits::MAX_RANGE`]); no return lies farther.
+pub const MAX_VIEW_DISTANCE: f64 = pgm_datasets::error::limits::MAX_RANGE;
+
+/// Largest ratio between the two sides of a drawn region: the picture keeps a 1:1
+/// scale, so its height is the width times the ratio of the sides.
+pub const MAX_VIEW_ASPECT: f64 = 100.0;
+
+/// Checks a region to draw, `[x_min, x_max, y_min, y_max]` metres in the reference
+/// sensor frame: four finite numbers within [`MAX_VIEW_DISTANCE`] of the sensor,
+/// `x_min < x_max`, `y_min < y_max`, and sides at most [`MAX_VIEW_ASPECT`] times each
+/// other (a region of ±1e308 m would make the axis ticks run forever, and a region
+/// 10 km long and 1 m wide a picture millions of pixels high).
+///
+/// ```
+/// use pgm::plot::check_view;
+/// assert!(check_view([-5.0, 5.0, -3.0, 3.0]).is_ok());
+/// assert!(check_view([-1e308, 1e308, -1e308, 1e308]).is_err());
+/// assert!(check_view([0.0, 1e4, 0.0, 1.0]).is_err());
+/// assert!(check_view([1.0, 0.0, 0.0, 1.0]).is_err());
+/// ```
+pub fn check_view(view: [f64; 4]) -> Result<(), PlotError> {
+    let bad = |problem: String| Err(PlotError::View { view, problem });
+    if let Some(v) = view
+        .iter()
+        .find(|v| !(v.is_finite() && v.abs() <= MAX_VIEW_DISTANCE))
+    {
+        return bad(format!(
+            "{v:?} is not a finite number of metres within {MAX_VIEW_DISTANCE:e} m of the sensor"
+        ));
+    }
+    let [x0, x1, y0, y1] = view;
+    if !(x0 < x1 && y0 < y1) {
+        return bad("expected x_min < x_max and y_min < y_max".into());
+    }
+    let (length, width) = (x1 - x0, y1 - y0);
+    if length > MAX_VIEW_ASPECT * width || width > MAX_VIEW_ASPECT * length {
+        return bad(format!(
+            "the region is {length:?} m long and {width:?} m wide: its sides may differ by \
+             a factor of at most {MAX_VIEW_ASPECT}"
+        ));
+    }
+    Ok(())
 }
 
 /// Colours of clusters `1, 2, …` (cycled); cluster 0 (background) is dark blue-grey.
@@ -160,6 +213,9 @@ impl<'a> PairPicture<'a> {
             }
         }
 
+        if let Some(view) = self.view {
+            check_view(view)?;
+        }
         let [x0, x1, y0, y1] = self.view.unwrap_or_else(|| {
             let mut b = [0.0f64, 1.0, -1.0, 1.0];
             for p in reference_points.iter().chain(&aligned) {

@@ -2,13 +2,15 @@
 //!
 //! - [`relation_pairs`] (mit-csail): one pair per relation of a Kümmerle-style
 //!   `.relations` file, reference = the scan at `t1`, current = the scan at `t2`
-//!   (matched to laser time stamps within a tolerance, default 1e-4 s). The scene is
-//!   taken as static: the true ego-motion is the relation carried into the laser
-//!   frames, `inverse(L₁) ∘ relation ∘ L₂`, every valid return of both scans has
-//!   label 0 (background), and the background's [`ClusterMotion`] is the ego-motion.
+//!   (matched to laser time stamps within a tolerance, default 1e-4 s). The true
+//!   ego-motion is the relation carried into the laser frames, `inverse(L₁) ∘
+//!   relation ∘ L₂`, and the background's [`ClusterMotion`] is the ego-motion. The
+//!   returns get no labels: nobody annotated what moved in these logs, and labelling
+//!   every return static would let a clustering evaluation score a guess (`pgm eval
+//!   clustering` refuses such pairs; issue 16, kind 10).
 //! - [`consecutive_pairs`] (intel-lab): consecutive laser scans that both follow a
-//!   `VERTEX2` pose; true ego-motion `inverse(V_i ∘ L_i) ∘ (V_{i+1} ∘ L_{i+1})`, static
-//!   labels as above. In the FLIRT logs the robot pose of each ROBOTLASER1 line *is*
+//!   `VERTEX2` pose; true ego-motion `inverse(V_i ∘ L_i) ∘ (V_{i+1} ∘ L_{i+1})`, no
+//!   labels, as above. In the FLIRT logs the robot pose of each ROBOTLASER1 line *is*
 //!   the corrected vertex pose, so it is not an independent odometry: when more than
 //!   half of the scans have odometry equal to their vertex pose (within 1e-6; in
 //!   intel-lab all but the first, whose vertex is rounded), the builder removes the
@@ -96,11 +98,6 @@ use pgm_features::{Pose2, Scan};
 use std::collections::BTreeMap;
 use std::path::Path;
 
-/// Label 0 for every valid return, `None` for beams without a return.
-pub fn background_labels(scan: &Scan) -> Vec<Option<u32>> {
-    scan.valid.iter().map(|v| v.then_some(0)).collect()
-}
-
 /// The odometry prior `inverse(odo_ref ∘ L_ref) ∘ (odo_cur ∘ L_cur)` when both scans
 /// have odometry.
 pub fn odometry_prior(reference: &Scan, current: &Scan) -> Option<Pose2> {
@@ -111,11 +108,11 @@ pub fn odometry_prior(reference: &Scan, current: &Scan) -> Option<Pose2> {
     )
 }
 
-fn static_pair(name: String, reference: Scan, current: Scan, ego_motion: Pose2) -> ScanPair {
+fn ego_motion_pair(name: String, reference: Scan, current: Scan, ego_motion: Pose2) -> ScanPair {
     let truth = GroundTruth {
         ego_motion: Some(ego_motion),
-        labels: Some(background_labels(&current)),
-        reference_labels: Some(background_labels(&reference)),
+        labels: None,
+        reference_labels: None,
         associations: None,
         motions: vec![ClusterMotion {
             label: 0,
@@ -194,7 +191,15 @@ pub fn leigh_scan_pair(path: &Path, scans: &LeighScans, i: usize, j: usize) -> R
             path: path.to_path_buf(),
             line: 0,
             scan: k,
-            problem: "no scan with this index in the log".into(),
+            problem: match (scans.scans.first(), scans.scans.last()) {
+                (Some(first), Some(last)) => format!(
+                    "no scan with this index in the log (its {} scans have indices {}..={})",
+                    scans.scans.len(),
+                    first.index,
+                    last.index
+                ),
+                _ => "no scan with this index: the log has no scan".into(),
+            },
         })?;
         require_returns(path, s.line, k, &s.scan)?;
         Ok::<_, Error>(&s.scan)
@@ -275,7 +280,7 @@ pub fn relation_pairs(
             .compose(&r.motion)
             .compose(&current.laser_offset);
         let name = format!("{}:{:.5}-{:.5}", options.name, r.t1, r.t2);
-        out.pairs.push(static_pair(name, reference, current, ego));
+        out.pairs.push(ego_motion_pair(name, reference, current, ego));
     }
     out
 }
@@ -316,7 +321,7 @@ pub fn consecutive_pairs(log: &CarmenLog, name: &str) -> ConsecutivePairs {
             current.odometry = None;
         }
         let pair_name = format!("{name}:{}-{}", va.id, vb.id);
-        pairs.push(static_pair(pair_name, reference, current, ego));
+        pairs.push(ego_motion_pair(pair_name, reference, current, ego));
     }
     ConsecutivePairs {
         pairs,
@@ -500,20 +505,23 @@ pub fn leigh_pairs(
     if !(options.moving_threshold >= 0.0 && options.moving_threshold.is_finite()) {
         return Err(Error::Mismatch {
             what: format!(
-                "moving threshold {} must be finite and >= 0",
+                "moving threshold {:?} must be finite and >= 0",
                 options.moving_threshold
             ),
         });
     }
     if !(options.person_radius > 0.0 && options.person_radius.is_finite()) {
         return Err(Error::Mismatch {
-            what: format!("person radius {} must be positive", options.person_radius),
+            what: format!(
+                "person radius {:?} must be positive and finite",
+                options.person_radius
+            ),
         });
     }
     if !(options.walking_speed >= 0.0 && options.walking_speed.is_finite()) {
         return Err(Error::Mismatch {
             what: format!(
-                "walking speed {} must be finite and >= 0",
+                "walking speed {:?} must be finite and >= 0",
                 options.walking_speed
             ),
         });

@@ -169,13 +169,13 @@ pub fn beam_geometry(
     for (name, value) in [("field of view", fov), ("resolution", resolution)] {
         if let Some(v) = value {
             if !(v.is_finite() && v > 0.0 && v <= 360.0) {
-                return Err(format!("{name} {v}° is not in (0°, 360°]"));
+                return Err(format!("{name} {v:?}° is not in (0°, 360°]"));
             }
         }
     }
     if let Some(a) = start {
         if !(a.is_finite() && a.abs() <= 360.0) {
-            return Err(format!("first beam angle {a}° is not in [−360°, 360°]"));
+            return Err(format!("first beam angle {a:?}° is not in [−360°, 360°]"));
         }
     }
     let start = start.unwrap_or(FLASER_START_DEGREES) * deg;
@@ -308,7 +308,10 @@ fn front_laser(
             Some(v) if !(v.is_finite() && v > 0.0 && v <= 360.0) => Err(Error::Invalid {
                 path: path.to_path_buf(),
                 field: name.to_string(),
-                problem: format!("option {v}° is not in (0°, 360°]"),
+                problem: format!(
+                    "option (--{}) {v:?}° is not in (0°, 360°]",
+                    name.trim_start_matches("front_").replace('_', "-")
+                ),
             }),
             other => Ok(other.map(|v| (v, 0))),
         }
@@ -320,7 +323,7 @@ fn front_laser(
             return Err(Error::Invalid {
                 path: path.to_path_buf(),
                 field: "front_laser_start".into(),
-                problem: format!("option {a}° is not in [−360°, 360°]"),
+                problem: format!("option (--laser-start) {a:?}° is not in [−360°, 360°]"),
             });
         }
     }

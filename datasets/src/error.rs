@@ -76,11 +76,12 @@ pub enum Error {
     },
     /// A scan of a log cannot be used for what it was asked for (no such scan, or no
     /// valid return to work with).
-    #[error("{}:{line}: scan {scan}: {problem}", path.display())]
+    #[error("{}{}: scan {scan}: {problem}", path.display(), at_line(*line))]
     Scan {
         /// The log.
         path: PathBuf,
-        /// 1-based line of the scan (0 when the scan does not exist).
+        /// 1-based line of the scan (0 when the scan does not exist: the message then
+        /// names the file alone).
         line: usize,
         /// The scan's index as the caller gave it (laser line counted from 0 in a
         /// CARMEN log, the `idx` field in a leigh-gtm1 log).
@@ -114,8 +115,15 @@ pub enum Error {
         /// Why.
         what: String,
     },
+    /// An evaluation with nothing to score: no pair, or no pair with the ground truth
+    /// it needs (never a figure computed from nothing).
+    #[error("nothing to score: {what}")]
+    NothingToScore {
+        /// Why.
+        what: String,
+    },
     /// A method failed on a pair during an evaluation.
-    #[error("{method} on pair `{pair}`: {source}")]
+    #[error("{method} on pair `{pair}`: {}", without_pair(source, pair))]
     Method {
         /// The pair's name.
         pair: String,
@@ -136,6 +144,24 @@ impl Error {
             path: path.into(),
             source,
         }
+    }
+}
+
+/// The method error's message without a leading ``pair `NAME`: `` (the variant
+/// names the pair already).
+fn without_pair(source: &pgm_features::Error, pair: &str) -> String {
+    let message = source.to_string();
+    message
+        .strip_prefix(&format!("pair `{pair}`: "))
+        .map_or_else(|| message.clone(), str::to_string)
+}
+
+/// `:LINE` for a 1-based line, nothing for 0 (no line: a scan that does not exist).
+fn at_line(line: usize) -> String {
+    if line == 0 {
+        String::new()
+    } else {
+        format!(":{line}")
     }
 }
 

@@ -323,8 +323,7 @@ pub fn evaluate_clustering_with(
     detection: &DetectionOptions,
 ) -> Result<ClusteringReport> {
     if pairs.is_empty() {
-        return Err(Error::Unscorable {
-            pair: "(none)".into(),
+        return Err(Error::NothingToScore {
             what: "no pair to evaluate".into(),
         });
     }
@@ -650,9 +649,15 @@ pub fn evaluate_matching(
         .filter_map(|p| p.truth.as_ref()?.ego_motion.map(|e| (p, e)))
         .collect();
     if with_truth.is_empty() {
-        return Err(Error::Unscorable {
-            pair: format!("(all {} pairs)", pairs.len()),
-            what: "no ground-truth ego-motion".into(),
+        return Err(Error::NothingToScore {
+            what: if pairs.is_empty() {
+                "the data hold no pair".into()
+            } else {
+                format!(
+                    "none of the {} pairs has a ground-truth ego-motion",
+                    pairs.len()
+                )
+            },
         });
     }
     let outcomes: Vec<MatchingOutcome> = with_truth
@@ -676,8 +681,7 @@ pub fn evaluate_matching(
         })
         .collect();
     let errors: Vec<MotionError> = outcomes.iter().map(|o| o.error).collect();
-    let all = summarize_errors(&errors).ok_or_else(|| Error::Unscorable {
-        pair: "(none)".into(),
+    let all = summarize_errors(&errors).ok_or_else(|| Error::NothingToScore {
         what: "no pair to score".into(),
     })?;
     let mut subsets = BTreeMap::new();

@@ -184,7 +184,7 @@ pub fn check_limits(pair: &ScanPair) -> std::result::Result<(), PairViolation> {
             return Err(violation(
                 field.to_string(),
                 format!(
-                    "translation ({}, {}) beyond {:e} m means nothing here",
+                    "translation ({:?}, {:?}) beyond {:e} m means nothing here",
                     t.x,
                     t.y,
                     limits::MAX_POSITION
@@ -197,13 +197,13 @@ pub fn check_limits(pair: &ScanPair) -> std::result::Result<(), PairViolation> {
         if scan.max_range > limits::MAX_RANGE {
             return Err(violation(
                 format!("{name}.max_range"),
-                format!("{} m is beyond any laser's reach", scan.max_range),
+                format!("{:?} m is beyond any laser's reach", scan.max_range),
             ));
         }
         if scan.timestamp.abs() > limits::MAX_TIMESTAMP {
             return Err(violation(
                 format!("{name}.timestamp"),
-                format!("{} s is not a time stamp in seconds", scan.timestamp),
+                format!("{:?} s is not a time stamp in seconds", scan.timestamp),
             ));
         }
         if let Some(k) = scan
@@ -213,13 +213,47 @@ pub fn check_limits(pair: &ScanPair) -> std::result::Result<(), PairViolation> {
         {
             return Err(violation(
                 format!("{name}.angles[{k}]"),
-                format!("{} rad is beyond two full turns", scan.angles[k]),
+                format!("{:?} rad is beyond two full turns", scan.angles[k]),
             ));
+        }
+        // One scanner's sweep: strictly increasing or strictly decreasing angles (any
+        // monotone order, see `Scan`), over at most a full turn. Equal neighbours put
+        // two beams on one ray (an angle increment of 0).
+        if let [first, second, ..] = scan.angles[..] {
+            let increasing = second > first;
+            if let Some(k) = scan.angles.windows(2).position(|w| {
+                if increasing {
+                    !(w[1] > w[0])
+                } else {
+                    !(w[1] < w[0])
+                }
+            }) {
+                return Err(violation(
+                    format!("{name}.angles[{}]", k + 1),
+                    format!(
+                        "{:?} rad after {:?} rad: beam angles must be strictly {} like the \
+                         first two (one scanner's sweep, in either order)",
+                        scan.angles[k + 1],
+                        scan.angles[k],
+                        if increasing { "increasing" } else { "decreasing" }
+                    ),
+                ));
+            }
+            let span = (scan.angles[scan.angles.len() - 1] - first).abs();
+            if span > limits::MAX_SPAN {
+                return Err(violation(
+                    format!("{name}.angles"),
+                    format!(
+                        "the beams span {span:?} rad, more than a full turn: two beams would \
+                         lie on one ray"
+                    ),
+                ));
+            }
         }
         if let Some(k) = scan.ranges.iter().position(|r| r.abs() > limits::MAX_RANGE) {
             return Err(violation(
                 format!("{name}.ranges[{k}]"),
-                format!("{} m is beyond any laser's reach", scan.ranges[k]),
+                format!("{:?} m is beyond any laser's reach", scan.ranges[k]),
             ));
         }
         if let Some(o) = &scan.odometry {

@@ -161,15 +161,17 @@ where
         }
         mi.max(0.0)
     };
+    // Rounding can put the mutual information a few ulps above an entropy (a perfect
+    // clustering scored 1.0000000000000009): both ratios lie in [0, 1] by definition.
     let homogeneity = if entropy_classes == 0.0 {
         1.0
     } else {
-        mutual_information / entropy_classes
+        (mutual_information / entropy_classes).clamp(0.0, 1.0)
     };
     let completeness = if entropy_clusters == 0.0 {
         1.0
     } else {
-        mutual_information / entropy_clusters
+        (mutual_information / entropy_clusters).clamp(0.0, 1.0)
     };
     let v_measure = if homogeneity + completeness == 0.0 {
         0.0
@@ -185,7 +187,8 @@ where
 
 /// V-measure of per-beam labellings as stored in a [`crate::GroundTruth`]: scored over
 /// the beams that have a ground-truth label; a predicted `None` (outlier, unlabelled)
-/// counts as a cluster of its own.
+/// counts as a cluster of its own. No beam with a label is an error, not a V-measure
+/// of 1 computed from nothing.
 pub fn clustering_v_measure(
     truth: &[Option<u32>],
     predicted: &[Option<u32>],
@@ -197,6 +200,14 @@ pub fn clustering_v_measure(
         .zip(predicted)
         .filter_map(|(t, p)| t.map(|t| (t, *p)))
         .unzip();
+    if t.is_empty() {
+        return Err(Error::NothingToScore {
+            what: format!(
+                "none of the {} beams has a ground-truth label",
+                truth.len()
+            ),
+        });
+    }
     homogeneity_completeness_v_measure(&t, &p, beta)
 }
 

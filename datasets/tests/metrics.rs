@@ -130,6 +130,24 @@ fn clustering_v_measure_skips_unlabelled_beams_and_scores_outliers() {
     let v = clustering_v_measure(&truth, &predicted, 1.0).unwrap();
     assert!((v.homogeneity - 1.0).abs() < 1e-12);
     assert!(v.completeness < 0.9);
+    // json-labels-all-null: no labelled beam is nothing to score, never V = 1.
+    let err = clustering_v_measure(&[None, None], &[Some(0), Some(0)], 1.0).unwrap_err();
+    assert!(matches!(err, Error::NothingToScore { .. }), "{err}");
+}
+
+#[test]
+fn v_measure_never_leaves_zero_to_one() {
+    // Class and cluster sizes whose entropies round below the mutual information of a
+    // perfect match (found on the L03 pair: 1.0000000000000009).
+    for n in 1..40usize {
+        let truth: Vec<u32> = (0..3 * n + 7).map(|k| u32::from(k % 7 < 2)).collect();
+        let predicted: Vec<u32> = truth.iter().map(|t| 5 - t).collect();
+        let v = homogeneity_completeness_v_measure(&truth, &predicted, 1.0).unwrap();
+        for x in [v.homogeneity, v.completeness, v.v_measure] {
+            assert!((0.0..=1.0).contains(&x), "{x} for n = {n}");
+            assert!((x - 1.0).abs() < 1e-12);
+        }
+    }
 }
 
 #[test]

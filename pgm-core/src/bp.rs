@@ -197,7 +197,7 @@ impl BeliefPropagation {
         self
     }
 
-    /// Convergence tolerance on the largest undamped message change (≥ 0).
+    /// Convergence tolerance on the largest undamped message change (finite, ≥ 0).
     pub fn tolerance(mut self, tolerance: f64) -> Self {
         self.tolerance = tolerance;
         self
@@ -229,15 +229,15 @@ impl BeliefPropagation {
         if !(0.0..1.0).contains(&self.damping) {
             return Err(Error::InvalidParameter {
                 name: "damping",
-                value: self.damping.to_string(),
+                value: format!("{:?}", self.damping),
                 expected: "a number in [0, 1)",
             });
         }
-        if self.tolerance.is_nan() || self.tolerance < 0.0 {
+        if !(self.tolerance.is_finite() && self.tolerance >= 0.0) {
             return Err(Error::InvalidParameter {
                 name: "tolerance",
-                value: self.tolerance.to_string(),
-                expected: "a number >= 0",
+                value: format!("{:?}", self.tolerance),
+                expected: "a finite number >= 0",
             });
         }
         if self.max_iterations == 0 {

@@ -157,7 +157,7 @@ impl TrwsParams {
     /// Checks the settings.
     ///
     /// # Errors
-    /// [`Error::InvalidParameter`] for zero iterations or a negative or NaN tolerance.
+    /// [`Error::InvalidParameter`] for zero iterations or a tolerance that is negative or not finite.
     pub fn check(self) -> Result<Trws> {
         if self.max_iterations == 0 {
             return Err(Error::InvalidParameter {
@@ -166,11 +166,11 @@ impl TrwsParams {
                 expected: "at least 1",
             });
         }
-        if self.tolerance.is_nan() || self.tolerance < 0.0 {
+        if !(self.tolerance.is_finite() && self.tolerance >= 0.0) {
             return Err(Error::InvalidParameter {
                 name: "tolerance",
-                value: self.tolerance.to_string(),
-                expected: "a number >= 0",
+                value: format!("{:?}", self.tolerance),
+                expected: "a finite number >= 0",
             });
         }
         Ok(Trws { params: self })

@@ -344,8 +344,8 @@ impl Default for CorrelativeMatcher {
 pub struct CorrelativeAlignment {
     /// ICP's result from the chosen start: the estimated motion is `icp.motion`.
     pub icp: IcpResult,
-    /// The hypothesis ICP started from; `None` when the search found none (ICP then
-    /// started from the prior).
+    /// The hypothesis ICP started from; `None` when ICP started from the prior (the
+    /// search found no hypothesis, or none gave ICP enough correspondences).
     pub start: Option<Hypothesis>,
     /// Every hypothesis of the search, best first.
     pub hypotheses: Vec<Hypothesis>,
@@ -388,8 +388,10 @@ impl CorrelativeMatcher {
     /// refined motion with the highest correlative score
     /// ([`CorrelativeGrid::score`], interpolated), ties going to the better-ranked
     /// hypothesis. Runs that kept their start for want of correspondences
-    /// ([`IcpStatus::TooFewCorrespondences`]) only win when every run did. Without any
-    /// hypothesis (nothing scores `min_score`) ICP starts from `prior`.
+    /// ([`IcpStatus::TooFewCorrespondences`]) never win; when every run did, the
+    /// result is ICP from `prior` (which keeps the prior when it too matches too few
+    /// returns: too little data keeps the prior). Without any hypothesis (nothing
+    /// scores `min_score`) ICP starts from `prior`.
     ///
     /// Why the correlative score and not ICP's own figures: it is the objective the
     /// search ranked the hypotheses by, now at the refined motions instead of lattice
@@ -439,9 +441,19 @@ impl CorrelativeMatcher {
                 best = Some((kept, score, result, start));
             }
         }
-        let (_, _, icp, start) = best.expect("at least one start");
+        let (kept, _, result, start) = best.expect("at least one start");
+        if !kept && start.is_some() {
+            // Every run from a hypothesis matched too few returns for a rigid fit and
+            // kept its hypothesis: too little data to trust the search either, so the
+            // estimate is ICP from the prior (which keeps the prior in turn).
+            return Ok(CorrelativeAlignment {
+                icp: icp.align(current, prior)?,
+                start: None,
+                hypotheses,
+            });
+        }
         Ok(CorrelativeAlignment {
-            icp,
+            icp: result,
             start,
             hypotheses,
         })
@@ -1187,11 +1199,11 @@ impl ScanMatcher for CorrelativeIcpMatcher {
             note: match (r.status, found.start) {
                 (IcpStatus::Converged, Some(_)) => None,
                 (IcpStatus::Converged, None) => {
-                    Some("no correlative hypothesis: ICP from the prior".into())
+                    Some("no usable correlative hypothesis: ICP from the prior".into())
                 }
                 (IcpStatus::IterationLimit, _) => Some("iteration limit".into()),
                 (IcpStatus::TooFewCorrespondences, _) => Some(format!(
-                    "{} correspondences, fewer than the {} a rigid fit needs: kept the start",
+                    "{} correspondences, fewer than the {} a rigid fit needs: kept the prior",
                     r.inliers,
                     self.icp.params().min_correspondences
                 )),

@@ -11,7 +11,7 @@ use serde::{Deserialize, Serialize};
 
 /// A rigid motion of the plane (rotation `theta` in radians, then translation `x`, `y`).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(from = "PoseRecord", into = "PoseRecord")]
+#[serde(try_from = "PoseRecord", into = "PoseRecord")]
 pub struct Pose2 {
     iso: Isometry2<f64>,
 }
@@ -23,9 +23,29 @@ struct PoseRecord {
     theta: f64,
 }
 
-impl From<PoseRecord> for Pose2 {
-    fn from(r: PoseRecord) -> Self {
-        Pose2::new(r.x, r.y, r.theta)
+/// Largest magnitude of a heading read from a file (rad), as the log readers'
+/// `pgm_datasets::error::limits::MAX_HEADING`: a stored heading of 1e300 rad would be
+/// normalised into some angle in (−π, π] that means nothing.
+pub const MAX_STORED_HEADING: f64 = 1e6;
+
+impl TryFrom<PoseRecord> for Pose2 {
+    type Error = String;
+
+    fn try_from(r: PoseRecord) -> Result<Self, String> {
+        if !(r.x.is_finite() && r.y.is_finite() && r.theta.is_finite()) {
+            return Err(format!(
+                "pose ({:?}, {:?}, {:?}) is not finite",
+                r.x, r.y, r.theta
+            ));
+        }
+        if r.theta.abs() > MAX_STORED_HEADING {
+            return Err(format!(
+                "heading `theta` = {:?} rad: a heading of magnitude above {MAX_STORED_HEADING:e} \
+                 rad means nothing here",
+                r.theta
+            ));
+        }
+        Ok(Pose2::new(r.x, r.y, r.theta))
     }
 }
 

@@ -114,17 +114,18 @@ impl ParamGuard for IcpParams {
             Err(InvalidParameter::new(name, value, expected).into())
         };
         if self.max_iterations == 0 {
-            return bad("max_iterations", 0.0, "at least 1");
+            return Err(InvalidParameter::new("max_iterations", 0, "at least 1").into());
         }
         if self.coarse_stride == 0 {
-            return bad("coarse_stride", 0.0, "at least 1");
+            return Err(InvalidParameter::new("coarse_stride", 0, "at least 1").into());
         }
         if self.min_correspondences == 1 {
-            return bad(
+            return Err(InvalidParameter::new(
                 "min_correspondences",
-                1.0,
+                1,
                 "0 (no check) or at least 2 (a rigid fit needs two points)",
-            );
+            )
+            .into());
         }
         if !(self.final_max_distance > 0.0 && self.final_max_distance.is_finite()) {
             return bad(

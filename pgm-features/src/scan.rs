@@ -262,12 +262,12 @@ impl Scan {
         }
         if !(self.max_range.is_finite() && self.max_range > 0.0) {
             return Err(format!(
-                "max_range {} is not a positive finite number",
+                "max_range {:?} is not a positive finite number",
                 self.max_range
             ));
         }
         if !self.timestamp.is_finite() {
-            return Err(format!("timestamp {} is not finite", self.timestamp));
+            return Err(format!("timestamp {:?} is not finite", self.timestamp));
         }
         for k in 0..n {
             if !self.angles[k].is_finite() {
@@ -278,7 +278,7 @@ impl Scan {
             }
             if self.valid[k] && !(self.ranges[k] > 0.0 && self.ranges[k] < self.max_range) {
                 return Err(format!(
-                    "beam {k}: valid return with range {} outside (0, {})",
+                    "beam {k}: valid return with range {:?} outside (0, {:?})",
                     self.ranges[k], self.max_range
                 ));
             }

@@ -19,6 +19,7 @@ use clap::{Args, ValueEnum};
 use pgm::methods::{association_source, default_association, MethodOptions, ASSOCIATION_SOURCES};
 use pgm::plot::PairPicture;
 use pgm_crf_clustering::{Clustering, UpdateSchedule};
+use pgm_datasets::format::StagedFile;
 use pgm_datasets::{builders, leigh, ClusterMotion, ScanPair};
 use pgm_features::ParamGuard;
 use serde::Serialize;
@@ -105,6 +106,7 @@ impl CrfArgs {
         };
         o.nearest.gate = self.gate;
         o.segment.nearest.gate = self.gate;
+        o.check().map_err(CliError::from_display)?;
         Ok(o)
     }
 }
@@ -258,6 +260,12 @@ pub fn draw(
     title: String,
     path: &std::path::Path,
 ) -> Result<(), CliError> {
+    let svg = drawing(pair, clustering, title)?;
+    pgm_datasets::format::write_atomically(path, svg.as_bytes()).map_err(CliError::from_display)
+}
+
+/// The SVG text of `clustering` of `pair` (see [`draw`]).
+fn drawing(pair: &ScanPair, clustering: &Clustering, title: String) -> Result<String, CliError> {
     let motions: Vec<ClusterMotion> = clustering
         .clusters
         .iter()
@@ -273,7 +281,7 @@ pub fn draw(
     picture.motions = &motions;
     picture.alignment = clustering.background_motion;
     picture.title = title;
-    picture.write_svg(path).map_err(CliError::from_display)
+    picture.to_svg_string().map_err(CliError::from_display)
 }
 
 /// Runs `pgm cluster`.
@@ -300,6 +308,21 @@ pub fn run(args: ClusterArgs) -> CliResult {
         clustering: &clustering,
     };
     let json = serde_json::to_string(&output).map_err(CliError::from_display)?;
+    // The picture is staged beside its destination before the result is printed and
+    // renamed into place after: a command that fails writes nothing.
+    let staged = match &args.svg {
+        Some(path) => {
+            let title = format!(
+                "{}: CRF-Clustering ({} associations), {} moving",
+                pair.name,
+                source.name(),
+                clustering.clusters.len().saturating_sub(1)
+            );
+            let svg = drawing(&pair, &clustering, title)?;
+            Some(StagedFile::stage(path, svg.as_bytes()).map_err(CliError::from_display)?)
+        }
+        None => None,
+    };
     {
         use std::io::Write;
         // A closed pipe (`| head`) is not an error worth a panic.
@@ -310,14 +333,8 @@ pub fn run(args: ClusterArgs) -> CliResult {
             }
         }
     }
-    if let Some(path) = &args.svg {
-        let title = format!(
-            "{}: CRF-Clustering ({} associations), {} moving",
-            pair.name,
-            source.name(),
-            clustering.clusters.len().saturating_sub(1)
-        );
-        draw(&pair, &clustering, title, path)?;
+    if let (Some(staged), Some(path)) = (staged, &args.svg) {
+        staged.commit().map_err(CliError::from_display)?;
         eprintln!("pgm: drew {} into {}", pair.name, path.display());
     }
     Ok(ExitCode::SUCCESS)

@@ -1,7 +1,7 @@
 //! `pgm data`: build scan-pair data sets from real logs and summarise them.
 //!
 //! - `pgm data pairs --carmen FILE --relations FILE --out DIR`: one pair per relation
-//!   (mit-csail style, static labels, true ego-motion).
+//!   (mit-csail style: true ego-motion, no motion labels).
 //! - `pgm data pairs --log FILE --out DIR`: consecutive scans of a CARMEN log with
 //!   `VERTEX2` poses (intel-lab style).
 //! - `pgm data pairs --scans FILE --people FILE [--odometry FILE] --k K
@@ -456,13 +456,15 @@ fn run_pairs(args: PairsArgs) -> CliResult {
     let source = pair_source(None, &args.source, &args.leigh, args.k)?;
     let pairs = load_pairs(&source)?.pairs;
     if pairs.is_empty() {
-        return Err(CliError(
-            "no pair could be built from the given logs".into(),
-        ));
+        return Err(CliError(format!(
+            "{source}: no pair could be built (nothing written to {})",
+            args.out.display()
+        )));
     }
     pgm_datasets::write_pairs(&args.out, &pairs).map_err(CliError::from_display)?;
-    println!(
-        "wrote {} pairs of {source} to {}",
+    // The data set is the result; this line is a diagnostic, as `pgm sim --out`'s.
+    eprintln!(
+        "pgm: wrote {} pairs of {source} to {}",
         pairs.len(),
         args.out.display()
     );

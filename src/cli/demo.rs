@@ -50,6 +50,7 @@ pub fn run(args: DemoArgs) -> CliResult {
             args.pairs, args.svg_pair
         )));
     }
+    super::check_output_file(&args.svg)?;
     let config = SimConfig::default()
         .check()
         .map_err(CliError::from_display)?;
@@ -110,8 +111,8 @@ pub fn run(args: DemoArgs) -> CliResult {
         ),
         &args.svg,
     )?;
-    println!(
-        "drew pair {} ({}) into {}",
+    eprintln!(
+        "pgm: drew pair {} ({}) into {}",
         args.svg_pair,
         pair.name,
         args.svg.display()

@@ -92,7 +92,8 @@ pub struct MatchingArgs {
     /// ICP: match only every N-th return while the distance is coarse.
     #[arg(long, default_value_t = IcpParams::default().coarse_stride)]
     pub icp_coarse_stride: usize,
-    /// ICP: fewest matched returns for a rigid fit (fewer: the prior is kept).
+    /// ICP: fewest matched returns for a rigid fit, at least 2 (fewer: the prior is
+    /// kept and the pair counts as not converged).
     #[arg(long, default_value_t = IcpParams::default().min_correspondences)]
     pub icp_min_correspondences: usize,
     /// CRF-Matching options.
@@ -113,6 +114,18 @@ pub fn run(args: EvalArgs) -> CliResult {
 }
 
 fn run_matching(args: MatchingArgs) -> CliResult {
+    if !(args.near_seconds.is_finite() && args.near_seconds > 0.0) {
+        return Err(CliError(format!(
+            "--near-seconds {:?}: expected a positive finite number of seconds",
+            args.near_seconds
+        )));
+    }
+    if args.icp_min_correspondences < 2 {
+        return Err(CliError(format!(
+            "--icp-min-correspondences {}: a rigid fit needs at least 2 matched returns",
+            args.icp_min_correspondences
+        )));
+    }
     let leigh = LeighArgs {
         moving_threshold: 0.0,
         person_radius: 0.35,
@@ -150,6 +163,7 @@ fn run_matching(args: MatchingArgs) -> CliResult {
         ..MethodOptions::default()
     };
     let options = args.matching.apply(options)?;
+    options.check().map_err(CliError::from_display)?;
     let matcher = scan_matcher(&args.method, &options).map_err(CliError::from_display)?;
     let near = matches!(loaded.kind, SourceKind::Relations | SourceKind::Stored)
         .then_some(args.near_seconds);
@@ -161,10 +175,13 @@ fn run_matching(args: MatchingArgs) -> CliResult {
             .iter()
             .find(|o| !o.converged)
             .map(|o| {
+                let note = o.note.as_deref().unwrap_or("did not converge");
+                // An error of the method names the pair already.
+                let prefix = format!("pair `{}`: ", o.name);
                 format!(
                     " (e.g. pair `{}`: {})",
                     o.name,
-                    o.note.as_deref().unwrap_or("did not converge")
+                    note.strip_prefix(&prefix).unwrap_or(note)
                 )
             })
             .unwrap_or_default();

@@ -178,6 +178,7 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
     let mut options = args.crf.options()?;
     options.kmeans.k = args.kmeans_k;
     options.cbd.margin = args.cbd_margin;
+    options.check().map_err(CliError::from_display)?;
     let which = args
         .associations
         .as_deref()

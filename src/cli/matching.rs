@@ -106,9 +106,11 @@ pub fn run_match(args: MatchArgs) -> CliResult {
         matching: &matching,
     })
     .map_err(CliError::from_display)?;
-    println!("{json}");
-    if let Some(path) = &args.svg {
-        let mut picture = PairPicture::new(&pair);
+    // Staged before the result is printed, renamed into place after: a command that
+    // fails writes nothing.
+    let staged = match &args.svg {
+        Some(path) => {
+            let mut picture = PairPicture::new(&pair);
         picture.labels = None;
         picture.motions = &[];
         picture.alignment = matching.motion;
@@ -122,7 +124,17 @@ pub fn run_match(args: MatchArgs) -> CliResult {
                 .filter(|a| **a == Some(pgm_features::Association::Outlier))
                 .count()
         );
-        picture.write_svg(path).map_err(CliError::from_display)?;
+            let svg = picture.to_svg_string().map_err(CliError::from_display)?;
+            Some(
+                pgm_datasets::format::StagedFile::stage(path, svg.as_bytes())
+                    .map_err(CliError::from_display)?,
+            )
+        }
+        None => None,
+    };
+    println!("{json}");
+    if let (Some(staged), Some(path)) = (staged, &args.svg) {
+        staged.commit().map_err(CliError::from_display)?;
         eprintln!("pgm: drew {} into {}", pair.name, path.display());
     }
     Ok(ExitCode::SUCCESS)

@@ -34,5 +34,30 @@ impl CliError {
     }
 }
 
+/// Checks before a long run that a file can be written at `path`: its directory
+/// exists and `path` is not a directory, so that a run does not print its results and
+/// then fail on the output file. Commands that can stage their output beside its
+/// destination before printing (`pgm cluster --svg`, `pgm sim --svg`) do that instead.
+pub fn check_output_file(path: &std::path::Path) -> Result<(), CliError> {
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => std::path::Path::new("."),
+    };
+    if !dir.is_dir() {
+        return Err(CliError(format!(
+            "{}: cannot write here: {} is not a directory",
+            path.display(),
+            dir.display()
+        )));
+    }
+    if path.is_dir() {
+        return Err(CliError(format!(
+            "{}: is a directory, not a file to write",
+            path.display()
+        )));
+    }
+    Ok(())
+}
+
 /// Result type of subcommands.
 pub type CliResult = Result<std::process::ExitCode, CliError>;

@@ -73,12 +73,11 @@ pub fn parse_view(text: &str) -> Result<[f64; 4], String> {
         .collect::<Result<_, _>>()
         .map_err(|e| format!("{text:?}: {e}; expected x_min,x_max,y_min,y_max in metres"))?;
     match values[..] {
-        [x0, x1, y0, y1] if values.iter().all(|v| v.is_finite()) && x0 < x1 && y0 < y1 => {
-            Ok([x0, x1, y0, y1])
-        }
+        [x0, x1, y0, y1] => pgm::plot::check_view([x0, x1, y0, y1])
+            .map(|()| [x0, x1, y0, y1])
+            .map_err(|e| format!("{text:?}: {e}")),
         _ => Err(format!(
-            "{text:?}: expected four finite numbers x_min,x_max,y_min,y_max with x_min < x_max \
-             and y_min < y_max"
+            "{text:?}: expected four numbers x_min,x_max,y_min,y_max (metres)"
         )),
     }
 }

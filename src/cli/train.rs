@@ -118,6 +118,7 @@ pub fn run(args: TrainArgs) -> CliResult {
 }
 
 fn run_clustering(args: TrainClusteringArgs) -> CliResult {
+    super::check_output_file(&args.out)?;
     let pairs = match (&args.data, args.simulate) {
         (Some(dir), _) => pgm_datasets::read_pairs(dir).map_err(CliError::from_display)?,
         (None, Some(n)) => {
@@ -180,6 +181,7 @@ fn run_clustering(args: TrainClusteringArgs) -> CliResult {
     named
         .save(&args.out)
         .map_err(|e| CliError(format!("{}: {e}", args.out.display())))?;
+    warn_unconverged(result.converged, result.iterations);
     let summary = serde_json::json!({
         "model": "crf-clustering",
         "out": args.out.display().to_string(),
@@ -218,7 +220,34 @@ fn training_pairs(
     }
 }
 
+impl TrainMatchingArgs {
+    /// `--candidates` in 1..=64, checked before the pairs are read or simulated (the
+    /// joint model's learning allocates that many states per return).
+    fn check(&self) -> Result<(), CliError> {
+        super::check_output_file(&self.out)?;
+        if !(1..=64).contains(&self.candidates) {
+            return Err(CliError(format!(
+                "--candidates {}: expected 1..=64 candidates per return",
+                self.candidates
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// A note on stderr when L-BFGS stopped before converging (the weights are written
+/// all the same: they are the best found).
+fn warn_unconverged(converged: bool, iterations: u64) {
+    if !converged {
+        eprintln!(
+            "pgm: warning: L-BFGS stopped after {iterations} iterations without converging; \
+             the weights written are the last iterate"
+        );
+    }
+}
+
 fn run_matching(args: TrainMatchingArgs) -> CliResult {
+    args.check()?;
     let pairs = training_pairs(args.data.as_deref(), args.simulate, args.seed, &args.preset)?;
     let options = TrainingOptions {
         candidates: args.candidates,
@@ -234,6 +263,7 @@ fn run_matching(args: TrainMatchingArgs) -> CliResult {
     weights
         .save(&args.out)
         .map_err(|e| CliError(format!("{}: {e}", args.out.display())))?;
+    warn_unconverged(report.learning.converged, report.learning.iterations);
     let summary = serde_json::json!({
         "model": "crf-matching",
         "out": args.out.display().to_string(),
@@ -281,6 +311,7 @@ fn learning_progress() -> Result<
 }
 
 fn run_joint(args: TrainMatchingArgs) -> CliResult {
+    args.check()?;
     let pairs = training_pairs(args.data.as_deref(), args.simulate, args.seed, &args.preset)?;
     let options = pgm_joint::learning::TrainingOptions {
         candidates: args.candidates,
@@ -296,6 +327,7 @@ fn run_joint(args: TrainMatchingArgs) -> CliResult {
     weights
         .save(&args.out)
         .map_err(|e| CliError(format!("{}: {e}", args.out.display())))?;
+    warn_unconverged(report.learning.converged, report.learning.iterations);
     let summary = serde_json::json!({
         "model": "joint",
         "out": args.out.display().to_string(),

@@ -129,10 +129,14 @@ impl ClusteringWeights {
         Self::from_weights(&w)
     }
 
-    /// Loads weights from a JSON file written by `pgm train clustering`.
+    /// Loads weights from a JSON file written by `pgm train clustering`, checked
+    /// ([`ClusteringWeights::check_ref`]) so that weights the model would reject are
+    /// refused where the file is named.
     pub fn load(path: impl AsRef<Path>) -> Result<Self> {
         let w = Weights::load(feature_set(), path)?;
-        Ok(Self::from_weights(&w))
+        let weights = Self::from_weights(&w);
+        weights.check_ref()?;
+        Ok(weights)
     }
 }
 

@@ -306,8 +306,9 @@ pub fn training_instance(
 /// L-BFGS iteration (`&mut ()` for none).
 ///
 /// # Errors
-/// When a pair lacks ground truth (named), a booster cannot be trained (no outlier
-/// or no association among the samples), or learning fails.
+/// When a pair lacks ground truth (named), an option is out of range (candidates
+/// outside 1..=64, a negative gate), a booster cannot be trained (no outlier or no
+/// association among the samples), or learning fails.
 pub fn train(
     pairs: &[ScanPair],
     options: &TrainingOptions,
@@ -316,6 +317,18 @@ pub fn train(
     if pairs.is_empty() {
         return Err(InvalidParameter::new("pairs", 0, "at least one labelled pair").into());
     }
+    // Checked before anything is allocated: a candidate count of 2^64 - 1 reserved
+    // that many states per return (a capacity-overflow panic, then an abort).
+    if !(1..=64).contains(&options.candidates) {
+        return Err(
+            InvalidParameter::new("candidates", options.candidates, "1..=64 candidates").into(),
+        );
+    }
+    InvalidParameter::non_negative(
+        "candidate_gate",
+        options.candidate_gate,
+        "a number of metres >= 0",
+    )?;
     let half = if pairs.len() >= 2 { pairs.len() / 2 } else { 1 };
     let (booster_pairs, weight_pairs) = if pairs.len() >= 2 {
         (&pairs[..half], &pairs[half..])

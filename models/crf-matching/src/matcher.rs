@@ -175,8 +175,14 @@ pub struct Matching {
     pub sweeps: usize,
     /// Rounds run.
     pub rounds: usize,
-    /// Whether the last round converged.
+    /// Whether the last round converged; false also when the ego-motion is the prior
+    /// for want of data (see `note`).
     pub converged: bool,
+    /// Why the result is not converged, when that is not the sweep limit: too few
+    /// returns associated under the ego-motion for a rigid fit, so the ego-motion is
+    /// the prior (the pair's odometry, else the identity).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub note: Option<String>,
 }
 
 impl Matcher {
@@ -201,7 +207,8 @@ impl Matcher {
                 groups: vec![None; beams],
                 sweeps: 0,
                 rounds: 0,
-                converged: true,
+                converged: false,
+                note: Some("no return to associate: kept the prior".into()),
             });
         }
         // Motion groups: 0 for the ego-motion, one per moved segment.
@@ -290,6 +297,21 @@ impl Matcher {
                 }
             }
         }
+        // Too little data for a rigid fit (eq. 6 on one or two associations follows
+        // whatever they suggest): the ego-motion keeps the prior, and says so.
+        let support = (0..n)
+            .filter(|&i| group_of[i] == 0 && chosen[i].is_some())
+            .count();
+        let needed = p.segments.nearest.icp.min_correspondences.max(2);
+        let mut note = None;
+        if support < needed {
+            motions[0] = pair.odometry.unwrap_or_default();
+            converged = false;
+            note = Some(format!(
+                "{support} returns associated under the ego-motion, fewer than the {needed} a \
+                 rigid fit needs: kept the prior"
+            ));
+        }
         let mut associations = vec![None; beams];
         let mut confidence = vec![None; beams];
         let mut groups = vec![None; beams];
@@ -311,6 +333,7 @@ impl Matcher {
             sweeps,
             rounds,
             converged,
+            note,
         })
     }
 }
@@ -340,7 +363,9 @@ impl ScanMatcher for Matcher {
             motion: m.motion,
             converged: m.converged,
             iterations: m.sweeps,
-            note: (!m.converged).then(|| "sweep limit".to_string()),
+            note: m
+                .note
+                .or_else(|| (!m.converged).then(|| "sweep limit".to_string())),
         })
     }
 }

@@ -83,16 +83,19 @@ impl MatchingWeights {
     /// Parses the JSON written by [`MatchingWeights::to_json`]; `origin` names the
     /// source in errors.
     pub fn from_json(json: &str, origin: &str) -> Result<Self> {
-        let file: WeightFile = serde_json::from_str(json).map_err(|e| Error::BadPair {
-            pair: origin.to_string(),
-            problem: format!("not a CRF-Matching weight file: {e}"),
-        })?;
+        let in_file = |problem: String| Error::WeightFile {
+            origin: origin.to_string(),
+            problem,
+        };
+        let file: WeightFile = serde_json::from_str(json)
+            .map_err(|e| in_file(format!("not a CRF-Matching weight file: {e}")))?;
         let named = serde_json::json!({
             "model": file.model,
             "version": file.version,
             "weights": file.weights,
         });
-        let w = Weights::from_json(feature_set(), &named.to_string())?;
+        let w = Weights::from_json(feature_set(), &named.to_string())
+            .map_err(|e| in_file(e.to_string()))?;
         let weights = Self {
             weights: w.values().to_vec(),
             boosters: AssociationBoosters {
@@ -100,7 +103,7 @@ impl MatchingWeights {
                 outlier: file.outlier_booster,
             },
         };
-        weights.check_ref()?;
+        weights.check_ref().map_err(|e| in_file(e.to_string()))?;
         Ok(weights)
     }
 
@@ -127,24 +130,44 @@ impl MatchingWeights {
     /// Loads weights written by `pgm train matching`.
     pub fn load(path: impl AsRef<Path>) -> Result<Self> {
         let path = path.as_ref();
-        let text = std::fs::read_to_string(path).map_err(|e| Error::BadPair {
-            pair: path.display().to_string(),
-            problem: e.to_string(),
+        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
+            path: path.to_path_buf(),
+            source,
         })?;
         Self::from_json(&text, &path.display().to_string())
     }
 
-    /// Writes the weights atomically (a temporary sibling, then a rename).
+    /// Writes the weights atomically: a temporary sibling `.NAME.PID.tmp`, flushed to
+    /// disk and renamed into place (removed when anything fails), so `path` holds the
+    /// old file or the new one, never a part, and no other file is touched.
     pub fn save(&self, path: impl AsRef<Path>) -> Result<()> {
         let path = path.as_ref();
         let json = self.to_json()?;
-        let tmp = path.with_extension("json.tmp");
-        std::fs::write(&tmp, json)
-            .and_then(|()| std::fs::rename(&tmp, path))
-            .map_err(|e| Error::BadPair {
-                pair: path.display().to_string(),
-                problem: e.to_string(),
-            })
+        let io = |path: &Path| {
+            let path = path.to_path_buf();
+            move |source| Error::Io { path, source }
+        };
+        let name = path.file_name().ok_or_else(|| Error::InvalidParameter {
+            name: "weight file path",
+            value: path.display().to_string(),
+            expected: "a path naming a file",
+        })?;
+        let mut tmp_name = std::ffi::OsString::from(".");
+        tmp_name.push(name);
+        tmp_name.push(format!(".{}.tmp", std::process::id()));
+        let tmp = path.with_file_name(tmp_name);
+        let write = || -> Result<()> {
+            use std::io::Write;
+            let mut file = std::fs::File::create(&tmp).map_err(io(&tmp))?;
+            file.write_all(json.as_bytes()).map_err(io(&tmp))?;
+            file.sync_all().map_err(io(&tmp))?;
+            std::fs::rename(&tmp, path).map_err(io(path))
+        };
+        let result = write();
+        if result.is_err() {
+            let _ = std::fs::remove_file(&tmp);
+        }
+        result
     }
 
     /// All-zero weights and boosters without stumps (scores 0): the starting point of
