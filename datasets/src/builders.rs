@@ -920,10 +920,12 @@ pub struct LeighSummary {
     pub k: usize,
     /// Number of pairs.
     pub pairs: usize,
-    /// Mean number of valid returns per current scan.
-    pub returns_per_scan: f64,
-    /// Mean number of moving-person returns (label > 0) per pair.
-    pub moving_returns_per_pair: f64,
+    /// Mean number of valid returns per current scan (`None` without pairs: a mean of
+    /// nothing).
+    pub returns_per_scan: Option<f64>,
+    /// Mean number of moving-person returns (label > 0) per pair (`None` without
+    /// pairs).
+    pub moving_returns_per_pair: Option<f64>,
     /// Number of pairs with at least one moving-person return.
     pub pairs_with_moving_person: usize,
     /// Number of moving people summed over pairs.
@@ -952,7 +954,7 @@ pub fn summarize_leigh_pairs(k: usize, pairs: &[ScanPair]) -> LeighSummary {
             moving_people += ids.len();
         }
     }
-    let mean = |x: usize| if n == 0 { 0.0 } else { x as f64 / n as f64 };
+    let mean = |x: usize| (n > 0).then(|| x as f64 / n as f64);
     LeighSummary {
         k,
         pairs: n,

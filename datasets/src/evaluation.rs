@@ -236,8 +236,9 @@ pub fn scorable_for_clustering(pair: &ScanPair) -> bool {
 /// Runs `method` on one pair and scores it.
 ///
 /// # Errors
-/// When the pair has no labelled return ([`scorable_for_clustering`]) or the method
-/// fails; the error names the pair.
+/// When the pair has no labelled return ([`scorable_for_clustering`]), a scan
+/// without a valid return, or the method fails; the error names the pair (and the
+/// scan).
 pub fn evaluate_clustering_pair(
     pair: &ScanPair,
     method: &dyn MotionClusterer,
@@ -263,6 +264,19 @@ pub fn evaluate_clustering_pair_with(
             pair: pair.name.clone(),
             what: "no ground-truth label on any return of the current scan".into(),
         })?;
+    // Every method gets the same verdict: a scan without a return leaves nothing to
+    // compare (CRF-Clustering refused such a pair while CBD scored it as all static).
+    for (which, scan) in [("reference", &pair.reference), ("current", &pair.current)] {
+        if !scan.valid.iter().any(|&v| v) {
+            return Err(Error::Unscorable {
+                pair: pair.name.clone(),
+                what: format!(
+                    "the {which} scan has no valid return among its {} beams",
+                    scan.len()
+                ),
+            });
+        }
+    }
     let result = method.cluster(pair).map_err(|e| Error::Method {
         pair: pair.name.clone(),
         method: method.name(),

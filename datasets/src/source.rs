@@ -166,6 +166,24 @@ fn skipped_note(path: &Path, skipped: &BTreeMap<String, usize>) -> Option<String
     })
 }
 
+/// The error for a log without a single scan: a summary or evaluation of it would be
+/// figures of nothing.
+fn no_scans(path: &Path, lines: &str, skipped: &BTreeMap<String, usize>) -> crate::Error {
+    let skipped: Vec<String> = skipped.iter().map(|(k, v)| format!("{k} ×{v}")).collect();
+    crate::Error::Invalid {
+        path: path.to_path_buf(),
+        field: lines.into(),
+        problem: if skipped.is_empty() {
+            "the log holds no scan (an empty file?)".into()
+        } else {
+            format!(
+                "the log holds no scan (its lines: {})",
+                skipped.join(", ")
+            )
+        },
+    }
+}
+
 /// Reads leigh-gtm1 scans (with odometry when given) and annotations; notes on skipped
 /// lines go to `notes`.
 pub fn read_leigh(
@@ -176,6 +194,9 @@ pub fn read_leigh(
 ) -> Result<(leigh::LeighScans, Vec<leigh::PersonAnnotation>)> {
     let mut log = leigh::read_scans(scans)?;
     notes.extend(skipped_note(scans, &log.skipped));
+    if log.scans.is_empty() {
+        return Err(no_scans(scans, "SCAN", &log.skipped));
+    }
     if let Some(path) = odometry {
         let odo = leigh::read_odometry(path)?;
         leigh::attach_odometry(&mut log, &odo, path)?;
@@ -200,6 +221,9 @@ impl PairSource {
             } => {
                 let carmen_log = carmen::read_carmen_with(log, *options)?;
                 notes.extend(skipped_note(log, &carmen_log.skipped));
+                if carmen_log.scans.is_empty() {
+                    return Err(no_scans(log, "FLASER / ROBOTLASER1", &carmen_log.skipped));
+                }
                 let rels = relations::read_relations(relations)?;
                 let options = RelationPairOptions {
                     name: file_stem(log),
@@ -222,6 +246,9 @@ impl PairSource {
             PairSource::ConsecutiveLog { log: path, options } => {
                 let log = carmen::read_carmen_with(path, *options)?;
                 notes.extend(skipped_note(path, &log.skipped));
+                if log.scans.is_empty() {
+                    return Err(no_scans(path, "FLASER / ROBOTLASER1", &log.skipped));
+                }
                 let built = consecutive_pairs(&log, &file_stem(path));
                 if built.odometry_was_ground_truth {
                     notes.push(format!(

@@ -561,13 +561,14 @@ fn run_summary(args: SummaryArgs) -> CliResult {
     );
     for r in rows {
         let s = r.summary;
+        let mean = |x: Option<f64>, digits: usize| x.map_or("-".into(), |x| format!("{x:.digits$}"));
         println!(
-            "{:<12}  {:>3}  {:>5}  {:>12.1}  {:>20.2}  {:>24}  {:>13}",
+            "{:<12}  {:>3}  {:>5}  {:>12}  {:>20}  {:>24}  {:>13}",
             r.rule.to_string(),
             s.k,
             s.pairs,
-            s.returns_per_scan,
-            s.moving_returns_per_pair,
+            mean(s.returns_per_scan, 1),
+            mean(s.moving_returns_per_pair, 2),
             s.pairs_with_moving_person,
             s.moving_people
         );

@@ -54,6 +54,9 @@ pub fn run(args: DemoArgs) -> CliResult {
     let config = SimConfig::default()
         .check()
         .map_err(CliError::from_display)?;
+    config
+        .check_pairs(args.pairs)
+        .map_err(CliError::from_display)?;
     let pairs = simulate_pairs(&config, args.seed, args.pairs);
     let options = MethodOptions::default();
     println!(

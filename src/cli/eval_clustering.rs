@@ -9,7 +9,8 @@
 //! ([`pgm_datasets::evaluation::DetectionSummary`]; `--min-object-returns N`, default
 //! 5). The data may also come from a bag (`--bag FILE --scan-topic T …`, see `pgm data
 //! pairs`). The methods and association sources are those of [`pgm::methods`].
-//! `--json` prints one object `{"method", "data", "pair_sets", "weights", "pairs",
+//! `--json` prints one object `{"method", "associations", "data", "pair_sets",
+//! "weights", "pairs",
 //! "homogeneity_mean", "homogeneity_std", "completeness_mean", "completeness_std",
 //! "v_measure_mean", "v_measure_std", "iterations_mean", "objects_found",
 //! "objects_total", "centroid_error_median", "rotation_error_median",
@@ -94,7 +95,11 @@ pub struct ClusteringEvalArgs {
 /// The `--json` object.
 #[derive(Serialize)]
 struct Report<'a> {
+    /// The method as typed on the command line (`--method`).
     method: &'a str,
+    /// The association source it ran on (`--associations`, or the default), `null` for
+    /// methods that take none.
+    associations: Option<&'a str>,
     data: String,
     /// The distinct pair-name prefixes (`sim:PRESET:SEED`, `leigh-gtm1`, a bag's stem):
     /// which sets and seeds the pairs come from.
@@ -188,8 +193,11 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
     let detection = DetectionOptions {
         min_object_returns: args.min_object_returns,
     };
+    // Names as typed on the command line: the method, and its association source
+    // apart (the library's `crf (icp)` joins them).
+    let associations = clusterer_needs_associations(&args.method).then_some(which);
     let report = evaluate_clustering_with(&pairs, method.as_ref(), &detection)
-        .map_err(CliError::from_display)?;
+        .map_err(|e| CliError(format!("{source}: {e}")))?;
     let summary = report.summary;
     let found = report.found_objects;
     let weights = match &args.crf.weights {
@@ -217,7 +225,8 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
         .collect();
     if args.json {
         let json = Report {
-            method: &report.method,
+            method: &args.method,
+            associations,
             data,
             pair_sets,
             weights,
@@ -235,8 +244,10 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
         return Ok(ExitCode::SUCCESS);
     }
     println!(
-        "method {}: {} pairs of {data}",
-        report.method, summary.pairs
+        "method {}{}: {} pairs of {data}",
+        args.method,
+        associations.map_or(String::new(), |a| format!(" (associations {a})")),
+        summary.pairs
     );
     println!(
         "pair sets (names before the last `:`): {}",

@@ -82,6 +82,9 @@ pub fn run(args: SimArgs) -> CliResult {
     }
     .check()
     .map_err(CliError::from_display)?;
+    config
+        .check_pairs(args.pairs)
+        .map_err(CliError::from_display)?;
     if args.svg.is_some() && args.svg_pair >= args.pairs {
         return Err(CliError(format!(
             "--svg-pair {} is not one of the {} simulated pairs (0..{})",

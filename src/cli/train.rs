@@ -129,6 +129,7 @@ fn run_clustering(args: TrainClusteringArgs) -> CliResult {
             }
             .check()
             .map_err(CliError::from_display)?;
+            config.check_pairs(n).map_err(CliError::from_display)?;
             simulate_pairs(&config, args.seed, n)
         }
         (None, None) => return Err(CliError("give --data DIR or --simulate N".into())),
@@ -214,6 +215,7 @@ fn training_pairs(
             }
             .check()
             .map_err(CliError::from_display)?;
+            config.check_pairs(n).map_err(CliError::from_display)?;
             Ok(simulate_pairs(&config, seed, n))
         }
         (None, None) => Err(CliError("give --data DIR or --simulate N".into())),

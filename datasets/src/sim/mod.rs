@@ -207,10 +207,38 @@ pub struct ValidSimConfig {
     params: SimConfig,
 }
 
+/// Most pairs one call of the simulator is asked for ([`ValidSimConfig::check_pairs`]):
+/// every pair is held in memory.
+pub const MAX_PAIRS: usize = 100_000;
+
+/// Most laser beams over all pairs of one call (pairs × beams per scan), about 2 GB of
+/// scans, labels and associations held in memory.
+pub const MAX_TOTAL_BEAMS: usize = 20_000_000;
+
 impl ValidSimConfig {
     /// The checked parameters.
     pub fn params(&self) -> &SimConfig {
         &self.params
+    }
+
+    /// Checks a number of pairs to simulate before anything is allocated: at least
+    /// one, at most [`MAX_PAIRS`], and at most [`MAX_TOTAL_BEAMS`] beams in all (a
+    /// count of 2^64 − 1 overflowed the vector's capacity and panicked).
+    ///
+    /// # Errors
+    /// [`SimError::InvalidParameter`] naming `pairs`.
+    pub fn check_pairs(&self, pairs: usize) -> Result<()> {
+        if pairs == 0 || pairs > MAX_PAIRS {
+            return Err(invalid("pairs", pairs, "1..=100000 pairs"));
+        }
+        if pairs.saturating_mul(self.params.beams) > MAX_TOTAL_BEAMS {
+            return Err(invalid(
+                "pairs",
+                (pairs, self.params.beams),
+                "at most 20000000 beams in all (pairs × beams per scan)",
+            ));
+        }
+        Ok(())
     }
 }
 
@@ -308,9 +336,13 @@ pub fn pair_rng(seed: u64, index: u64) -> ChaCha8Rng {
 /// Simulates `n` pairs of the configured preset: pair `i` is
 /// [`simulate_pair`]`(config, seed, i)`.
 pub fn simulate_pairs(config: &ValidSimConfig, seed: u64, n: usize) -> Vec<ScanPair> {
-    (0..n)
-        .map(|i| simulate_pair(config, seed, i as u64))
-        .collect()
+    // Reserve no more than a sensible count (see `ValidSimConfig::check_pairs`): the
+    // range's size hint would reserve `n` pairs up front.
+    let mut pairs = Vec::with_capacity(n.min(MAX_PAIRS));
+    for i in 0..n {
+        pairs.push(simulate_pair(config, seed, i as u64));
+    }
+    pairs
 }
 
 /// How many scenes [`simulate_pair`] draws at most to get one it keeps.
@@ -393,7 +425,7 @@ pub fn simulate_pair_report(
 
 /// [`simulate_pairs`] with the pairs that failed the selection in every draw listed.
 pub fn simulate_pairs_report(config: &ValidSimConfig, seed: u64, n: usize) -> SimulationReport {
-    let mut pairs = Vec::with_capacity(n);
+    let mut pairs = Vec::with_capacity(n.min(MAX_PAIRS));
     let mut unmet = Vec::new();
     for i in 0..n {
         let (pair, failed) = simulate_pair_report(config, seed, i as u64);
