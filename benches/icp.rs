@@ -4,6 +4,11 @@
 //! `icp/mit-csail-near` aligns a batch of pairs per iteration (k-d tree construction
 //! on the reference scan included); criterion's throughput line gives pairs per
 //! second, and time per pair = reported time / batch size.
+//!
+//! `icp-long/N` (no data needed): one ICP run (tree included) on two N-beam scans of
+//! pseudo-random ranges 5-6 m over 180°, the second 0.1 m along, as the hardening
+//! case carmen-long100000 writes them; N = 10 000, 30 000, 100 000 shows that the cost
+//! grows near N log N (the case took more than 30 s at 100 000 beams before issue 16).
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use pgm_datasets::builders::{relation_pairs, RelationPairOptions};
@@ -90,5 +95,43 @@ fn bench_icp(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, bench_icp);
+/// Two `n`-beam scans as carmen-long100000 writes them: the same pseudo-random ranges
+/// in 5-6 m over 180°, read from poses 0.1 m apart.
+fn long_pair(n: usize) -> (pgm_features::Scan, pgm_features::Scan) {
+    let mut state = 0x2545_f491_4f6c_dd1du64;
+    let ranges: Vec<f64> = (0..n)
+        .map(|_| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            5.0 + (state % 1000) as f64 / 1000.0
+        })
+        .collect();
+    let angles: Vec<f64> = (0..n)
+        .map(|k| -std::f64::consts::FRAC_PI_2 + std::f64::consts::PI * k as f64 / (n - 1) as f64)
+        .collect();
+    let scan = pgm_features::Scan::from_ranges(angles, ranges, 80.0);
+    (scan.clone(), scan)
+}
+
+fn bench_long(c: &mut Criterion) {
+    let mut group = c.benchmark_group("icp-long");
+    group.sample_size(10);
+    for n in [10_000, 30_000, 100_000] {
+        let (reference, current) = long_pair(n);
+        group.throughput(Throughput::Elements(n as u64));
+        group.bench_function(format!("{n}"), |b| {
+            b.iter(|| {
+                let icp = Icp::new(&reference, IcpParams::default()).expect("valid reference");
+                let r = icp
+                    .align(&current, pgm_features::Pose2::new(0.1, 0.0, 0.0))
+                    .expect("valid current");
+                black_box(r.motion)
+            })
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, bench_icp, bench_long);
 criterion_main!(benches);

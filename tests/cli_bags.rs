@@ -75,7 +75,10 @@ fn bags_in_every_command() {
         args.extend(["--k", "2", "--out", out.as_str()]);
         let (stdout, stderr) = ok(&args);
         assert!(stderr.contains("wrote 10 pairs of bag"), "{stderr}");
-        assert!(stdout.is_empty(), "a data set is written, not printed: {stdout}");
+        assert!(
+            stdout.is_empty(),
+            "a data set is written, not printed: {stdout}"
+        );
         outs.push(out);
     }
     let a = pgm_datasets::read_pairs(&outs[0]).unwrap();

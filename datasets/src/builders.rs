@@ -280,7 +280,8 @@ pub fn relation_pairs(
             .compose(&r.motion)
             .compose(&current.laser_offset);
         let name = format!("{}:{:.5}-{:.5}", options.name, r.t1, r.t2);
-        out.pairs.push(ego_motion_pair(name, reference, current, ego));
+        out.pairs
+            .push(ego_motion_pair(name, reference, current, ego));
     }
     out
 }

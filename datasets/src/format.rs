@@ -235,7 +235,11 @@ pub fn check_limits(pair: &ScanPair) -> std::result::Result<(), PairViolation> {
                          first two (one scanner's sweep, in either order)",
                         scan.angles[k + 1],
                         scan.angles[k],
-                        if increasing { "increasing" } else { "decreasing" }
+                        if increasing {
+                            "increasing"
+                        } else {
+                            "decreasing"
+                        }
                     ),
                 ));
             }

@@ -202,10 +202,7 @@ pub fn clustering_v_measure(
         .unzip();
     if t.is_empty() {
         return Err(Error::NothingToScore {
-            what: format!(
-                "none of the {} beams has a ground-truth label",
-                truth.len()
-            ),
+            what: format!("none of the {} beams has a ground-truth label", truth.len()),
         });
     }
     homogeneity_completeness_v_measure(&t, &p, beta)

@@ -176,10 +176,7 @@ fn no_scans(path: &Path, lines: &str, skipped: &BTreeMap<String, usize>) -> crat
         problem: if skipped.is_empty() {
             "the log holds no scan (an empty file?)".into()
         } else {
-            format!(
-                "the log holds no scan (its lines: {})",
-                skipped.join(", ")
-            )
+            format!("the log holds no scan (its lines: {})", skipped.join(", "))
         },
     }
 }

@@ -337,5 +337,19 @@ pub fn run(args: ClusterArgs) -> CliResult {
         staged.commit().map_err(CliError::from_display)?;
         eprintln!("pgm: drew {} into {}", pair.name, path.display());
     }
+    if !clustering.converged {
+        eprintln!(
+            "pgm: warning: CRF-Clustering of {} did not converge ({} sweeps in {} rounds{}); \
+             the result may be inaccurate",
+            pair.name,
+            clustering.iterations,
+            clustering.rounds,
+            if clustering.background_choice == pgm_crf_clustering::BackgroundChoice::PriorKept {
+                "; too few background points for a rigid fit: the background motion is the prior"
+            } else {
+                ""
+            }
+        );
+    }
     Ok(ExitCode::SUCCESS)
 }

@@ -561,7 +561,8 @@ fn run_summary(args: SummaryArgs) -> CliResult {
     );
     for r in rows {
         let s = r.summary;
-        let mean = |x: Option<f64>, digits: usize| x.map_or("-".into(), |x| format!("{x:.digits$}"));
+        let mean =
+            |x: Option<f64>, digits: usize| x.map_or("-".into(), |x| format!("{x:.digits$}"));
         println!(
             "{:<12}  {:>3}  {:>5}  {:>12}  {:>20}  {:>24}  {:>13}",
             r.rule.to_string(),

@@ -198,6 +198,15 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
     let associations = clusterer_needs_associations(&args.method).then_some(which);
     let report = evaluate_clustering_with(&pairs, method.as_ref(), &detection)
         .map_err(|e| CliError(format!("{source}: {e}")))?;
+    let unconverged = report.outcomes.iter().filter(|o| !o.converged).count();
+    if unconverged > 0 {
+        eprintln!(
+            "note: {} did not converge on {unconverged} of {} pairs (their labels are scored \
+             as they stand)",
+            args.method,
+            report.outcomes.len()
+        );
+    }
     let summary = report.summary;
     let found = report.found_objects;
     let weights = match &args.crf.weights {

@@ -111,19 +111,19 @@ pub fn run_match(args: MatchArgs) -> CliResult {
     let staged = match &args.svg {
         Some(path) => {
             let mut picture = PairPicture::new(&pair);
-        picture.labels = None;
-        picture.motions = &[];
-        picture.alignment = matching.motion;
-        picture.associations = Some(&matching.associations);
-        picture.title = format!(
-            "{}: CRF-Matching, {} outliers",
-            pair.name,
-            matching
-                .associations
-                .iter()
-                .filter(|a| **a == Some(pgm_features::Association::Outlier))
-                .count()
-        );
+            picture.labels = None;
+            picture.motions = &[];
+            picture.alignment = matching.motion;
+            picture.associations = Some(&matching.associations);
+            picture.title = format!(
+                "{}: CRF-Matching, {} outliers",
+                pair.name,
+                matching
+                    .associations
+                    .iter()
+                    .filter(|a| **a == Some(pgm_features::Association::Outlier))
+                    .count()
+            );
             let svg = picture.to_svg_string().map_err(CliError::from_display)?;
             Some(
                 pgm_datasets::format::StagedFile::stage(path, svg.as_bytes())
@@ -136,6 +136,15 @@ pub fn run_match(args: MatchArgs) -> CliResult {
     if let (Some(staged), Some(path)) = (staged, &args.svg) {
         staged.commit().map_err(CliError::from_display)?;
         eprintln!("pgm: drew {} into {}", pair.name, path.display());
+    }
+    if !matching.converged {
+        eprintln!(
+            "pgm: warning: CRF-Matching of {} did not converge: {}",
+            pair.name,
+            matching.note.as_deref().unwrap_or(
+                "the last round stopped at its sweep limit; the result may be inaccurate"
+            )
+        );
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -13,7 +13,9 @@
 //!    again.
 //! 5. **Ego-motion and moving objects** ([`crate::background`]): the cluster nearest
 //!    to the odometry prior is the background; the other clusters that pass the
-//!    tests of [`DetectionParams`](crate::DetectionParams) are moving objects.
+//!    tests of [`DetectionParams`](crate::DetectionParams) are moving objects. A
+//!    background with fewer than [`MIN_BACKGROUND_SUPPORT`] associated points keeps
+//!    the prior as its motion ([`BackgroundChoice::PriorKept`], not converged).
 //! 6. **Clean-up** ([`crate::cleanup`]): points without a partner keep a label only
 //!    their segment supports; moving clusters with gaps are split into objects.
 
@@ -39,7 +41,17 @@ pub enum BackgroundChoice {
     LargestCluster,
     /// No point to cluster.
     Empty,
+    /// The background cluster has fewer than [`MIN_BACKGROUND_SUPPORT`] points with a
+    /// partner, too few for a rigid fit (eq. 3 on one association follows whatever it
+    /// suggests): its motion is the odometry prior (the identity without one), and the
+    /// result is not converged.
+    PriorKept,
 }
+
+/// Fewest background points with a partner for the background motion to be solved
+/// from them (as ICP's default [`pgm_features::registration::IcpParams`]
+/// `min_correspondences`); with fewer the prior is kept ([`BackgroundChoice::PriorKept`]).
+pub const MIN_BACKGROUND_SUPPORT: usize = 10;
 
 /// One cluster of the result.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -156,12 +168,28 @@ impl Clusterer {
         let k = inferred.clusters;
         let count = cluster_sizes(&inferred.labels, k);
         let final_clusters = count.iter().filter(|&&c| c > 0).count();
-        let (background, choice) = choose_background(p, input.odometry, &inferred.motions, &count);
-        let bg_motion = inferred
+        let (background, mut choice) =
+            choose_background(p, input.odometry, &inferred.motions, &count);
+        let mut bg_motion = inferred
             .motions
             .get(background)
             .copied()
             .unwrap_or_default();
+        // Too little data for a rigid fit keeps the prior, and says so.
+        let support = inferred
+            .labels
+            .iter()
+            .zip(&input.partners)
+            .filter(|(&l, partner)| l == background && partner.is_some())
+            .count();
+        if support < MIN_BACKGROUND_SUPPORT {
+            bg_motion = input.odometry.unwrap_or_default();
+            if let Some(m) = inferred.motions.get_mut(background) {
+                *m = bg_motion;
+            }
+            inferred.converged = false;
+            choice = BackgroundChoice::PriorKept;
+        }
         if d.reassign_unassociated {
             reassign_unassociated(input, &mut inferred.labels, k, background, p.segment_gap);
         }
