@@ -221,11 +221,12 @@ pub fn check_limits(pair: &ScanPair) -> std::result::Result<(), PairViolation> {
         // two beams on one ray (an angle increment of 0).
         if let [first, second, ..] = scan.angles[..] {
             let increasing = second > first;
+            // Angles are finite here (`ScanPair::validate` ran first).
             if let Some(k) = scan.angles.windows(2).position(|w| {
                 if increasing {
-                    !(w[1] > w[0])
+                    w[1] <= w[0]
                 } else {
-                    !(w[1] < w[0])
+                    w[1] >= w[0]
                 }
             }) {
                 return Err(violation(
