@@ -154,7 +154,7 @@ fn run_clustering(args: TrainClusteringArgs) -> CliResult {
     let sources: Vec<&dyn pgm_features::AssociationSource> =
         sources.iter().map(|s| s.as_ref()).collect();
     let instances =
-        training_instances(&pairs, &sources, clusterer.params()).map_err(CliError::from_display)?;
+        training_instances(&pairs, &sources, clusterer.params()).map_err(|e| in_data(&args.data, e))?;
     if instances.is_empty() {
         return Err(CliError(format!(
             "none of the {} pairs has ground-truth labels",
@@ -177,7 +177,7 @@ fn run_clustering(args: TrainClusteringArgs) -> CliResult {
     };
     let learned = learn(&instances, args.prior_variance, &mut observer);
     bar.finish_and_clear();
-    let (weights, result) = learned.map_err(CliError::from_display)?;
+    let (weights, result) = learned.map_err(|e| in_data(&args.data, e))?;
     let named = weights.to_weights().map_err(CliError::from_display)?;
     named
         .save(&args.out)
@@ -196,6 +196,15 @@ fn run_clustering(args: TrainClusteringArgs) -> CliResult {
     });
     println!("{summary}");
     Ok(ExitCode::SUCCESS)
+}
+
+/// A training error naming the data set it came from (`--data DIR`; simulated pairs
+/// name themselves).
+fn in_data(data: &Option<PathBuf>, e: impl std::fmt::Display) -> CliError {
+    match data {
+        Some(dir) => CliError(format!("{}: {e}", dir.display())),
+        None => CliError(format!("simulated pairs: {e}")),
+    }
 }
 
 /// The training pairs of `--data` or `--simulate N --seed S --preset P`.
@@ -261,7 +270,7 @@ fn run_matching(args: TrainMatchingArgs) -> CliResult {
     let trained = train_matching(&pairs, &options, &mut observer);
     drop(observer);
     bar.finish_and_clear();
-    let (weights, report) = trained.map_err(CliError::from_display)?;
+    let (weights, report) = trained.map_err(|e| in_data(&args.data, e))?;
     weights
         .save(&args.out)
         .map_err(|e| CliError(format!("{}: {e}", args.out.display())))?;
@@ -325,7 +334,7 @@ fn run_joint(args: TrainMatchingArgs) -> CliResult {
     let trained = pgm_joint::learning::train(&pairs, &options, &mut observer);
     drop(observer);
     bar.finish_and_clear();
-    let (weights, report) = trained.map_err(CliError::from_display)?;
+    let (weights, report) = trained.map_err(|e| in_data(&args.data, e))?;
     weights
         .save(&args.out)
         .map_err(|e| CliError(format!("{}: {e}", args.out.display())))?;
