@@ -153,8 +153,8 @@ fn run_clustering(args: TrainClusteringArgs) -> CliResult {
         .map_err(CliError::from_display)?;
     let sources: Vec<&dyn pgm_features::AssociationSource> =
         sources.iter().map(|s| s.as_ref()).collect();
-    let instances =
-        training_instances(&pairs, &sources, clusterer.params()).map_err(|e| in_data(&args.data, e))?;
+    let instances = training_instances(&pairs, &sources, clusterer.params())
+        .map_err(|e| in_data(&args.data, e))?;
     if instances.is_empty() {
         return Err(CliError(format!(
             "none of the {} pairs has ground-truth labels",
