@@ -140,7 +140,7 @@ impl<'a> JointModel<'a> {
     /// outlier state.
     fn partner(&self, i: usize) -> Option<&nalgebra::Point2<f64>> {
         let j = self.association[i].and_then(|a| self.tables.partner(i, a))?;
-        Some(&self.tables.problem().reference.points[j])
+        Some(&self.tables.problem().reference.surface[j])
     }
 
     /// Re-solves every motion cluster's motion from its returns' current associations
@@ -156,7 +156,7 @@ impl<'a> JointModel<'a> {
                     continue;
                 }
                 if let Some(g) = self.partner(i) {
-                    pairs.push((p.current.points[i], *g, p.variances[i]));
+                    pairs.push((p.current.surface[i], *g, p.variances[i]));
                 }
             }
             let mut motion = self.motions[c];
@@ -215,7 +215,7 @@ impl HybridChainModel for JointModel<'_> {
                 .write_local(i, self.node_motion(i), ASSOCIATION_BASE, sink);
         } else {
             clustering_chain::write_local(
-                &p.current.points[i],
+                &p.current.surface[i],
                 p.variances[i],
                 self.partner(i),
                 &self.motions,
@@ -232,7 +232,7 @@ impl HybridChainModel for JointModel<'_> {
         } else {
             let p = self.tables.problem();
             clustering_chain::write_pair(
-                [&p.current.points[i], &p.current.points[i + 1]],
+                [&p.current.surface[i], &p.current.surface[i + 1]],
                 [self.partner(i), self.partner(i + 1)],
                 &self.motions,
                 CLUSTERING_BASE,
