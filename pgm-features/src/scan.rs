@@ -457,6 +457,41 @@ mod tests {
         Scan::from_ranges(angles, ranges, 30.0)
     }
 
+    /// A wall `y = 4` seen by 0.5° beams with ±3 cm range noise: the surface points
+    /// lie closer to the wall than the measured ones, keep their bearings, and a
+    /// return across a gap is left as measured.
+    #[test]
+    fn surface_points_reduce_range_noise_and_keep_bearings() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand::rngs::StdRng::seed_from_u64(3);
+        let increment = 0.5f64.to_radians();
+        let angles: Vec<f64> = (0..120).map(|k| 0.6 + k as f64 * increment).collect();
+        let points: Vec<Point2<f64>> = angles
+            .iter()
+            .map(|a| {
+                let r = 4.0 / a.sin() + rng.random_range(-0.03..0.03);
+                Point2::new(r * a.cos(), r * a.sin())
+            })
+            .collect();
+        let surface = surface_points(&points, increment);
+        let error =
+            |p: &[Point2<f64>]| p.iter().map(|q| (q.y - 4.0).abs()).sum::<f64>() / p.len() as f64;
+        assert!(
+            error(&surface) < 0.7 * error(&points),
+            "{} vs {}",
+            error(&surface),
+            error(&points)
+        );
+        for (p, q) in points.iter().zip(&surface) {
+            assert!((p.y.atan2(p.x) - q.y.atan2(q.x)).abs() < 1e-12);
+        }
+        // A lone return far behind the wall has no surface of its own.
+        let mut with_gap = points.clone();
+        with_gap[60] = Point2::new(with_gap[60].x * 3.0, with_gap[60].y * 3.0);
+        assert_eq!(surface_points(&with_gap, increment)[60], with_gap[60]);
+        assert!(surface_points(&[], increment).is_empty());
+    }
+
     #[test]
     fn bearing_lookup_in_any_order_and_range() {
         let n = 181;
