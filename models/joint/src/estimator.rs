@@ -26,7 +26,7 @@
 //!    The ego-motion ends with ICP from the background's motion on the background
 //!    returns with a partner, as CRF-Matching's.
 
-use crate::model::{JointModel, ASSOCIATION_CHAIN, CLUSTERING_CHAIN};
+use crate::model::{node_motions, JointModel, ASSOCIATION_CHAIN, CLUSTERING_CHAIN};
 use crate::weights::JointWeights;
 use crate::{Error, Result};
 use pgm_core::hybrid::chain::{ChainUpdate, HybridChainParams};
@@ -313,10 +313,7 @@ impl Joint {
         loop {
             rounds += 1;
             let chosen_under = motions.clone();
-            let own: Vec<Pose2> = clusters
-                .iter()
-                .map(|&c| motions.get(c).copied().unwrap_or(motions[background]))
-                .collect();
+            let own = node_motions(&problem, &clusters, &motions, background);
             let ego = vec![motions[background]; n];
             let candidates = problem.candidates(p.state_space, &own, &ego, p.candidate_gate);
             let mut model = JointModel::new(
