@@ -2,7 +2,9 @@
 //! of linfa's `Predict`: a [`ScanMatcher`] estimates the ego-motion of a pair, a
 //! [`MotionClusterer`] labels the current scan's returns with clusters of common
 //! motion, a [`JointEstimator`] does both and associates the returns as well (the
-//! joint model, and the two-step pipelines it is compared with: [`TwoSteps`]).
+//! joint model, and the two-step pipelines it is compared with: [`TwoSteps`]);
+//! [`JointClusters`] and [`JointEgoMotion`] score a joint method's clusters and
+//! ego-motion through the clustering and matching evaluations.
 //! Evaluation (`pgm_datasets::evaluation`), the command-line tool, the
 //! examples and the tests are generic over them, so adding a model means adding an
 //! implementation, not a branch in the tool.
@@ -452,5 +454,28 @@ impl<E: JointEstimator> MotionClusterer for JointClusters<E> {
 
     fn cluster(&self, pair: &ScanPair) -> Result<MotionClustering> {
         Ok(self.0.estimate(pair)?.to_motion_clustering())
+    }
+}
+
+/// A [`JointEstimator`]'s ego-motion as a [`ScanMatcher`], so the scan-matching
+/// evaluation scores a joint method like every other matcher. A run that did not
+/// converge (the sweep limit) still has an estimate; it is reported with
+/// `converged: false` and a note.
+pub struct JointEgoMotion<E>(pub E);
+
+impl<E: JointEstimator> ScanMatcher for JointEgoMotion<E> {
+    fn name(&self) -> &str {
+        self.0.name()
+    }
+
+    fn estimate(&self, pair: &ScanPair) -> Result<EgoMotionEstimate> {
+        let e = self.0.estimate(pair)?;
+        Ok(EgoMotionEstimate {
+            motion: e.ego_motion,
+            converged: e.converged,
+            iterations: e.iterations,
+            note: (!e.converged)
+                .then(|| format!("stopped unconverged after {} iterations", e.iterations)),
+        })
     }
 }
