@@ -164,7 +164,7 @@ pub const CLUSTERERS: &[(&str, &str)] = &[
     ("one-cluster", "every return in the background cluster"),
     (
         "joint",
-        "the joint model (van de Ven, Ramos and Tipaldi): its clusters, the outlier cluster unlabelled",
+        "the joint model (van de Ven, Ramos and Tipaldi): its clusters, the outlier cluster as background",
     ),
 ];
 

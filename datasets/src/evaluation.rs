@@ -863,6 +863,12 @@ pub fn evaluate_association(
             })
         })
         .collect::<Result<_>>()?;
+    Ok(summarize_association(source.name(), outcomes))
+}
+
+/// The report of association outcomes (see [`evaluate_association`]); `outcomes`
+/// must not be empty for the means to be numbers.
+pub fn summarize_association(method: &str, outcomes: Vec<AssociationOutcome>) -> AssociationReport {
     let mean = |f: fn(&AssociationScore) -> f64| {
         mean_std(&outcomes.iter().map(|o| f(&o.score)).collect::<Vec<_>>()).0
     };
@@ -876,12 +882,12 @@ pub fn evaluate_association(
         outliers_found: mean_of(outcomes.iter().map(|o| o.score.outliers.found_percentage)),
     };
     let ego_errors: Vec<MotionError> = outcomes.iter().filter_map(|o| o.ego_error).collect();
-    Ok(AssociationReport {
-        method: source.name().to_string(),
+    AssociationReport {
+        method: method.to_string(),
         summary,
         ego: summarize_errors(&ego_errors),
         outcomes,
-    })
+    }
 }
 
 /// The clustering scores of one pair of a joint method (Table II of the joint paper;

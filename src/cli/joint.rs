@@ -42,7 +42,7 @@ use pgm_datasets::evaluation::{
     evaluate_joint, scorable_for_joint, JointOutcome, JointReport, JointSummary,
 };
 use pgm_datasets::ClusterMotion;
-use pgm_features::methods::{JointCluster, JointEstimate};
+use pgm_features::methods::{JointCluster, JointEstimate, OutlierReturns};
 use pgm_features::{Association, ParamGuard, Pose2};
 use pgm_joint::{Clusters, JointParams, JointResult};
 use serde::Serialize;
@@ -159,7 +159,7 @@ pub fn draw_joint(
     title: String,
     path: &Path,
 ) -> Result<(), CliError> {
-    let clustering = estimate.to_motion_clustering();
+    let clustering = estimate.to_motion_clustering(OutlierReturns::Unlabelled);
     let motions: Vec<ClusterMotion> = clustering
         .motions
         .iter()
