@@ -574,7 +574,7 @@ fn data_dir(given: Option<&PathBuf>) -> Option<PathBuf> {
             .map(PathBuf::from)
             .unwrap_or_else(pgm_datasets::testdata::default_shared_data_dir)
     });
-    dir.is_dir().then_some(dir)
+    dir.is_dir().then(|| dir.canonicalize().unwrap_or(dir))
 }
 
 /// Ego-motion on a real log for ICP, CRF-Matching and the joint model.

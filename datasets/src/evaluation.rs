@@ -1079,15 +1079,30 @@ pub fn evaluate_joint_pair(pair: &ScanPair, method: &dyn JointEstimator) -> Resu
         Some(labels) => {
             let named = |e: Error| unscorable(e.to_string());
             let joint = joint_truth(labels, truth.associations.as_deref()).map_err(named)?;
-            let matching = match_clusterings(&joint, &estimate.clusters).map_err(named)?;
+            // Without true associations no return is known to be an outlier: the
+            // outlier cluster is scored as the background (see `evaluate_joint`).
+            let predicted: Vec<Option<JointCluster>> = match truth.associations {
+                Some(_) => estimate.clusters.clone(),
+                None => estimate
+                    .clusters
+                    .iter()
+                    .map(|c| match c {
+                        Some(JointCluster::Outlier) => {
+                            Some(JointCluster::Object(estimate.background))
+                        }
+                        other => *other,
+                    })
+                    .collect(),
+            };
+            let matching = match_clusterings(&joint, &predicted).map_err(named)?;
             let (classes, clusters): (Vec<JointCluster>, Vec<Option<JointCluster>>) = joint
                 .iter()
-                .zip(&estimate.clusters)
+                .zip(&predicted)
                 .filter_map(|(t, p)| t.map(|t| (t, *p)))
                 .unzip();
             let v_measure =
                 homogeneity_completeness_v_measure(&classes, &clusters, 1.0).map_err(named)?;
-            let sed = clustering_sed(&joint, &estimate.clusters).map_err(named)?;
+            let sed = clustering_sed(&joint, &predicted).map_err(named)?;
             let outliers = cluster_outlier_stats(&joint, &estimate.clusters)
                 .map_err(named)?
                 .ok_or_else(|| unscorable("no return with a ground-truth cluster".into()))?;
@@ -1189,8 +1204,14 @@ fn joint_objects(
 ///   Table III.
 /// - **Ego-motion** (pairs with a true ego-motion): [`motion_error`].
 ///
-/// Summaries in [`JointSummary`]; on real data without true associations the
-/// association figures are `None` and no return is a true outlier.
+/// Summaries in [`JointSummary`]. On pairs without true associations (real data)
+/// the association figures are `None`, no return is known to be an outlier, and the
+/// returns of the predicted outlier cluster are scored as the background's (as
+/// `pgm eval clustering` scores them, [`pgm_features::methods::JointClusters`]): the
+/// truth cannot tell whether they are outliers, so they are neither rewarded nor
+/// counted as a cluster of their own. The outlier-cluster percentages
+/// ([`JointClusteringScore::outliers`]) still report how many returns the method
+/// put there.
 ///
 /// # Errors
 /// When `pairs` is empty or a pair fails ([`evaluate_joint_pair`]; the error names

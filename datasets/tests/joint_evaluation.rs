@@ -331,3 +331,33 @@ fn true_associations_score_perfectly_as_a_source() {
         .to_string();
     assert!(e.contains(&pairs[0].name), "{e}");
 }
+
+#[test]
+fn without_true_associations_the_outlier_cluster_counts_as_background() {
+    // No true associations (as on real data): a background return put in the outlier
+    // cluster is scored as background, not as a wrong cluster of its own.
+    let labels = vec![Some(0), Some(0), Some(0), Some(0), Some(1), Some(1)];
+    let pair = hand_pair(labels, Vec::new());
+    let mut estimate = fixed(
+        &[0, 0, 0, 0, 1, 1],
+        vec![Pose2::identity(); 2],
+        Pose2::identity(),
+    )
+    .0;
+    estimate.clusters[1] = Some(JointCluster::Outlier);
+    let r = run(&pair, &Fixed(estimate.clone()));
+    assert_eq!(r.summary.clustering_accuracy, Some(1.0));
+    assert_eq!(r.summary.clustering_sed, Some(0.0));
+    assert!((r.summary.v_measure_mean.unwrap() - 1.0).abs() < 1e-12);
+    // Its share of the returns is still reported.
+    let expected = 100.0 / 6.0;
+    assert!((r.cluster_outliers[0].unwrap() - expected).abs() < 1e-9);
+    assert_eq!(r.cluster_outliers[2], None, "no true outlier to find");
+    // With true associations saying it is no outlier, it is wrong.
+    let mut with_truth = pair.clone();
+    with_truth.truth.as_mut().unwrap().associations =
+        Some((0..6).map(|k| Some(Association::Point(k))).collect());
+    estimate.associations = (0..6).map(|k| Some(Association::Point(k))).collect();
+    let r = run(&with_truth, &Fixed(estimate));
+    assert_eq!(r.summary.clustering_accuracy, Some(5.0 / 6.0));
+}
