@@ -5,7 +5,8 @@
 
 use pgm_core::exact::{brute_force, BruteForceLimit, PairPattern};
 use pgm_core::hybrid::chain::{
-    chain_instance, ChainUpdate, FeatureSink, HybridChainModel, HybridChainParams, WeightedTable,
+    chain_instance, ChainUpdate, Convergence, FeatureSink, HybridChainModel, HybridChainParams,
+    WeightedTable,
 };
 use pgm_core::hybrid::{ClusterMeans, HybridInference, UpdatePolicy};
 use pgm_core::learning::{FeatureSet, LabelledInstance};
@@ -407,6 +408,62 @@ fn limit_cycles_stop_early_and_are_reported() {
     let endless = run(false);
     assert!(!endless.cycled && !endless.converged);
     assert_eq!(endless.sweeps, 20);
+}
+
+/// Two chains of one position: chain 0 keeps state 0, chain 1 flips as [`Flipper`]
+/// does, and the continuous value never moves.
+struct StillFlipper {
+    value: usize,
+}
+
+impl HybridChainModel for StillFlipper {
+    fn weights(&self) -> &[f64] {
+        &[1.0]
+    }
+    fn num_chains(&self) -> usize {
+        2
+    }
+    fn chain_len(&self, _chain: usize) -> usize {
+        1
+    }
+    fn num_states(&self, _chain: usize, _i: usize) -> usize {
+        2
+    }
+    fn write_local<S: FeatureSink>(&self, chain: usize, _i: usize, sink: &mut S) {
+        sink.add(if chain == 0 { 0 } else { 1 - self.value }, 0, 1.0);
+    }
+    fn write_pair<S: FeatureSink>(&self, _chain: usize, _i: usize, _sink: &mut S) {}
+    fn set_label(&mut self, chain: usize, _i: usize, _old: Option<usize>, new: usize) {
+        if chain == 1 {
+            self.value = new;
+        }
+    }
+    fn solve(&mut self) -> f64 {
+        0.0
+    }
+}
+
+#[test]
+fn convergence_on_the_continuous_values_alone_ignores_flipping_labels() {
+    let run = |convergence: Convergence| {
+        HybridChainParams::default()
+            .convergence(convergence)
+            .stop_on_cycle(false)
+            .max_sweeps(10)
+            .check()
+            .unwrap()
+            .run(&mut StillFlipper { value: 0 }, &[vec![0], vec![0]])
+            .unwrap()
+    };
+    // Two chains: by default a label that keeps changing keeps the run going.
+    for strict in [Convergence::Auto, Convergence::ContinuousAndLabels] {
+        let r = run(strict);
+        assert!(!r.converged);
+        assert_eq!(r.sweeps, 10);
+    }
+    let r = run(Convergence::Continuous);
+    assert!(r.converged);
+    assert_eq!(r.sweeps, 1);
 }
 
 /// [`Means`] with a fourth weight and a banded pairwise feature, like the association

@@ -509,7 +509,7 @@ impl<'a> AssociationTables<'a> {
         let full = m > 0 && candidates.iter().all(|c| c.len() == m);
         let pattern = full.then(|| Arc::new(band_pattern(m, band)));
         let pattern_entries = pattern.as_ref().map_or_else(Vec::new, |pattern| {
-            let reference = &problem.reference.points;
+            let reference = &problem.reference.surface;
             pattern
                 .entries()
                 .map(|(j, k)| {
@@ -587,13 +587,13 @@ impl<'a> AssociationTables<'a> {
     /// `motion` (the outlier state without candidates).
     pub fn nearest_state(&self, i: usize, motion: &Pose2) -> usize {
         let p = self.problem;
-        let q = motion.transform_point(&p.current.points[i]);
+        let q = motion.transform_point(&p.current.surface[i]);
         self.candidates[i]
             .iter()
             .enumerate()
             .min_by(|a, b| {
-                let da = (p.reference.points[*a.1] - q).norm_squared();
-                let db = (p.reference.points[*b.1] - q).norm_squared();
+                let da = (p.reference.surface[*a.1] - q).norm_squared();
+                let db = (p.reference.surface[*b.1] - q).norm_squared();
                 da.total_cmp(&db)
             })
             .map_or(self.candidates[i].len(), |(k, _)| k)
@@ -607,11 +607,11 @@ impl<'a> AssociationTables<'a> {
         }
         cache.motion[i] = Some(*motion);
         let p = self.problem;
-        let q = motion.transform_point(&p.current.points[i]);
+        let q = motion.transform_point(&p.current.surface[i]);
         let o = self.offsets[i];
         let q_bearing = q.y.atan2(q.x);
         for (k, &j) in self.candidates[i].iter().enumerate() {
-            let d = (q - p.reference.points[j]).norm();
+            let d = (q - p.reference.surface[j]).norm();
             let bearing = bearing_offset(q_bearing, p.reference.angles[j], p.reference_increment);
             cache.distance[o + k] = d;
             cache.score[o + k] = p.data_steps[0].eval(d) + p.data_steps[1].eval(bearing);
@@ -650,7 +650,7 @@ impl<'a> AssociationTables<'a> {
     pub fn write_pair<S: FeatureSink>(&self, i: usize, motion: &Pose2, base: usize, sink: &mut S) {
         let p = self.problem;
         let (ci, cj) = (&self.candidates[i], &self.candidates[i + 1]);
-        let step = p.current.points[i + 1] - p.current.points[i];
+        let step = p.current.surface[i + 1] - p.current.surface[i];
         let pair = PairGeometry {
             length: step.norm(),
             turned: motion.isometry().rotation * step,
@@ -702,7 +702,7 @@ impl<'a> AssociationTables<'a> {
         let d = k as isize - j as isize;
         sink.add(entry, base + sequence_feature(d, pair.band), 1.0);
         if (d - 1).abs() <= pair.band {
-            let reference = &self.problem.reference.points;
+            let reference = &self.problem.reference.surface;
             let reference_step = reference[k] - reference[j];
             write_geometry(
                 pair,

@@ -103,6 +103,10 @@ pub const ASSOCIATION_FEATURE_NAMES: [&str; ASSOCIATION_FEATURES] = [
 pub struct ScanShape {
     /// The valid returns (sensor frame).
     pub points: Vec<Point2<f64>>,
+    /// The valid returns with their range noise reduced
+    /// ([`surface_points`](crate::scan::surface_points)): the positions the registered
+    /// features, the pairwise geometry and the motion fits use.
+    pub surface: Vec<Point2<f64>>,
     /// Beam index of each return.
     pub beams: Vec<usize>,
     /// Beam angle of each return (rad).
@@ -163,7 +167,9 @@ impl ScanShape {
             descriptors.push(p.coords.norm());
         }
         let angles = beams.iter().map(|&b| scan.angles[b]).collect();
+        let surface = crate::scan::surface_points(&points, scan.angle_increment());
         Self {
+            surface,
             points,
             beams,
             angles,
@@ -204,7 +210,7 @@ pub fn association_features(
     for ((o, x), y) in out.iter_mut().zip(a).zip(b) {
         *o = (x - y).abs();
     }
-    let (s, g) = (current.points[i], reference.points[j]);
+    let (s, g) = (current.surface[i], reference.surface[j]);
     out[TRANSLATION] = (s - g).norm();
     let q = motion.transform_point(&s);
     out[REGISTERED_TRANSLATION] = (q - g).norm();

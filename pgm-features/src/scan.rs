@@ -312,6 +312,113 @@ pub fn angle_increment(angles: &[f64]) -> f64 {
     *d.select_nth_unstable_by(mid, f64::total_cmp).1
 }
 
+/// Returns on each side of a return that [`surface_points`] fits its line to (2: five
+/// returns in all).
+pub const SURFACE_WINDOW: usize = 2;
+
+/// Consecutive returns lie on one surface for [`surface_points`] when they are closer
+/// than this many beam spacings at the nearer one's range (10), or than
+/// [`SURFACE_GAP_MIN`].
+pub const SURFACE_GAP_SPACINGS: f64 = 10.0;
+
+/// The smallest surface gap of [`surface_points`] (m; 0.3).
+pub const SURFACE_GAP_MIN: f64 = 0.3;
+
+/// [`surface_points`] moves no return by more than this along its beam (m; 0.2): a
+/// larger correction means the line does not describe the return's surface (a
+/// corner, an edge) and the return stays as measured.
+pub const SURFACE_MAX_SHIFT: f64 = 0.2;
+
+/// [`surface_points`] leaves a return as measured when its beam meets the fitted line
+/// at an incidence cosine below this (0.2, about 78°): there the intersection is
+/// ill-conditioned.
+pub const SURFACE_MIN_INCIDENCE_COS: f64 = 0.2;
+
+/// The returns of a scan with their range noise reduced: each return (sensor frame,
+/// valid returns in beam order, as [`Scan::points`] gives them) moved along its own
+/// beam onto the total-least-squares line through it and its [`SURFACE_WINDOW`]
+/// neighbours on either side that lie on the same surface (consecutive returns closer
+/// than [`SURFACE_GAP_SPACINGS`] beam spacings `increment` (rad) at their range, or
+/// [`SURFACE_GAP_MIN`]). A return keeps its measured position with fewer than three
+/// returns on its surface, when the line meets its beam at a grazing angle
+/// ([`SURFACE_MIN_INCIDENCE_COS`]) or would move it by more than
+/// [`SURFACE_MAX_SHIFT`]. The bearing of every return is unchanged.
+///
+/// Why: point-to-point distances between two noisy scans confuse neighbouring beams
+/// once the range noise is comparable to the spacing of returns on a surface (3 cm
+/// noise against 2.6 cm spacing at 3 m for 0.5° beams); a local line fit is the
+/// surface model of point-to-line ICP (Censi 2008) applied to the points themselves.
+/// On simulated pairs with the true motions known, the nearest reference return to
+/// a current return is its true partner for 86.9 % of the true inliers with measured
+/// points and 91.8 % with surface points (preset `mixed`, seed 3, 30 pairs).
+///
+/// Output: one point per input point. O(n).
+pub fn surface_points(points: &[Point2<f64>], increment: f64) -> Vec<Point2<f64>> {
+    let n = points.len();
+    let same_surface = |a: usize, b: usize| -> bool {
+        let r = points[a].coords.norm().min(points[b].coords.norm());
+        (points[a] - points[b]).norm() < SURFACE_GAP_MIN.max(SURFACE_GAP_SPACINGS * r * increment)
+    };
+    // Start of the surface run of every point.
+    let mut run_start = vec![0usize; n];
+    for i in 1..n {
+        run_start[i] = if same_surface(i - 1, i) {
+            run_start[i - 1]
+        } else {
+            i
+        };
+    }
+    let mut run_end = vec![n; n];
+    for i in (0..n.saturating_sub(1)).rev() {
+        run_end[i] = if run_start[i + 1] == run_start[i] {
+            run_end[i + 1]
+        } else {
+            i + 1
+        };
+    }
+    (0..n)
+        .map(|i| {
+            let p = points[i];
+            let lo = i.saturating_sub(SURFACE_WINDOW).max(run_start[i]);
+            let hi = (i + SURFACE_WINDOW + 1).min(run_end[i]);
+            let window = &points[lo..hi];
+            if window.len() < 3 {
+                return p;
+            }
+            let centre = window
+                .iter()
+                .fold(nalgebra::Vector2::zeros(), |a, q| a + q.coords)
+                / window.len() as f64;
+            let mut scatter = nalgebra::Matrix2::zeros();
+            for q in window {
+                let d = q.coords - centre;
+                scatter += d * d.transpose();
+            }
+            let eigen = scatter.symmetric_eigen();
+            let smallest = if eigen.eigenvalues[0] <= eigen.eigenvalues[1] {
+                0
+            } else {
+                1
+            };
+            let normal = eigen.eigenvectors.column(smallest).into_owned();
+            let range = p.coords.norm();
+            if range <= 0.0 {
+                return p;
+            }
+            let beam = p.coords / range;
+            let cos = normal.dot(&beam);
+            if cos.abs() < SURFACE_MIN_INCIDENCE_COS {
+                return p;
+            }
+            let t = normal.dot(&centre) / cos;
+            if !t.is_finite() || (t - range).abs() > SURFACE_MAX_SHIFT {
+                return p;
+            }
+            Point2::from(beam * t)
+        })
+        .collect()
+}
+
 /// Segment index of every point (points in beam order): consecutive points farther
 /// apart than `gap` (m) start a new segment. Indices start at 0 and grow by one.
 pub fn segment_by_gap(points: &[Point2<f64>], gap: f64) -> Vec<usize> {
@@ -348,6 +455,41 @@ mod tests {
 
     fn scan(angles: Vec<f64>, ranges: Vec<f64>) -> Scan {
         Scan::from_ranges(angles, ranges, 30.0)
+    }
+
+    /// A wall `y = 4` seen by 0.5° beams with ±3 cm range noise: the surface points
+    /// lie closer to the wall than the measured ones, keep their bearings, and a
+    /// return across a gap is left as measured.
+    #[test]
+    fn surface_points_reduce_range_noise_and_keep_bearings() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand::rngs::StdRng::seed_from_u64(3);
+        let increment = 0.5f64.to_radians();
+        let angles: Vec<f64> = (0..120).map(|k| 0.6 + k as f64 * increment).collect();
+        let points: Vec<Point2<f64>> = angles
+            .iter()
+            .map(|a| {
+                let r = 4.0 / a.sin() + rng.random_range(-0.03..0.03);
+                Point2::new(r * a.cos(), r * a.sin())
+            })
+            .collect();
+        let surface = surface_points(&points, increment);
+        let error =
+            |p: &[Point2<f64>]| p.iter().map(|q| (q.y - 4.0).abs()).sum::<f64>() / p.len() as f64;
+        assert!(
+            error(&surface) < 0.7 * error(&points),
+            "{} vs {}",
+            error(&surface),
+            error(&points)
+        );
+        for (p, q) in points.iter().zip(&surface) {
+            assert!((p.y.atan2(p.x) - q.y.atan2(q.x)).abs() < 1e-12);
+        }
+        // A lone return far behind the wall has no surface of its own.
+        let mut with_gap = points.clone();
+        with_gap[60] = Point2::new(with_gap[60].x * 3.0, with_gap[60].y * 3.0);
+        assert_eq!(surface_points(&with_gap, increment)[60], with_gap[60]);
+        assert!(surface_points(&[], increment).is_empty());
     }
 
     #[test]

@@ -341,7 +341,7 @@ pub fn train(
         .collect();
     let learner = LearnerParams::default()
         .prior_variance(options.prior_variance)
-        .max_iterations(500)
+        .max_iterations(3000)
         .check()?;
     let learning = learner.learn(&feature_set(), &instances, observer)?;
     weights.weights = learning.weights.values().to_vec();

@@ -133,7 +133,7 @@ impl<'a> MatchingModel<'a> {
                     continue;
                 }
                 if let Some(j) = self.labels[i].and_then(|l| self.tables.partner(i, l)) {
-                    pairs.push((p.current.points[i], p.reference.points[j], p.variances[i]));
+                    pairs.push((p.current.surface[i], p.reference.surface[j], p.variances[i]));
                 }
             }
             let mut motion = self.motions[g];

@@ -19,7 +19,7 @@
 //!    the other's true labels), and the pseudo-likelihood of the true associations and
 //!    clusters is maximised.
 
-use crate::model::JointModel;
+use crate::model::{node_motions, JointModel};
 use crate::weights::{feature_set, JointWeights, WEIGHTS};
 use crate::{Error, Result};
 use pgm_core::hybrid::chain::{chain_instance, HybridChainModel};
@@ -233,18 +233,7 @@ pub fn train_boosters(
         .map(|pair| -> Result<(TrainingSet, TrainingSet)> {
             let problem = AssociationProblem::new(pair, &placeholder)?;
             let t = truth_of(&problem, pair, options)?;
-            let outlier_cluster = t.motions.len();
-            let per_node: Vec<Pose2> = t
-                .cluster
-                .iter()
-                .map(|&c| {
-                    if c == outlier_cluster {
-                        t.motions[0]
-                    } else {
-                        t.motions[c]
-                    }
-                })
-                .collect();
+            let per_node = node_motions(&problem, &t.cluster, &t.motions, 0);
             Ok(problem.booster_samples(&t.candidates, &t.association, &per_node)?)
         })
         .collect::<Result<_>>()?;

@@ -12,8 +12,11 @@
 //!
 //! The chains are linked through the motions only, as the paper's Fig. 1 draws them
 //! ("the x^a and x^c nodes are indirectly linked through the motion estimate node"):
-//! a node's association features use the motion of its cluster (the background's when
-//! it is in the outlier cluster), and the clustering features read each return's
+//! a node's association features use the motion of its cluster (in the outlier
+//! cluster: the motion cluster of the nearest return on the same surface, so that the
+//! occluded end of a moving car is still associated under the car's motion and can
+//! leave the outlier cluster; the background's when its surface has no return in a
+//! motion cluster), and the clustering features read each return's
 //! current association (its partner, or none for the outlier state) as the evidence
 //! the motions were solved from. The clustering chain's `cluster_distance` and
 //! `cluster_inlier` are local features of the clustering chain only. (Writing them
@@ -27,6 +30,7 @@ use pgm_core::exact::PairPattern;
 use pgm_core::hybrid::chain::{FeatureSink, HybridChainModel};
 use pgm_features::association_chain::{AssociationProblem, AssociationTables};
 use pgm_features::clustering_chain;
+use pgm_features::scan::segment_by_gap;
 use pgm_features::{Pose2, RigidAlignment};
 use std::sync::Arc;
 
@@ -45,6 +49,11 @@ pub const INLIER_SIGMAS: f64 = 2.0;
 /// Most solve-and-trim iterations of one cluster's motion.
 pub const TRIM_ITERATIONS: usize = 6;
 
+/// Consecutive returns farther apart than this (m) lie on different surfaces for the
+/// motion a return of the outlier cluster is associated under (0.5, segment-wise
+/// ICP's gap; see [`JointModel`]).
+pub const CARRIER_GAP: f64 = 0.5;
+
 /// The joint CRF of one pair (see the module docs): a two-chain [`HybridChainModel`]
 /// for the core's chain solver.
 pub struct JointModel<'a> {
@@ -52,8 +61,11 @@ pub struct JointModel<'a> {
     weights: Vec<f64>,
     /// One motion per motion cluster (the outlier cluster has none).
     motions: Vec<Pose2>,
-    /// The cluster whose motion the outlier cluster's returns are associated under.
+    /// The cluster whose motion the outlier cluster's returns are associated under
+    /// when no return of their surface is in a motion cluster.
     background: usize,
+    /// Surface (gap segment, [`CARRIER_GAP`]) of every node.
+    surface: Vec<usize>,
     /// Each node's current association state and cluster.
     association: Vec<Option<usize>>,
     cluster: Vec<Option<usize>>,
@@ -89,10 +101,8 @@ impl<'a> JointModel<'a> {
         clusters: &[usize],
     ) -> Self {
         assert!(motions.len() <= clustering_chain::MAX_MOTION_CLUSTERS);
-        let per_node: Vec<Pose2> = clusters
-            .iter()
-            .map(|&c| motions.get(c).copied().unwrap_or(motions[background]))
-            .collect();
+        let surface = segment_by_gap(&problem.current.points, CARRIER_GAP);
+        let per_node = node_motions(problem, clusters, &motions, background);
         let tables = AssociationTables::new(problem, candidates, band, &per_node);
         let n = problem.len();
         Self {
@@ -100,10 +110,23 @@ impl<'a> JointModel<'a> {
             weights: weights.to_vec(),
             motions,
             background,
+            surface,
             association: vec![None; n],
             cluster: vec![None; n],
             stats: RigidAlignment::new(),
         }
+    }
+
+    /// The motion cluster whose motion node `i`'s association features use (see
+    /// [`JointModel`]'s docs on the outlier cluster).
+    pub fn carrier_of(&self, i: usize) -> usize {
+        carrier(
+            &self.cluster,
+            &self.surface,
+            self.motions.len(),
+            self.background,
+            i,
+        )
     }
 
     /// The same model with dense association pairwise tables.
@@ -127,20 +150,18 @@ impl<'a> JointModel<'a> {
         self.motions.len() + 1
     }
 
-    /// The motion node `i`'s association features use: its cluster's, or the
-    /// background's for the outlier cluster (and before a cluster is known).
+    /// The motion node `i`'s association features use: its cluster's; for the
+    /// outlier cluster (and before a cluster is known) the cluster of the nearest
+    /// return on the same surface that is in a motion cluster, else the background's.
     fn node_motion(&self, i: usize) -> &Pose2 {
-        match self.cluster[i] {
-            Some(c) if c < self.motions.len() => &self.motions[c],
-            _ => &self.motions[self.background],
-        }
+        &self.motions[self.carrier_of(i)]
     }
 
     /// Node `i`'s current partner (a reference point), if its association is not the
     /// outlier state.
     fn partner(&self, i: usize) -> Option<&nalgebra::Point2<f64>> {
         let j = self.association[i].and_then(|a| self.tables.partner(i, a))?;
-        Some(&self.tables.problem().reference.points[j])
+        Some(&self.tables.problem().reference.surface[j])
     }
 
     /// Re-solves every motion cluster's motion from its returns' current associations
@@ -156,7 +177,7 @@ impl<'a> JointModel<'a> {
                     continue;
                 }
                 if let Some(g) = self.partner(i) {
-                    pairs.push((p.current.points[i], *g, p.variances[i]));
+                    pairs.push((p.current.surface[i], *g, p.variances[i]));
                 }
             }
             let mut motion = self.motions[c];
@@ -215,7 +236,7 @@ impl HybridChainModel for JointModel<'_> {
                 .write_local(i, self.node_motion(i), ASSOCIATION_BASE, sink);
         } else {
             clustering_chain::write_local(
-                &p.current.points[i],
+                &p.current.surface[i],
                 p.variances[i],
                 self.partner(i),
                 &self.motions,
@@ -232,7 +253,7 @@ impl HybridChainModel for JointModel<'_> {
         } else {
             let p = self.tables.problem();
             clustering_chain::write_pair(
-                [&p.current.points[i], &p.current.points[i + 1]],
+                [&p.current.surface[i], &p.current.surface[i + 1]],
                 [self.partner(i), self.partner(i + 1)],
                 &self.motions,
                 CLUSTERING_BASE,
@@ -258,4 +279,53 @@ impl HybridChainModel for JointModel<'_> {
     fn solve(&mut self) -> f64 {
         self.solve_motions()
     }
+}
+
+/// The motion every node's association features use when the nodes are in
+/// `clusters` (cluster indices; `motions.len()` or more is the outlier cluster): see
+/// [`JointModel`] (a node of the outlier cluster takes the motion of the nearest
+/// node on its surface in a motion cluster, else the `background`'s).
+pub fn node_motions(
+    problem: &AssociationProblem,
+    clusters: &[usize],
+    motions: &[Pose2],
+    background: usize,
+) -> Vec<Pose2> {
+    let surface = segment_by_gap(&problem.current.points, CARRIER_GAP);
+    let cluster: Vec<Option<usize>> = clusters.iter().map(|&c| Some(c)).collect();
+    (0..clusters.len())
+        .map(|i| motions[carrier(&cluster, &surface, motions.len(), background, i)])
+        .collect()
+}
+
+/// The motion cluster node `i` is associated under: its own when it is a motion
+/// cluster (index below `motions`), else that of the nearest node (by chain position,
+/// the earlier one on a tie) on the same `surface` in a motion cluster, else
+/// `background`.
+fn carrier(
+    cluster: &[Option<usize>],
+    surface: &[usize],
+    motions: usize,
+    background: usize,
+    i: usize,
+) -> usize {
+    let motion_cluster = |k: usize| cluster[k].filter(|&c| c < motions);
+    if let Some(c) = motion_cluster(i) {
+        return c;
+    }
+    let n = cluster.len();
+    for d in 1..n {
+        let before = i.checked_sub(d).filter(|&k| surface[k] == surface[i]);
+        let after = Some(i + d).filter(|&k| k < n && surface[k] == surface[i]);
+        if before.is_none() && after.is_none() {
+            break;
+        }
+        if let Some(c) = before
+            .and_then(motion_cluster)
+            .or_else(|| after.and_then(motion_cluster))
+        {
+            return c;
+        }
+    }
+    background
 }

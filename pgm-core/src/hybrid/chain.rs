@@ -287,14 +287,31 @@ pub enum ChainUpdate {
     EveryVisit,
 }
 
+/// When a run of [`HybridChain`] has converged.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Convergence {
+    /// No continuous value changed by more than the tolerance in a sweep and, with
+    /// several chains or [`ChainUpdate::EveryVisit`], no label changed either.
+    #[default]
+    Auto,
+    /// No continuous value changed by more than the tolerance in a sweep, whatever the
+    /// labels did: for models whose chains see each other mainly through the
+    /// continuous values, where a few labels that keep flipping without moving the
+    /// continuous values would otherwise keep the run going (and a slow drift along
+    /// a poorly observed direction of the continuous values with it).
+    Continuous,
+    /// No continuous value changed by more than the tolerance and no label changed.
+    ContinuousAndLabels,
+}
+
 /// Parameters of [`HybridChain`], unchecked.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct HybridChainParams {
     /// Largest number of sweeps (30).
     pub max_sweeps: usize,
     /// The run has converged when no continuous value changed by more than this in a
-    /// sweep (and, with several chains or [`ChainUpdate::EveryVisit`], no label
-    /// changed) (1e-6).
+    /// sweep (and, as [`HybridChainParams::convergence`] says, no label changed)
+    /// (1e-6).
     pub tolerance: f64,
     /// When the continuous values are re-solved.
     pub update: ChainUpdate,
@@ -304,6 +321,8 @@ pub struct HybridChainParams {
     /// it back) and would otherwise run to `max_sweeps`. The result reports
     /// [`HybridChainResult::cycled`].
     pub stop_on_cycle: bool,
+    /// When the run has converged ([`Convergence::Auto`]).
+    pub convergence: Convergence,
 }
 
 /// How many past labellings [`HybridChainParams::stop_on_cycle`] remembers.
@@ -316,6 +335,7 @@ impl Default for HybridChainParams {
             tolerance: 1e-6,
             update: ChainUpdate::EverySweep,
             stop_on_cycle: true,
+            convergence: Convergence::Auto,
         }
     }
 }
@@ -342,6 +362,12 @@ impl HybridChainParams {
     /// Sets whether a run stops when its labels revisit a recent labelling.
     pub fn stop_on_cycle(mut self, stop: bool) -> Self {
         self.stop_on_cycle = stop;
+        self
+    }
+
+    /// Sets when a run has converged.
+    pub fn convergence(mut self, convergence: Convergence) -> Self {
+        self.convergence = convergence;
         self
     }
 }
@@ -552,7 +578,11 @@ impl HybridChain {
         let mut sweeps = 0;
         let mut converged = false;
         let mut change = 0.0;
-        let strict = chains > 1 || self.params.update == ChainUpdate::EveryVisit;
+        let strict = match self.params.convergence {
+            Convergence::Auto => chains > 1 || self.params.update == ChainUpdate::EveryVisit,
+            Convergence::Continuous => false,
+            Convergence::ContinuousAndLabels => true,
+        };
         let mut recent = std::collections::VecDeque::with_capacity(CYCLE_MEMORY + 1);
         recent.push_back(labelling_hash(&buffers));
         let mut cycled = false;
