@@ -14,6 +14,9 @@
 //!   the urban simulator, metrics and the generic evaluation;
 //! - [`baselines`] (`pgm-baselines`): motion K-Means, consistency-based detection;
 //! - [`crf_clustering`] (`pgm-crf-clustering`): the CRF-Clustering model;
+//! - [`crf_matching`] (`pgm-crf-matching`): the CRF-Matching model;
+//! - [`joint`] (`pgm-joint`): the joint model of scan matching, moving-object
+//!   detection and motion estimation;
 //! - [`methods`]: every method by the name the command line uses;
 //! - [`plot`]: SVG pictures of scan pairs and clusterings.
 //!
@@ -37,8 +40,10 @@
 pub use pgm_baselines as baselines;
 pub use pgm_core as core;
 pub use pgm_crf_clustering as crf_clustering;
+pub use pgm_crf_matching as crf_matching;
 pub use pgm_datasets as datasets;
 pub use pgm_features as features;
+pub use pgm_joint as joint;
 
 pub mod methods;
 pub mod plot;

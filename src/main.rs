@@ -32,6 +32,8 @@ enum Command {
     Cluster(cli::cluster::ClusterArgs),
     /// CRF-Matching of one scan pair: JSON associations and motion, optional SVG.
     Match(cli::matching::MatchArgs),
+    /// The joint model on one scan pair: JSON associations, clusters and motions, optional SVG.
+    Joint(cli::joint::JointArgs),
     /// Learn model weights from labelled pairs (`pgm train clustering …`).
     Train(cli::train::TrainArgs),
     /// CRF-Clustering on the built-in simulator: summary table and an SVG.
@@ -50,6 +52,7 @@ fn main() -> ExitCode {
         Command::Plot(args) => cli::plot::run(args),
         Command::Cluster(args) => cli::cluster::run(args),
         Command::Match(args) => cli::matching::run_match(args),
+        Command::Joint(args) => cli::joint::run_joint(args),
         Command::Train(args) => cli::train::run(args),
         Command::Demo(args) => cli::demo::run(args),
     };

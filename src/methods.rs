@@ -1,16 +1,19 @@
 //! The methods the command-line tool, the examples and the tests know by name: one
 //! table per interface ([`MotionClusterer`], [`ScanMatcher`],
-//! [`AssociationSource`]). A model crate implements the interface; adding it here is
-//! one entry, never a branch in a command.
+//! [`AssociationSource`], [`JointEstimator`]). A model crate implements the
+//! interface; adding it here is one entry, never a branch in a command.
 //!
 //! ```
-//! use pgm::methods::{association_source, clusterer, MethodOptions};
+//! use pgm::methods::{association_source, clusterer, joint_estimator, MethodOptions};
 //!
 //! let options = MethodOptions::default();
 //! let icp = association_source("icp", &options).unwrap();
 //! let crf = clusterer("crf", icp, &options).unwrap();
 //! assert_eq!(crf.name(), "crf (icp)");
 //! assert!(clusterer("no-such-method", association_source("true", &options).unwrap(), &options).is_err());
+//!
+//! let separate = joint_estimator("separate", &options).unwrap();
+//! assert_eq!(separate.name(), "separate");
 //! ```
 
 use pgm_baselines::consistency::ConsistencyParams;
@@ -20,9 +23,13 @@ use pgm_crf_matching::{MatchingParams, MatchingWeights};
 use pgm_features::association::{
     AssociationSource, GroundTruthAssociations, NearestParams, SegmentParams,
 };
-use pgm_features::methods::{Associated, MotionClusterer, Odometry, OneCluster, ScanMatcher};
+use pgm_features::methods::{
+    Associated, JointClusters, JointEgoMotion, JointEstimator, MotionClusterer, Odometry,
+    OneCluster, ScanMatcher, TwoSteps,
+};
 use pgm_features::registration::IcpParams;
 use pgm_features::{ParamGuard, ScanPair};
+use pgm_joint::{JointParams, JointWeights};
 use std::fmt;
 use std::sync::Arc;
 
@@ -69,6 +76,8 @@ pub struct MethodOptions {
     pub segment: SegmentParams,
     /// CRF-Matching (associations and scan matching).
     pub matching: MatchingParams,
+    /// The joint model (associations, clusters and motions together).
+    pub joint: JointParams,
 }
 
 impl MethodOptions {
@@ -89,7 +98,15 @@ impl MethodOptions {
         self.icp.check_ref().map_err(invalid)?;
         self.nearest.check_ref().map_err(invalid)?;
         self.segment.check_ref().map_err(invalid)?;
-        self.matching.check_ref().map_err(invalid)
+        self.matching.check_ref().map_err(invalid)?;
+        self.joint.check_ref().map_err(invalid)
+    }
+
+    /// These options with the joint model's weights and boosters loaded from `path` (a
+    /// file written by `pgm train joint`).
+    pub fn with_joint_weights(mut self, path: &std::path::Path) -> Result<Self, MethodError> {
+        self.joint.weights = JointWeights::load(path).map_err(invalid)?;
+        Ok(self)
     }
 
     /// These options with the CRF-Clustering weights loaded from `path` (a file
@@ -159,6 +176,10 @@ pub const CLUSTERERS: &[(&str, &str)] = &[
         "motion K-Means (eq. 10), fed by an association source",
     ),
     ("one-cluster", "every return in the background cluster"),
+    (
+        "joint",
+        "the joint model (van de Ven, Ramos and Tipaldi): its clusters, the outlier cluster as background",
+    ),
 ];
 
 /// Whether the clusterer `name` takes point associations.
@@ -184,6 +205,9 @@ pub fn clusterer(
             associations,
         )),
         "one-cluster" => Box::new(OneCluster),
+        "joint" => Box::new(JointClusters(
+            options.joint.clone().check().map_err(invalid)?,
+        )),
         _ => return Err(unknown("clustering method", name, CLUSTERERS)),
     })
 }
@@ -203,6 +227,7 @@ pub const SCAN_MATCHERS: &[(&str, &str)] = &[
         "crf-matching",
         "CRF-Matching: the ego-motion of its MAP associations",
     ),
+    ("joint", "the joint model: the background cluster's motion"),
 ];
 
 /// The scan matcher named `name` (see [`SCAN_MATCHERS`]).
@@ -215,6 +240,64 @@ pub fn scan_matcher(
         "icp" => Box::new(options.icp.check().map_err(invalid)?),
         "icp+csm" => Box::new(pgm_features::correlative::CorrelativeIcpMatcher::default()),
         "crf-matching" => Box::new(options.matching.clone().check().map_err(invalid)?),
+        "joint" => Box::new(JointEgoMotion(
+            options.joint.clone().check().map_err(invalid)?,
+        )),
         _ => return Err(unknown("scan-matching method", name, SCAN_MATCHERS)),
+    })
+}
+
+/// The number of clusters of motion K-Means in the joint paper's experiments
+/// ("the number of clusters is set to 4"); `pgm eval joint`, `pgm demo` and the
+/// `tables_joint` example run the K-Means pipelines with it.
+pub const JOINT_PAPER_KMEANS_K: usize = 4;
+
+/// The joint methods (associations, clusters and motions of a pair together): name
+/// and what it is. The two-step pipelines are the joint paper's baselines.
+pub const JOINT_ESTIMATORS: &[(&str, &str)] = &[
+    (
+        "joint",
+        "the joint model: association and clustering chains coupled by per-cluster motions",
+    ),
+    (
+        "icp+kmeans",
+        "nearest neighbour after ICP, then motion K-Means on those associations",
+    ),
+    (
+        "crf-matching+kmeans",
+        "CRF-Matching, then motion K-Means on its associations",
+    ),
+    (
+        "separate",
+        "CRF-Matching, then CRF-Clustering on its associations (the chains without the shared motions)",
+    ),
+];
+
+/// The joint method named `name` (see [`JOINT_ESTIMATORS`]), named as typed. The
+/// two-step pipelines put a return their association source calls an outlier in the
+/// outlier cluster ([`pgm_features::methods::JointEstimate::from_two_steps`]).
+pub fn joint_estimator(
+    name: &str,
+    options: &MethodOptions,
+) -> Result<Box<dyn JointEstimator>, MethodError> {
+    let kmeans = || options.kmeans.check().map_err(invalid);
+    Ok(match name {
+        "joint" => Box::new(options.joint.clone().check().map_err(invalid)?),
+        "icp+kmeans" => Box::new(TwoSteps::new(
+            name,
+            kmeans()?,
+            association_source("icp", options)?,
+        )),
+        "crf-matching+kmeans" => Box::new(TwoSteps::new(
+            name,
+            kmeans()?,
+            association_source("crf-matching", options)?,
+        )),
+        "separate" => Box::new(TwoSteps::new(
+            name,
+            options.crf.clone().check().map_err(invalid)?,
+            association_source("crf-matching", options)?,
+        )),
+        _ => return Err(unknown("joint method", name, JOINT_ESTIMATORS)),
     })
 }

@@ -1,6 +1,7 @@
 //! One evaluation loop for every method: a [`MotionClusterer`] scored against
-//! ground-truth labels the way Table I of the CRF-Clustering paper does, and a
-//! [`ScanMatcher`] scored against ground-truth ego-motions. The command-line tool,
+//! ground-truth labels the way Table I of the CRF-Clustering paper does, a
+//! [`ScanMatcher`] scored against ground-truth ego-motions, an [`AssociationSource`]
+//! and a [`JointEstimator`] scored the way Tables I-III of the joint paper do. The command-line tool,
 //! the examples and the tests all run methods through these functions, so a new
 //! model is evaluated by implementing a trait.
 //!
@@ -40,6 +41,14 @@
 //! `v_measure_mover_pairs` over the pairs with a labelled mover only: on a pair without
 //! a mover the V-measure is all or nothing (1 for one cluster, 0 for any split).
 //!
+//! **Associations** (Table I of the joint paper; [`evaluate_association`]): exact
+//! accuracy, accuracy within one beam, string edit distance and outlier percentages
+//! per pair ([`score_associations`]), then means over the pairs.
+//!
+//! **Joint methods** (Tables I-III of the joint paper; [`evaluate_joint`]): a
+//! [`JointEstimator`]'s associations, clusters with the outlier cluster, object
+//! motions and ego-motion, scored together; see [`evaluate_joint`] for the rules.
+//!
 //! **Scan matching.** The translation and rotation error of the estimated ego-motion
 //! ([`crate::metrics::motion_error`]) summarised by median and 90th percentile
 //! ([`evaluate_matching`]); a pair the method cannot run on keeps the prior and, like
@@ -47,12 +56,17 @@
 
 use crate::error::{Error, Result};
 use crate::metrics::{
-    clustering_v_measure, motion_error, percentile, summarize_errors, ErrorSummary, MotionError,
-    VMeasure,
+    association_accuracy_within, association_edit_distance, cluster_outlier_stats, clustering_sed,
+    clustering_v_measure, homogeneity_completeness_v_measure, joint_truth, match_clusterings,
+    motion_error, outlier_stats, percentile, summarize_errors, ClusterMatching, ErrorSummary,
+    MotionError, OutlierStats, VMeasure,
 };
 use nalgebra::Point2;
-use pgm_features::methods::{MotionClusterer, ScanMatcher};
-use pgm_features::{Pose2, ScanPair};
+use pgm_features::association::AssociationSource;
+use pgm_features::methods::{
+    JointCluster, JointEstimate, JointEstimator, MotionClusterer, ScanMatcher,
+};
+use pgm_features::{Association, Pose2, ScanPair};
 use rayon::prelude::*;
 use serde::Serialize;
 use std::collections::{BTreeMap, HashMap};
@@ -718,4 +732,571 @@ pub fn evaluate_matching(
         subsets,
         outcomes,
     })
+}
+
+/// The association scores of one pair (Table I of the joint paper; see
+/// [`score_associations`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct AssociationScore {
+    /// Returns with a ground-truth association.
+    pub scored: usize,
+    /// Exact accuracy (0–1): the same reference beam, or both outlier.
+    pub accuracy: f64,
+    /// Accuracy within one reference beam (0–1).
+    pub accuracy_within_one: f64,
+    /// String edit distance between the predicted and true association sequences.
+    pub sed: usize,
+    /// Outlier percentages.
+    pub outliers: OutlierStats,
+}
+
+/// Scores `predicted` associations against `truth` (one entry per beam of the current
+/// scan): [`association_accuracy_within`] with 0 and 1 beams,
+/// [`association_edit_distance`] and [`outlier_stats`]. `None` when no beam has a
+/// ground-truth association.
+///
+/// # Errors
+/// When the lengths differ; the error names `pair`.
+pub fn score_associations(
+    pair: &str,
+    truth: &[Option<Association>],
+    predicted: &[Option<Association>],
+) -> Result<Option<AssociationScore>> {
+    let named = |e: Error| Error::Unscorable {
+        pair: pair.to_string(),
+        what: e.to_string(),
+    };
+    let exact = association_accuracy_within(truth, predicted, 0).map_err(named)?;
+    let within = association_accuracy_within(truth, predicted, 1).map_err(named)?;
+    let sed = association_edit_distance(truth, predicted).map_err(named)?;
+    let outliers = outlier_stats(truth, predicted).map_err(named)?;
+    Ok(match (exact, within, outliers) {
+        (Some(accuracy), Some(accuracy_within_one), Some(outliers)) => Some(AssociationScore {
+            scored: truth.iter().filter(|t| t.is_some()).count(),
+            accuracy,
+            accuracy_within_one,
+            sed,
+            outliers,
+        }),
+        _ => None,
+    })
+}
+
+/// The mean of the values that exist; `None` when none does.
+fn mean_of(values: impl Iterator<Item = Option<f64>>) -> Option<f64> {
+    let v: Vec<f64> = values.flatten().collect();
+    (!v.is_empty()).then(|| mean_std(&v).0)
+}
+
+/// The outcome of an association source on one pair.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct AssociationOutcome {
+    /// The pair's name.
+    pub name: String,
+    /// The association scores.
+    pub score: AssociationScore,
+    /// The error of the source's ego-motion estimate, when it has one and the pair a
+    /// true ego-motion.
+    pub ego_error: Option<MotionError>,
+}
+
+/// The association metrics over all pairs, each the mean of the per-pair figures
+/// (the `--json` object of `pgm eval association`).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct AssociationSummary {
+    /// Pairs scored.
+    pub pairs: usize,
+    /// Mean exact accuracy (0–1).
+    pub accuracy: f64,
+    /// Mean accuracy within one reference beam (0–1).
+    pub accuracy_within_one: f64,
+    /// Mean string edit distance per pair.
+    pub sed_mean: f64,
+    /// Mean percentage of the scored returns predicted as outliers.
+    pub outliers_predicted: f64,
+    /// Mean percentage of the scored returns that truly are outliers.
+    pub outliers_true: f64,
+    /// Mean percentage of the true outliers predicted as outliers, over the pairs
+    /// with a true outlier (`None` without such a pair).
+    pub outliers_found: Option<f64>,
+}
+
+/// Everything [`evaluate_association`] measured.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct AssociationReport {
+    /// The source's name.
+    pub method: String,
+    /// Mean figures over the pairs.
+    pub summary: AssociationSummary,
+    /// Median and 90th percentile of the ego-motion error over the pairs where the
+    /// source estimated one and the truth is known (`None` otherwise).
+    pub ego: Option<ErrorSummary>,
+    /// One outcome per pair, in the pairs' order.
+    pub outcomes: Vec<AssociationOutcome>,
+}
+
+/// Runs the association `source` on every pair (in parallel) and scores it against
+/// the true associations ([`score_associations`]; Table I of the joint paper).
+///
+/// # Errors
+/// When `pairs` is empty, a pair has no ground-truth association, or the source fails
+/// on a pair (each error names the pair).
+pub fn evaluate_association(
+    pairs: &[ScanPair],
+    source: &dyn AssociationSource,
+) -> Result<AssociationReport> {
+    if pairs.is_empty() {
+        return Err(Error::Unscorable {
+            pair: "(none)".into(),
+            what: "no pair to evaluate".into(),
+        });
+    }
+    let outcomes: Vec<AssociationOutcome> = pairs
+        .par_iter()
+        .map(|pair| -> Result<AssociationOutcome> {
+            let no_truth = || Error::Unscorable {
+                pair: pair.name.clone(),
+                what: "no ground-truth association on any return of the current scan".into(),
+            };
+            let truth = pair
+                .truth
+                .as_ref()
+                .and_then(|t| t.associations.as_ref())
+                .ok_or_else(no_truth)?;
+            let predicted = source.associate(pair).map_err(|e| Error::Method {
+                pair: pair.name.clone(),
+                method: source.name().to_string(),
+                source: Box::new(e),
+            })?;
+            let score = score_associations(&pair.name, truth, &predicted.associations)?
+                .ok_or_else(no_truth)?;
+            let ego_error = predicted
+                .ego_motion
+                .zip(pair.truth.as_ref().and_then(|t| t.ego_motion))
+                .map(|(e, t)| motion_error(&e, &t));
+            Ok(AssociationOutcome {
+                name: pair.name.clone(),
+                score,
+                ego_error,
+            })
+        })
+        .collect::<Result<_>>()?;
+    Ok(summarize_association(source.name(), outcomes))
+}
+
+/// The report of association outcomes (see [`evaluate_association`]); `outcomes`
+/// must not be empty for the means to be numbers.
+pub fn summarize_association(method: &str, outcomes: Vec<AssociationOutcome>) -> AssociationReport {
+    let mean = |f: fn(&AssociationScore) -> f64| {
+        mean_std(&outcomes.iter().map(|o| f(&o.score)).collect::<Vec<_>>()).0
+    };
+    let summary = AssociationSummary {
+        pairs: outcomes.len(),
+        accuracy: mean(|s| s.accuracy),
+        accuracy_within_one: mean(|s| s.accuracy_within_one),
+        sed_mean: mean(|s| s.sed as f64),
+        outliers_predicted: mean(|s| s.outliers.predicted_percentage),
+        outliers_true: mean(|s| s.outliers.true_percentage),
+        outliers_found: mean_of(outcomes.iter().map(|o| o.score.outliers.found_percentage)),
+    };
+    let ego_errors: Vec<MotionError> = outcomes.iter().filter_map(|o| o.ego_error).collect();
+    AssociationReport {
+        method: method.to_string(),
+        summary,
+        ego: summarize_errors(&ego_errors),
+        outcomes,
+    }
+}
+
+/// The clustering scores of one pair of a joint method (Table II of the joint paper;
+/// see [`evaluate_joint`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct JointClusteringScore {
+    /// Returns with a ground-truth cluster.
+    pub scored: usize,
+    /// Clustering accuracy with the outlier cluster (0–1,
+    /// [`crate::metrics::clustering_accuracy_matched`]).
+    pub accuracy: f64,
+    /// Clustering string edit distance ([`crate::metrics::clustering_sed`]).
+    pub sed: usize,
+    /// Homogeneity, completeness and V-measure of the predicted clusters against the
+    /// true ones of [`joint_truth`] (the true outliers a class of their own, the
+    /// outlier cluster a cluster of its own).
+    pub v_measure: VMeasure,
+    /// Outlier-cluster percentages ([`crate::metrics::cluster_outlier_stats`]).
+    pub outliers: OutlierStats,
+}
+
+/// How one true moving object fared under a joint method.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct JointObject {
+    /// Its true label.
+    pub label: u32,
+    /// Its returns whose truth is the object (not true outliers).
+    pub returns: usize,
+    /// The predicted motion cluster the one-to-one matching gave it, if any.
+    pub cluster: Option<usize>,
+    /// Of its returns, those in that cluster.
+    pub overlap: usize,
+    /// Whether it is correctly clustered (see [`evaluate_joint`]).
+    pub correct: bool,
+    /// The motion error, when correctly clustered with a known true motion.
+    pub error: Option<ObjectMotionError>,
+}
+
+/// The outcome of a joint method on one pair.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct JointOutcome {
+    /// The pair's name.
+    pub name: String,
+    /// The association scores (`None` without ground-truth associations).
+    pub association: Option<AssociationScore>,
+    /// The clustering scores (`None` without ground-truth labels).
+    pub clustering: Option<JointClusteringScore>,
+    /// Every true moving object (label > 0) with a return.
+    pub objects: Vec<JointObject>,
+    /// The error of the ego-motion estimate (`None` without a true ego-motion).
+    pub ego_error: Option<MotionError>,
+    /// Iterations the method reported.
+    pub iterations: usize,
+    /// Whether the method converged.
+    pub converged: bool,
+}
+
+/// The summary of [`evaluate_joint`]: exactly the fields of the `pgm eval joint
+/// --json` object of issue 15. Every mean is over the pairs that have the figure's
+/// ground truth, every median over the objects or pairs that have it; a figure with
+/// nothing to be computed from is `None` (`null` in JSON), never a made-up score.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct JointSummary {
+    /// Pairs evaluated.
+    pub pairs: usize,
+    /// Mean exact association accuracy (0–1).
+    pub association_accuracy: Option<f64>,
+    /// Mean association accuracy within one reference beam (0–1).
+    pub association_accuracy_within_one: Option<f64>,
+    /// Mean association string edit distance per pair.
+    pub association_sed: Option<f64>,
+    /// Mean clustering accuracy with the outlier cluster (0–1).
+    pub clustering_accuracy: Option<f64>,
+    /// Mean clustering string edit distance per pair.
+    pub clustering_sed: Option<f64>,
+    /// Mean V-measure.
+    pub v_measure_mean: Option<f64>,
+    /// Mean percentage of the scored returns associated to the outlier state.
+    pub outliers_predicted: Option<f64>,
+    /// Mean percentage of the scored returns whose true association is the outlier
+    /// state.
+    pub outliers_true: Option<f64>,
+    /// Mean percentage of the true outliers associated to the outlier state, over the
+    /// pairs with a true outlier.
+    pub outliers_found: Option<f64>,
+    /// Median rotation error (rad) of the correctly clustered moving objects.
+    pub object_rotation_error_median: Option<f64>,
+    /// Median translation error (m) of the correctly clustered moving objects: the
+    /// distance between where the estimated and the true motion put the object's
+    /// centroid.
+    pub object_translation_error_median: Option<f64>,
+    /// Median rotation error (rad) of the ego-motion.
+    pub ego_rotation_error_median: Option<f64>,
+    /// Median translation error (m) of the ego-motion.
+    pub ego_translation_error_median: Option<f64>,
+    /// Mean iterations the method reported.
+    pub iterations_mean: f64,
+}
+
+/// Everything [`evaluate_joint`] measured.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct JointReport {
+    /// The method's name.
+    pub method: String,
+    /// The figures over all pairs.
+    pub summary: JointSummary,
+    /// True moving objects with a return, over all pairs.
+    pub objects_total: usize,
+    /// Of those, correctly clustered.
+    pub objects_correct: usize,
+    /// Mean outlier-cluster percentages over the pairs with labels (Table II's outlier
+    /// column: predicted, true, and found over the pairs with a true outlier).
+    pub cluster_outliers: [Option<f64>; 3],
+    /// One outcome per pair, in the pairs' order.
+    pub outcomes: Vec<JointOutcome>,
+}
+
+/// Whether a pair can score a joint method: it has ground-truth labels or
+/// associations on some return, or a true ego-motion.
+pub fn scorable_for_joint(pair: &ScanPair) -> bool {
+    pair.truth.as_ref().is_some_and(|t| {
+        t.ego_motion.is_some()
+            || t.labels
+                .as_ref()
+                .is_some_and(|l| l.iter().any(Option::is_some))
+            || t.associations
+                .as_ref()
+                .is_some_and(|a| a.iter().any(Option::is_some))
+    })
+}
+
+/// Runs the joint `method` on one pair and scores it (see [`evaluate_joint`]).
+///
+/// # Errors
+/// When the pair has nothing to score ([`scorable_for_joint`]), the method fails, or
+/// its output does not fit the pair; the error names the pair.
+pub fn evaluate_joint_pair(pair: &ScanPair, method: &dyn JointEstimator) -> Result<JointOutcome> {
+    let unscorable = |what: String| Error::Unscorable {
+        pair: pair.name.clone(),
+        what,
+    };
+    let truth = pair
+        .truth
+        .as_ref()
+        .filter(|_| scorable_for_joint(pair))
+        .ok_or_else(|| {
+            unscorable("no ground-truth label, association or ego-motion to score against".into())
+        })?;
+    let estimate = method.estimate(pair).map_err(|e| Error::Method {
+        pair: pair.name.clone(),
+        method: method.name().to_string(),
+        source: Box::new(e),
+    })?;
+    let beams = pair.current.len();
+    for (what, n) in [
+        ("associations", estimate.associations.len()),
+        ("clusters", estimate.clusters.len()),
+    ] {
+        if n != beams {
+            return Err(unscorable(format!(
+                "{} returned {n} {what} for the {beams} beams of the current scan",
+                method.name()
+            )));
+        }
+    }
+    let cluster_count = estimate.motions.len();
+    if estimate.background >= cluster_count
+        || estimate
+            .clusters
+            .iter()
+            .any(|c| matches!(c, Some(JointCluster::Object(k)) if *k >= cluster_count))
+    {
+        return Err(unscorable(format!(
+            "{} returned a cluster or background index beyond its {cluster_count} motions",
+            method.name()
+        )));
+    }
+    let association = match truth.associations.as_ref() {
+        Some(t) => score_associations(&pair.name, t, &estimate.associations)?,
+        None => None,
+    };
+    let labels = truth
+        .labels
+        .as_ref()
+        .filter(|l| l.iter().any(Option::is_some));
+    let mut objects = Vec::new();
+    let clustering = match labels {
+        None => None,
+        Some(labels) => {
+            let named = |e: Error| unscorable(e.to_string());
+            let joint = joint_truth(labels, truth.associations.as_deref()).map_err(named)?;
+            // Without true associations no return is known to be an outlier: the
+            // outlier cluster is scored as the background (see `evaluate_joint`).
+            let predicted: Vec<Option<JointCluster>> = match truth.associations {
+                Some(_) => estimate.clusters.clone(),
+                None => estimate
+                    .clusters
+                    .iter()
+                    .map(|c| match c {
+                        Some(JointCluster::Outlier) => {
+                            Some(JointCluster::Object(estimate.background))
+                        }
+                        other => *other,
+                    })
+                    .collect(),
+            };
+            let matching = match_clusterings(&joint, &predicted).map_err(named)?;
+            let (classes, clusters): (Vec<JointCluster>, Vec<Option<JointCluster>>) = joint
+                .iter()
+                .zip(&predicted)
+                .filter_map(|(t, p)| t.map(|t| (t, *p)))
+                .unzip();
+            let v_measure =
+                homogeneity_completeness_v_measure(&classes, &clusters, 1.0).map_err(named)?;
+            let sed = clustering_sed(&joint, &predicted).map_err(named)?;
+            let outliers = cluster_outlier_stats(&joint, &estimate.clusters)
+                .map_err(named)?
+                .ok_or_else(|| unscorable("no return with a ground-truth cluster".into()))?;
+            objects = joint_objects(pair, labels, &matching, &estimate);
+            let accuracy = matching
+                .accuracy()
+                .ok_or_else(|| unscorable("no return with a ground-truth cluster".into()))?;
+            Some(JointClusteringScore {
+                scored: matching.scored,
+                accuracy,
+                sed,
+                v_measure,
+                outliers,
+            })
+        }
+    };
+    Ok(JointOutcome {
+        name: pair.name.clone(),
+        association,
+        clustering,
+        objects,
+        ego_error: truth
+            .ego_motion
+            .map(|t| motion_error(&estimate.ego_motion, &t)),
+        iterations: estimate.iterations,
+        converged: estimate.converged,
+    })
+}
+
+/// The true moving objects of a pair and how the matching clustered them (see
+/// [`evaluate_joint`]).
+fn joint_objects(
+    pair: &ScanPair,
+    labels: &[Option<u32>],
+    matching: &ClusterMatching,
+    estimate: &JointEstimate,
+) -> Vec<JointObject> {
+    let true_motions: HashMap<u32, Pose2> = pair
+        .truth
+        .as_ref()
+        .map(|gt| gt.motions.iter().map(|m| (m.label, m.motion)).collect())
+        .unwrap_or_default();
+    matching
+        .object_returns
+        .iter()
+        .filter(|(&l, _)| l > 0)
+        .map(|(&l, &returns)| {
+            let label = l as u32;
+            let matched = matching.matches.iter().find(|m| m.0 == l);
+            let (cluster, overlap) = matched.map_or((None, 0), |m| (Some(m.1), m.2));
+            let correct =
+                cluster.is_some_and(|k| k != estimate.background) && 2 * overlap > returns;
+            let error = cluster
+                .filter(|_| correct)
+                .and_then(|k| Some((true_motions.get(&label)?, estimate.motions[k])))
+                .map(|(truth_motion, estimated)| {
+                    let members: Vec<usize> = (0..labels.len())
+                        .filter(|&k| labels[k] == Some(label))
+                        .collect();
+                    let centroid = members
+                        .iter()
+                        .fold(Point2::origin(), |acc: Point2<f64>, &k| {
+                            acc + pair.current.beam_point(k).coords / members.len() as f64
+                        });
+                    ObjectMotionError {
+                        centroid_error: (estimated.transform_point(&centroid)
+                            - truth_motion.transform_point(&centroid))
+                        .norm(),
+                        rotation_error: estimated.rotation_error(truth_motion),
+                    }
+                });
+            JointObject {
+                label,
+                returns,
+                cluster,
+                overlap,
+                correct,
+                error,
+            }
+        })
+        .collect()
+}
+
+/// Runs the joint `method` on every pair (in parallel) and scores its associations,
+/// clusters and motions the way Tables I-III of the joint paper do.
+///
+/// - **Associations** (pairs with true associations): [`score_associations`].
+/// - **Clusters** (pairs with labels): the clustering accuracy with the outlier
+///   cluster and its string edit distance against [`joint_truth`] (a return whose
+///   true association is the outlier state must be in the outlier cluster), and the
+///   V-measure against the same truth (the true outliers a class of their own, the
+///   outlier cluster a cluster of its own; `pgm eval clustering --method joint`
+///   scores the clusters against the labels alone, like every other clusterer).
+/// - **Objects**: a true moving object (label > 0) is *correctly clustered* when the
+///   one-to-one matching of [`match_clusterings`] gives it a predicted motion cluster
+///   other than the background that holds more than half of its returns; its error
+///   is that cluster's motion against its true motion (rotation in rad; translation
+///   as the distance between where the two motions put the object's centroid, m),
+///   Table III.
+/// - **Ego-motion** (pairs with a true ego-motion): [`motion_error`].
+///
+/// Summaries in [`JointSummary`]. On pairs without true associations (real data)
+/// the association figures are `None`, no return is known to be an outlier, and the
+/// returns of the predicted outlier cluster are scored as the background's (as
+/// `pgm eval clustering` scores them, [`pgm_features::methods::JointClusters`]): the
+/// truth cannot tell whether they are outliers, so they are neither rewarded nor
+/// counted as a cluster of their own. The outlier-cluster percentages
+/// ([`JointClusteringScore::outliers`]) still report how many returns the method
+/// put there.
+///
+/// # Errors
+/// When `pairs` is empty or a pair fails ([`evaluate_joint_pair`]; the error names
+/// the pair).
+pub fn evaluate_joint(pairs: &[ScanPair], method: &dyn JointEstimator) -> Result<JointReport> {
+    if pairs.is_empty() {
+        return Err(Error::Unscorable {
+            pair: "(none)".into(),
+            what: "no pair to evaluate".into(),
+        });
+    }
+    let outcomes: Vec<JointOutcome> = pairs
+        .par_iter()
+        .map(|p| evaluate_joint_pair(p, method))
+        .collect::<Result<_>>()?;
+    Ok(summarize_joint(method.name(), outcomes))
+}
+
+/// The report of joint outcomes (see [`evaluate_joint`]).
+pub fn summarize_joint(method: &str, outcomes: Vec<JointOutcome>) -> JointReport {
+    let association = |f: fn(&AssociationScore) -> Option<f64>| {
+        mean_of(outcomes.iter().map(|o| o.association.as_ref().and_then(f)))
+    };
+    let clustering = |f: fn(&JointClusteringScore) -> Option<f64>| {
+        mean_of(outcomes.iter().map(|o| o.clustering.as_ref().and_then(f)))
+    };
+    let errors: Vec<&ObjectMotionError> = outcomes
+        .iter()
+        .flat_map(|o| &o.objects)
+        .filter_map(|o| o.error.as_ref())
+        .collect();
+    let ego: Vec<MotionError> = outcomes.iter().filter_map(|o| o.ego_error).collect();
+    let median = |v: Vec<f64>| percentile(&v, 50.0);
+    let summary = JointSummary {
+        pairs: outcomes.len(),
+        association_accuracy: association(|s| Some(s.accuracy)),
+        association_accuracy_within_one: association(|s| Some(s.accuracy_within_one)),
+        association_sed: association(|s| Some(s.sed as f64)),
+        clustering_accuracy: clustering(|s| Some(s.accuracy)),
+        clustering_sed: clustering(|s| Some(s.sed as f64)),
+        v_measure_mean: clustering(|s| Some(s.v_measure.v_measure)),
+        outliers_predicted: association(|s| Some(s.outliers.predicted_percentage)),
+        outliers_true: association(|s| Some(s.outliers.true_percentage)),
+        outliers_found: association(|s| s.outliers.found_percentage),
+        object_rotation_error_median: median(errors.iter().map(|e| e.rotation_error).collect()),
+        object_translation_error_median: median(errors.iter().map(|e| e.centroid_error).collect()),
+        ego_rotation_error_median: median(ego.iter().map(|e| e.rotation).collect()),
+        ego_translation_error_median: median(ego.iter().map(|e| e.translation).collect()),
+        iterations_mean: mean_std(
+            &outcomes
+                .iter()
+                .map(|o| o.iterations as f64)
+                .collect::<Vec<_>>(),
+        )
+        .0,
+    };
+    let objects: Vec<&JointObject> = outcomes.iter().flat_map(|o| &o.objects).collect();
+    JointReport {
+        method: method.to_string(),
+        summary,
+        objects_total: objects.len(),
+        objects_correct: objects.iter().filter(|o| o.correct).count(),
+        cluster_outliers: [
+            clustering(|s| Some(s.outliers.predicted_percentage)),
+            clustering(|s| Some(s.outliers.true_percentage)),
+            clustering(|s| s.outliers.found_percentage),
+        ],
+        outcomes,
+    }
 }

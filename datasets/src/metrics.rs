@@ -9,7 +9,8 @@
 //! - Association (joint-model paper, Table I): accuracy, string edit distance (SED)
 //!   and outlier figures ([`association_accuracy`], [`association_edit_distance`],
 //!   [`outlier_stats`]); clustering accuracy and SED (Table II) with the outlier
-//!   cluster ([`clustering_accuracy_matched`], [`clustering_sed`]; the older
+//!   cluster ([`clustering_accuracy_matched`], [`clustering_sed`],
+//!   [`cluster_outlier_stats`]; the older
 //!   [`clustering_accuracy`] and [`clustering_edit_distance`] have no outlier
 //!   cluster).
 //! - Motion (Table III): rotation and translation error ([`motion_error`]), and the
@@ -541,9 +542,9 @@ pub struct OutlierStats {
     pub predicted_percentage: f64,
     /// Percentage of beams that truly are outliers.
     pub true_percentage: f64,
-    /// Percentage of the true outliers that were predicted as outliers
-    /// (100 when there is no true outlier).
-    pub found_percentage: f64,
+    /// Percentage of the true outliers that were predicted as outliers; `None` when
+    /// there is no true outlier (nothing to find: not a score of 100).
+    pub found_percentage: Option<f64>,
 }
 
 /// Outlier figures (see [`OutlierStats`]); `None` when no beam has a ground-truth
@@ -573,12 +574,30 @@ pub fn outlier_stats(
     Ok(Some(OutlierStats {
         predicted_percentage: pct(predicted_outliers, scored),
         true_percentage: pct(true_outliers, scored),
-        found_percentage: if true_outliers == 0 {
-            100.0
-        } else {
-            pct(found, true_outliers)
-        },
+        found_percentage: (true_outliers > 0).then(|| pct(found, true_outliers)),
     }))
+}
+
+/// The outlier figures of the joint paper's Table II: [`OutlierStats`] of the
+/// outlier *cluster*, as percentages over the beams with a ground-truth cluster (build
+/// `truth` with [`joint_truth`]); a beam without a prediction counts as not in the
+/// outlier cluster. `None` when no beam has a ground-truth cluster.
+///
+/// # Errors
+/// When the lengths differ.
+pub fn cluster_outlier_stats(
+    truth: &[Option<JointCluster>],
+    predicted: &[Option<JointCluster>],
+) -> Result<Option<OutlierStats>> {
+    check_lengths("cluster outlier statistics", truth.len(), predicted.len())?;
+    let as_association = |c: &Option<JointCluster>| match c {
+        Some(JointCluster::Outlier) => Some(Association::Outlier),
+        Some(JointCluster::Object(_)) => Some(Association::Point(0)),
+        None => None,
+    };
+    let t: Vec<Option<Association>> = truth.iter().map(as_association).collect();
+    let p: Vec<Option<Association>> = predicted.iter().map(as_association).collect();
+    outlier_stats(&t, &p)
 }
 
 /// Translation (m) and rotation (rad) error of a motion estimate.

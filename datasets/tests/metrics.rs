@@ -200,7 +200,15 @@ fn association_metrics() {
     let o = outlier_stats(&truth, &predicted).unwrap().unwrap();
     assert_eq!(o.predicted_percentage, 25.0);
     assert_eq!(o.true_percentage, 50.0);
-    assert_eq!(o.found_percentage, 50.0);
+    assert_eq!(o.found_percentage, Some(50.0));
+    // No true outlier: nothing to find, not 100 % found.
+    let clean = [Some(Point(0)), Some(Point(1))];
+    let o = outlier_stats(&clean, &[Some(Outlier), Some(Point(1))])
+        .unwrap()
+        .unwrap();
+    assert_eq!(o.predicted_percentage, 50.0);
+    assert_eq!(o.true_percentage, 0.0);
+    assert_eq!(o.found_percentage, None);
     assert_eq!(association_accuracy(&[None], &[None]).unwrap(), None);
     assert!(association_accuracy(&truth, &predicted[..2]).is_err());
 }

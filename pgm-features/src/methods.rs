@@ -2,7 +2,9 @@
 //! of linfa's `Predict`: a [`ScanMatcher`] estimates the ego-motion of a pair, a
 //! [`MotionClusterer`] labels the current scan's returns with clusters of common
 //! motion, a [`JointEstimator`] does both and associates the returns as well (the
-//! joint model, and the two-step pipelines it is compared with: [`TwoSteps`]).
+//! joint model, and the two-step pipelines it is compared with: [`TwoSteps`]);
+//! [`JointClusters`] and [`JointEgoMotion`] score a joint method's clusters and
+//! ego-motion through the clustering and matching evaluations.
 //! Evaluation (`pgm_datasets::evaluation`), the command-line tool, the
 //! examples and the tests are generic over them, so adding a model means adding an
 //! implementation, not a branch in the tool.
@@ -296,11 +298,15 @@ impl JointEstimate {
     }
 
     /// The clusters as a [`MotionClustering`]: the background is label 0, the other
-    /// motion clusters 1, 2, … in the order of `motions`, and a return in the outlier
-    /// cluster is unlabelled (`None`), as CRF-Clustering leaves the returns of its
-    /// outlier state. So the V-measure counts the outlier cluster as a cluster of its
-    /// own, and the detection metrics count its returns as not moving.
-    pub fn to_motion_clustering(&self) -> MotionClustering {
+    /// motion clusters 1, 2, … in the order of `motions`; a return in the outlier
+    /// cluster is labelled as `outliers` says (unlabelled, `None`, for pictures that
+    /// show the outlier cluster apart; the background, for scoring as a motion
+    /// clusterer, see [`JointClusters`]).
+    pub fn to_motion_clustering(&self, outliers: OutlierReturns) -> MotionClustering {
+        let outlier_label = match outliers {
+            OutlierReturns::Unlabelled => None,
+            OutlierReturns::Background => Some(0),
+        };
         let label_of = |k: usize| -> u32 {
             if k == self.background {
                 0
@@ -316,7 +322,8 @@ impl JointEstimate {
                 .iter()
                 .map(|c| match c {
                     Some(JointCluster::Object(k)) => Some(label_of(*k)),
-                    _ => None,
+                    Some(JointCluster::Outlier) => outlier_label,
+                    None => None,
                 })
                 .collect(),
             motions: self
@@ -341,12 +348,23 @@ impl JointEstimate {
     }
 }
 
+/// How [`JointEstimate::to_motion_clustering`] labels the returns of the outlier
+/// cluster.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OutlierReturns {
+    /// Unlabelled (`None`): a cluster of its own for the V-measure, not moving for the
+    /// detection metrics.
+    Unlabelled,
+    /// The background (label 0).
+    Background,
+}
+
 /// Estimates the point associations, the clusters of common motion and their motions
 /// of scan pairs together (scan matching, moving-object detection and motion
 /// estimation), as the joint model does.
 ///
 /// ```
-/// use pgm_features::methods::{JointCluster, JointEstimate, JointEstimator};
+/// use pgm_features::methods::{JointCluster, JointEstimate, JointEstimator, OutlierReturns};
 /// use pgm_features::{Association, Pose2, Result, Scan, ScanPair};
 ///
 /// /// Every return associated to the same beam, all in the background.
@@ -375,7 +393,7 @@ impl JointEstimate {
 /// let pair = ScanPair { name: "p".into(), reference: scan.clone(), current: scan,
 ///                       odometry: None, truth: None };
 /// let estimate = Identity.estimate(&pair).unwrap();
-/// assert_eq!(estimate.to_motion_clustering().labels, vec![Some(0), Some(0)]);
+/// assert_eq!(estimate.to_motion_clustering(OutlierReturns::Background).labels, vec![Some(0), Some(0)]);
 /// ```
 pub trait JointEstimator: Send + Sync {
     /// The method's name, as typed on the command line.
@@ -440,9 +458,16 @@ impl<C: ClusterWithAssociations> JointEstimator for TwoSteps<C> {
     }
 }
 
-/// A [`JointEstimator`]'s clusters as a [`MotionClusterer`]
-/// ([`JointEstimate::to_motion_clustering`]: outlier-cluster returns unlabelled), so
-/// the clustering evaluation scores a joint method like every other clusterer.
+/// A [`JointEstimator`]'s clusters as a [`MotionClusterer`], so the clustering
+/// evaluation scores a joint method like every other clusterer. The returns of the
+/// outlier cluster count as background ([`OutlierReturns::Background`]), as motion
+/// K-Means gives the background to returns without a partner and CRF-Clustering's
+/// clean-up gives them the background unless their segment's associated returns say
+/// otherwise: a motion clusterer labels every return. (Left unlabelled, the outlier
+/// cluster would be a cluster of its own, and on a pair without a moving object any
+/// return in it would score the V-measure 0, whatever the clustering.) The detection
+/// metrics count these returns as not moving either way. `pgm eval joint` scores the
+/// outlier cluster itself (`pgm_datasets::evaluation::evaluate_joint`).
 pub struct JointClusters<E>(pub E);
 
 impl<E: JointEstimator> MotionClusterer for JointClusters<E> {
@@ -451,6 +476,118 @@ impl<E: JointEstimator> MotionClusterer for JointClusters<E> {
     }
 
     fn cluster(&self, pair: &ScanPair) -> Result<MotionClustering> {
-        Ok(self.0.estimate(pair)?.to_motion_clustering())
+        Ok(self
+            .0
+            .estimate(pair)?
+            .to_motion_clustering(OutlierReturns::Background))
+    }
+}
+
+/// A [`JointEstimator`]'s ego-motion as a [`ScanMatcher`], so the scan-matching
+/// evaluation scores a joint method like every other matcher. A run that did not
+/// converge (the sweep limit) still has an estimate; it is reported with
+/// `converged: false` and a note.
+pub struct JointEgoMotion<E>(pub E);
+
+impl<E: JointEstimator> ScanMatcher for JointEgoMotion<E> {
+    fn name(&self) -> &str {
+        self.0.name()
+    }
+
+    fn estimate(&self, pair: &ScanPair) -> Result<EgoMotionEstimate> {
+        let e = self.0.estimate(pair)?;
+        Ok(EgoMotionEstimate {
+            motion: e.ego_motion,
+            converged: e.converged,
+            iterations: e.iterations,
+            note: (!e.converged)
+                .then(|| format!("stopped unconverged after {} iterations", e.iterations)),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn motion(label: u32, x: f64) -> ClusterMotion {
+        ClusterMotion {
+            label,
+            motion: Pose2::new(x, 0.0, 0.0),
+            kind: String::new(),
+        }
+    }
+
+    /// Five beams: background, object 2 (no motion reported), outlier association,
+    /// no return, object 5; the clustering's labels skip numbers.
+    fn two_steps() -> JointEstimate {
+        let associations = PointAssociations {
+            associations: vec![
+                Some(Association::Point(0)),
+                Some(Association::Point(1)),
+                Some(Association::Outlier),
+                None,
+                Some(Association::Point(4)),
+            ],
+            ego_motion: Some(Pose2::new(0.5, 0.0, 0.0)),
+        };
+        let clustering = MotionClustering {
+            labels: vec![Some(0), Some(2), Some(2), None, Some(5)],
+            motions: vec![motion(0, 0.4), motion(5, 2.0)],
+            ego_motion: Some(Pose2::new(0.4, 0.0, 0.0)),
+            iterations: 7,
+            converged: false,
+        };
+        JointEstimate::from_two_steps(associations, clustering)
+    }
+
+    #[test]
+    fn two_steps_number_the_clusters_and_send_outliers_to_the_outlier_cluster() {
+        let e = two_steps();
+        assert_eq!(
+            e.clusters,
+            vec![
+                Some(JointCluster::Object(0)),
+                Some(JointCluster::Object(1)),
+                Some(JointCluster::Outlier),
+                None,
+                Some(JointCluster::Object(2)),
+            ]
+        );
+        // Label 2 has no motion: it takes the ego-motion, the association source's.
+        assert_eq!(
+            e.motions,
+            vec![
+                Pose2::new(0.4, 0.0, 0.0),
+                Pose2::new(0.5, 0.0, 0.0),
+                Pose2::new(2.0, 0.0, 0.0)
+            ]
+        );
+        assert_eq!(e.ego_motion, Pose2::new(0.5, 0.0, 0.0));
+        assert_eq!((e.background, e.iterations, e.converged), (0, 7, false));
+    }
+
+    #[test]
+    fn motion_clusterings_put_the_background_first_and_label_outliers_as_asked() {
+        let mut e = two_steps();
+        // Make cluster 1 the background: it becomes label 0, cluster 0 label 1.
+        e.background = 1;
+        let unlabelled = e.to_motion_clustering(OutlierReturns::Unlabelled);
+        assert_eq!(
+            unlabelled.labels,
+            vec![Some(1), Some(0), None, None, Some(2)]
+        );
+        let background = e.to_motion_clustering(OutlierReturns::Background);
+        assert_eq!(
+            background.labels,
+            vec![Some(1), Some(0), Some(0), None, Some(2)]
+        );
+        let kinds: Vec<(u32, &str)> = background
+            .motions
+            .iter()
+            .map(|m| (m.label, m.kind.as_str()))
+            .collect();
+        assert_eq!(kinds, vec![(1, "moving"), (0, "background"), (2, "moving")]);
+        assert_eq!(background.ego_motion, Some(e.ego_motion));
     }
 }

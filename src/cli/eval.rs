@@ -54,6 +54,9 @@ pub enum EvalCommand {
     Clustering(super::eval_clustering::ClusteringEvalArgs),
     /// Point association: accuracy, edit distance and outliers against the truth.
     Association(super::matching::AssociationEvalArgs),
+    /// Joint methods: associations, clusters with the outlier cluster, object motions
+    /// and ego-motion against the truth (Tables I-III of the joint paper).
+    Joint(super::joint::JointEvalArgs),
 }
 
 /// `pgm eval matching`.
@@ -110,6 +113,7 @@ pub fn run(args: EvalArgs) -> CliResult {
         EvalCommand::Matching(a) => run_matching(a),
         EvalCommand::Clustering(a) => super::eval_clustering::run(a),
         EvalCommand::Association(a) => super::matching::run_eval_association(a),
+        EvalCommand::Joint(a) => super::joint::run_eval_joint(a),
     }
 }
 

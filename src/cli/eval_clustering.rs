@@ -8,7 +8,9 @@
 //! deviation over pairs, and the detection metrics
 //! ([`pgm_datasets::evaluation::DetectionSummary`]; `--min-object-returns N`, default
 //! 5). The data may also come from a bag (`--bag FILE --scan-topic T …`, see `pgm data
-//! pairs`). The methods and association sources are those of [`pgm::methods`].
+//! pairs`). The methods and association sources are those of [`pgm::methods`];
+//! `--method joint` scores the joint model's clusters (the outlier cluster's returns
+//! as background, [`pgm_features::methods::JointClusters`]; `--joint-weights FILE`).
 //! `--json` prints one object `{"method", "associations", "data", "pair_sets",
 //! "weights", "pairs",
 //! "homogeneity_mean", "homogeneity_std", "completeness_mean", "completeness_std",
@@ -79,6 +81,10 @@ pub struct ClusteringEvalArgs {
     /// CBD: how much closer (m) than the reference return a dynamic point is.
     #[arg(long, default_value_t = pgm::methods::MethodOptions::default().cbd.margin)]
     pub cbd_margin: f64,
+    /// The joint model's weights and boosters for `--method joint`, written by `pgm
+    /// train joint` (default: the shipped ones).
+    #[arg(long)]
+    pub joint_weights: Option<PathBuf>,
     /// Hide the pairs' odometry prior from the methods (the labels still use it): the
     /// methods run as on a log without odometry.
     #[arg(long)]
@@ -181,6 +187,11 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
         );
     }
     let mut options = args.crf.options()?;
+    if let Some(path) = &args.joint_weights {
+        options = options
+            .with_joint_weights(path)
+            .map_err(CliError::from_display)?;
+    }
     options.kmeans.k = args.kmeans_k;
     options.cbd.margin = args.cbd_margin;
     options.check().map_err(CliError::from_display)?;
@@ -209,9 +220,17 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
     }
     let summary = report.summary;
     let found = report.found_objects;
-    let weights = match &args.crf.weights {
-        Some(path) => path.display().to_string(),
-        None => "shipped (trained on simulated pairs, seed 1000)".into(),
+    let weights = if args.method == "joint" {
+        args.joint_weights
+            .as_ref()
+            .map_or(super::joint::SHIPPED_JOINT_WEIGHTS.into(), |p| {
+                p.display().to_string()
+            })
+    } else {
+        match &args.crf.weights {
+            Some(path) => path.display().to_string(),
+            None => "shipped (trained on simulated pairs, seed 1000)".into(),
+        }
     };
     let data = format!(
         "{source}{}; every pair scored, none trained on",
@@ -262,7 +281,7 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
         "pair sets (names before the last `:`): {}",
         pair_sets.join(", ")
     );
-    if clusterer_needs_associations(&args.method) || args.method == "crf" {
+    if clusterer_needs_associations(&args.method) || args.method == "joint" {
         println!("weights {weights}");
     }
     println!(
@@ -307,7 +326,7 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
         show(d.object_translation_error_median, 3),
         show(d.object_rotation_error_median, 4)
     );
-    if clusterer_needs_associations(&args.method) {
+    if clusterer_needs_associations(&args.method) || args.method == "joint" {
         println!(
             "moving objects found {} of {}; median motion error {} m at the centroid, {} rad",
             found.found,

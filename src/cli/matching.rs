@@ -12,7 +12,9 @@
 //! `pgm eval association --method NAME --pairs DIR [--json]` scores every pair with
 //! ground-truth associations: exact accuracy (the same reference beam, or both
 //! outlier), accuracy within one beam, string edit distance, and the outlier
-//! percentages (predicted, true, and the share of true outliers found).
+//! percentages (predicted, true, and the share of true outliers found, over the pairs
+//! with a true outlier; `null` without one), through
+//! [`pgm_datasets::evaluation::evaluate_association`].
 
 use super::cluster::{association_names, OnePairArgs};
 use super::data::{load_pairs, pair_source, LeighArgs, SourceArgs};
@@ -21,11 +23,8 @@ use clap::Args;
 use pgm::methods::{association_source, MethodOptions};
 use pgm::plot::PairPicture;
 use pgm_crf_matching::StateSpace;
-use pgm_datasets::metrics::{
-    association_accuracy_within, association_edit_distance, outlier_stats,
-};
+use pgm_datasets::evaluation::{evaluate_association, AssociationSummary};
 use pgm_features::ParamGuard;
-use rayon::prelude::*;
 use serde::Serialize;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -37,15 +36,15 @@ pub struct MatchingOptionArgs {
     /// the shipped ones).
     #[arg(long)]
     pub matching_weights: Option<PathBuf>,
-    /// CRF-Matching: the states of a point: `K` (its K nearest reference returns under
-    /// its motion estimate, plus the outlier state; 1-64) or `full` (every reference
-    /// return and the outlier state).
+    /// CRF-Matching (and the joint model): the states of a point: `K` (its K nearest
+    /// reference returns under its motion estimate, plus the outlier state; 1-64) or
+    /// `full` (every reference return and the outlier state).
     #[arg(long, default_value = "6", value_parser = parse_state_space)]
     pub candidates: StateSpace,
 }
 
-/// Parses `--candidates`.
-fn parse_state_space(value: &str) -> Result<StateSpace, String> {
+/// Parses `--candidates`: `full` or a number of candidates in 1..=64.
+pub fn parse_state_space(value: &str) -> Result<StateSpace, String> {
     if value == "full" {
         return Ok(StateSpace::Full);
     }
@@ -66,6 +65,7 @@ impl MatchingOptionArgs {
                 .map_err(CliError::from_display)?;
         }
         options.matching.state_space = self.candidates;
+        options.joint.state_space = self.candidates;
         Ok(options)
     }
 }
@@ -171,21 +171,10 @@ pub struct AssociationEvalArgs {
 
 /// The `--json` object of `pgm eval association`.
 #[derive(Serialize)]
-struct AssociationReport {
-    method: String,
-    pairs: usize,
-    /// Exact accuracy, a fraction.
-    accuracy: f64,
-    /// Accuracy within one reference beam, a fraction.
-    accuracy_within_one: f64,
-    /// Mean string edit distance per pair.
-    sed_mean: f64,
-    /// Predicted outliers, percent of the scored returns.
-    outliers_predicted: f64,
-    /// True outliers, percent of the scored returns.
-    outliers_true: f64,
-    /// Percent of the true outliers predicted as outliers.
-    outliers_found: f64,
+struct AssociationJson<'a> {
+    method: &'a str,
+    #[serde(flatten)]
+    summary: &'a AssociationSummary,
 }
 
 /// Runs `pgm eval association`.
@@ -197,87 +186,45 @@ pub fn run_eval_association(args: AssociationEvalArgs) -> CliResult {
         annotated_sector: false,
     };
     let source = pair_source(args.pairs.as_deref(), &args.source, &leigh, 1)?;
-    let pairs = load_pairs(&source)?.pairs;
-    let scored: Vec<_> = pairs
-        .iter()
-        .filter(|p| {
-            p.truth
-                .as_ref()
-                .and_then(|t| t.associations.as_ref())
-                .is_some_and(|a| a.iter().any(Option::is_some))
-        })
-        .collect();
+    let mut scored = load_pairs(&source)?.pairs;
+    let total = scored.len();
+    scored.retain(|p| {
+        p.truth
+            .as_ref()
+            .and_then(|t| t.associations.as_ref())
+            .is_some_and(|a| a.iter().any(Option::is_some))
+    });
     if scored.is_empty() {
         return Err(CliError(format!(
-            "{source}: none of the {} pairs has ground-truth associations (simulated pairs \
-             have them; real logs do not)",
-            pairs.len()
+            "{source}: none of the {total} pairs has ground-truth associations (simulated \
+             pairs have them; real logs do not)"
         )));
     }
-    if scored.len() < pairs.len() {
+    if scored.len() < total {
         eprintln!(
-            "note: {} of {} pairs have no ground-truth associations and are not scored",
-            pairs.len() - scored.len(),
-            pairs.len()
+            "note: {} of {total} pairs have no ground-truth associations and are not scored",
+            total - scored.len()
         );
     }
     let options = args.matching.apply(MethodOptions::default())?;
     let method = association_source(&args.method, &options).map_err(CliError::from_display)?;
-    let rows: Vec<[f64; 6]> = scored
-        .par_iter()
-        .map(|pair| -> Result<[f64; 6], CliError> {
-            let truth = pair
-                .truth
-                .as_ref()
-                .and_then(|t| t.associations.as_ref())
-                .expect("filtered");
-            let predicted = method
-                .associate(pair)
-                .map_err(CliError::from_display)?
-                .associations;
-            let e = |e: pgm_datasets::Error| CliError(format!("pair `{}`: {e}", pair.name));
-            let exact = association_accuracy_within(truth, &predicted, 0).map_err(e)?;
-            let within = association_accuracy_within(truth, &predicted, 1).map_err(e)?;
-            let sed = association_edit_distance(truth, &predicted).map_err(e)?;
-            let outliers = outlier_stats(truth, &predicted).map_err(e)?;
-            match (exact, within, outliers) {
-                (Some(a), Some(b), Some(o)) => Ok([
-                    a,
-                    b,
-                    sed as f64,
-                    o.predicted_percentage,
-                    o.true_percentage,
-                    o.found_percentage,
-                ]),
-                _ => Err(CliError(format!(
-                    "pair `{}`: no return with a ground-truth association",
-                    pair.name
-                ))),
-            }
-        })
-        .collect::<Result<_, _>>()?;
-    let n = rows.len() as f64;
-    let mean = |k: usize| rows.iter().map(|r| r[k]).sum::<f64>() / n;
-    let report = AssociationReport {
-        method: method.name().to_string(),
-        pairs: rows.len(),
-        accuracy: mean(0),
-        accuracy_within_one: mean(1),
-        sed_mean: mean(2),
-        outliers_predicted: mean(3),
-        outliers_true: mean(4),
-        outliers_found: mean(5),
-    };
+    let evaluated =
+        evaluate_association(&scored, method.as_ref()).map_err(CliError::from_display)?;
+    let report = &evaluated.summary;
     if args.json {
+        let json = AssociationJson {
+            method: &evaluated.method,
+            summary: report,
+        };
         println!(
             "{}",
-            serde_json::to_string(&report).map_err(CliError::from_display)?
+            serde_json::to_string(&json).map_err(CliError::from_display)?
         );
         return Ok(ExitCode::SUCCESS);
     }
     println!(
         "method {}: {} pairs of {source}",
-        report.method, report.pairs
+        evaluated.method, report.pairs
     );
     println!("accuracy (exact)        {:.1} %", 100.0 * report.accuracy);
     println!(
@@ -286,8 +233,12 @@ pub fn run_eval_association(args: AssociationEvalArgs) -> CliResult {
     );
     println!("string edit distance    {:.1}", report.sed_mean);
     println!(
-        "outliers                {:.1} % predicted, {:.1} % true, {:.1} % of the true ones found",
-        report.outliers_predicted, report.outliers_true, report.outliers_found
+        "outliers                {:.1} % predicted, {:.1} % true, {} of the true ones found",
+        report.outliers_predicted,
+        report.outliers_true,
+        report
+            .outliers_found
+            .map_or("n/a (no true outlier)".into(), |x| format!("{x:.1} %"))
     );
     Ok(ExitCode::SUCCESS)
 }

@@ -7,6 +7,7 @@ pub mod demo;
 pub mod eval;
 pub mod eval_clustering;
 pub mod infer;
+pub mod joint;
 pub mod matching;
 pub mod plot;
 pub mod sim;

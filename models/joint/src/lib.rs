@@ -30,6 +30,7 @@
 mod error;
 pub mod estimator;
 pub mod learning;
+mod methods;
 pub mod model;
 pub mod weights;
 

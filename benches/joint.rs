@@ -1,0 +1,54 @@
+//! The joint model on one simulated 361-beam pair (preset mixed, seed 1, pair 0) with
+//! the shipped weights: motion hypotheses, candidates, rounds of exact sweeps over the
+//! association and clustering chains with the cluster motions re-solved, vacuous
+//! clusters, the ego-motion — everything from the pair to the associations, clusters
+//! and motions. `pruned` is the default state space (6 candidates and the outlier
+//! state per return), `full` every reference return and the outlier state (sparse
+//! pairwise tables); both re-solve the motions after every sweep (the default).
+//! `pruned_every_visit` re-solves them after every node visit whose label changed
+//! (Algorithm 1's schedule). The targets: at most 5 ms pruned, 200 ms full.
+//!
+//! Run: `cargo bench --bench joint`.
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use pgm_core::hybrid::chain::ChainUpdate;
+use pgm_datasets::sim::{simulate_pair, SimConfig};
+use pgm_features::association_chain::StateSpace;
+use pgm_features::ParamGuard;
+use pgm_joint::JointParams;
+use std::time::Duration;
+
+fn joint(c: &mut Criterion) {
+    let pair = simulate_pair(&SimConfig::default().check().expect("valid"), 1, 0);
+    assert_eq!(pair.current.len(), 361, "a 361-beam pair");
+    let mut group = c.benchmark_group("joint_361_beams");
+    group
+        .sample_size(20)
+        .measurement_time(Duration::from_secs(8));
+    for (name, space, update) in [
+        ("pruned", StateSpace::Pruned(6), ChainUpdate::EverySweep),
+        ("full", StateSpace::Full, ChainUpdate::EverySweep),
+        (
+            "pruned_every_visit",
+            StateSpace::Pruned(6),
+            ChainUpdate::EveryVisit,
+        ),
+    ] {
+        let joint = JointParams {
+            state_space: space,
+            update,
+            ..JointParams::default()
+        }
+        .check()
+        .expect("valid");
+        let sweeps = joint.estimate(&pair).expect("runs").sweeps;
+        eprintln!("joint {name}: {sweeps} sweeps on {}", pair.name);
+        group.bench_function(name, |b| {
+            b.iter(|| std::hint::black_box(joint.estimate(&pair).expect("runs")))
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, joint);
+criterion_main!(benches);

@@ -1,0 +1,467 @@
+//! `pgm joint` (the joint model of van de Ven, Ramos and Tipaldi on one pair) and
+//! `pgm eval joint` (any joint method scored the way Tables I-III of the joint paper
+//! do).
+//!
+//! `pgm joint (--pairs DIR [--pair NAME|INDEX] | --scans FILE --reference I --current
+//! J | --carmen FILE --reference I --current J | --bag FILE --scan-topic T --reference
+//! I --current J) [--candidates K|full] [--clusters D|auto] [--weights FILE] [--svg
+//! FILE]` prints one JSON object: per current beam its association (a reference beam,
+//! `-1` for the outlier state, `null` without a return), the max-marginal confidence
+//! of that association, its cluster (an index into `motions`, `-1` for the outlier
+//! cluster, `null` without a return); every motion cluster's motion (`motions`, and
+//! `cluster_motions` with the cluster's returns and whether it is the background),
+//! the background cluster, the ego-motion, the returns in the outlier cluster, sweeps,
+//! rounds and convergence. `--svg` draws the association lines and the current scan
+//! coloured by cluster (outlier cluster black), like Figs. 3 and 4 of the paper.
+//!
+//! `pgm eval joint --method joint|icp+kmeans|crf-matching+kmeans|separate (--pairs DIR
+//! | log or bag options as pgm eval clustering) [--json]` runs the method on every pair
+//! with ground truth ([`pgm_datasets::evaluation::evaluate_joint`]) and prints the
+//! data, the pair sets (simulator preset and seed) and the weights it ran with, then
+//! the association, clustering, object-motion and ego-motion figures. `--json` prints
+//! one object `{"method", "data", "pair_sets", "weights", "pairs",
+//! "association_accuracy", "association_accuracy_within_one", "association_sed",
+//! "clustering_accuracy", "clustering_sed", "v_measure_mean", "outliers_predicted",
+//! "outliers_true", "outliers_found", "object_rotation_error_median",
+//! "object_translation_error_median", "ego_rotation_error_median",
+//! "ego_translation_error_median", "iterations_mean"}` (accuracies as fractions,
+//! outliers as percentages of the scored returns, errors in rad and m; `null` where a
+//! figure has nothing to be computed from, such as associations on real data).
+//! `--per-pair` adds every pair's outcome (a table, or an `outcomes` array).
+
+use super::cluster::OnePairArgs;
+use super::data::{load_pairs, pair_source, LeighArgs, SourceArgs};
+use super::matching::{parse_state_space, MatchingOptionArgs};
+use super::{CliError, CliResult};
+use clap::builder::{PossibleValue, PossibleValuesParser};
+use clap::Args;
+use pgm::methods::{joint_estimator, MethodOptions, JOINT_ESTIMATORS, JOINT_PAPER_KMEANS_K};
+use pgm::plot::PairPicture;
+use pgm_crf_matching::StateSpace;
+use pgm_datasets::evaluation::{
+    evaluate_joint, scorable_for_joint, JointOutcome, JointReport, JointSummary,
+};
+use pgm_datasets::ClusterMotion;
+use pgm_features::methods::{JointCluster, JointEstimate, OutlierReturns};
+use pgm_features::{Association, ParamGuard, Pose2};
+use pgm_joint::{Clusters, JointParams, JointResult};
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+/// How the shipped joint weights were made (the README has the command).
+pub const SHIPPED_JOINT_WEIGHTS: &str =
+    "shipped joint weights (pgm train joint --simulate 40 --seed 1000)";
+
+/// Parses `--clusters`: `auto` (adaptive, at most the default number of cluster
+/// states) or a fixed number of cluster states `D` (2-32, the outlier cluster
+/// included; the paper's experiments use 5).
+pub fn parse_clusters(value: &str) -> Result<Clusters, String> {
+    if value == "auto" {
+        return Ok(JointParams::default().clusters);
+    }
+    match value.parse::<usize>() {
+        Ok(d) if (2..=32).contains(&d) => Ok(Clusters::Fixed(d)),
+        _ => Err(format!(
+            "`{value}` is neither `auto` nor a number of cluster states in 2..=32 (the \
+             outlier cluster included)"
+        )),
+    }
+}
+
+/// The names of the joint methods, for clap.
+fn joint_method_names() -> PossibleValuesParser {
+    PossibleValuesParser::new(
+        JOINT_ESTIMATORS
+            .iter()
+            .map(|(name, help)| PossibleValue::new(*name).help(*help)),
+    )
+}
+
+/// `pgm joint`.
+#[derive(Args, Debug)]
+pub struct JointArgs {
+    /// The pair.
+    #[command(flatten)]
+    pub source: OnePairArgs,
+    /// The association states of a return: `K` (its K nearest reference returns under
+    /// its cluster's motion, plus the outlier state; 1-64) or `full` (every reference
+    /// return and the outlier state).
+    #[arg(long, default_value = "6", value_parser = parse_state_space)]
+    pub candidates: StateSpace,
+    /// The cluster states: `auto` (one per group of moving segments, at most 8 with the
+    /// outlier cluster) or a fixed number `D` (2-32, the outlier cluster included; the
+    /// paper's experiments use 5).
+    #[arg(long, default_value = "auto", value_parser = parse_clusters)]
+    pub clusters: Clusters,
+    /// Weights and boosters written by `pgm train joint` (default: the shipped ones).
+    #[arg(long)]
+    pub weights: Option<PathBuf>,
+    /// Draw the associations and clusters into this SVG file.
+    #[arg(long)]
+    pub svg: Option<PathBuf>,
+}
+
+/// One motion cluster in the output of `pgm joint`.
+#[derive(Serialize)]
+struct ClusterSummary {
+    /// Index into `motions` (the value in `clusters`).
+    cluster: usize,
+    motion: Pose2,
+    /// Returns in the cluster.
+    points: usize,
+    background: bool,
+}
+
+#[derive(Serialize)]
+struct JointOutput<'a> {
+    pair: &'a str,
+    weights: String,
+    candidates: String,
+    #[serde(flatten)]
+    result: &'a JointResult,
+    cluster_motions: Vec<ClusterSummary>,
+    /// Returns in the outlier cluster.
+    outliers: usize,
+}
+
+/// `K` or `full`, as typed.
+fn state_space_name(space: StateSpace) -> String {
+    match space {
+        StateSpace::Full => "full".into(),
+        StateSpace::Pruned(k) => k.to_string(),
+    }
+}
+
+/// The joint model's parameters from the command line.
+fn joint_params(
+    candidates: StateSpace,
+    clusters: Clusters,
+    weights: Option<&Path>,
+) -> Result<JointParams, CliError> {
+    let mut params = JointParams {
+        state_space: candidates,
+        clusters,
+        ..JointParams::default()
+    };
+    if let Some(path) = weights {
+        params.weights = pgm_joint::JointWeights::load(path).map_err(CliError::from_display)?;
+    }
+    Ok(params)
+}
+
+/// Draws a joint method's `estimate` of `pair` into `path`: association lines, the
+/// current scan coloured by cluster (outlier cluster black), motion arrows and boxes
+/// around the moving clusters, aligned by the estimated ego-motion.
+pub fn draw_joint(
+    pair: &pgm_datasets::ScanPair,
+    estimate: &JointEstimate,
+    title: String,
+    path: &Path,
+) -> Result<(), CliError> {
+    let clustering = estimate.to_motion_clustering(OutlierReturns::Unlabelled);
+    let motions: Vec<ClusterMotion> = clustering
+        .motions
+        .iter()
+        .filter(|m| m.label != 0)
+        .cloned()
+        .collect();
+    let mut picture = PairPicture::new(pair);
+    picture.labels = Some(&clustering.labels);
+    picture.motions = &motions;
+    picture.alignment = estimate.ego_motion;
+    picture.associations = Some(&estimate.associations);
+    picture.title = title;
+    picture.write_svg(path).map_err(CliError::from_display)
+}
+
+/// Runs `pgm joint`.
+pub fn run_joint(args: JointArgs) -> CliResult {
+    let pair = args.source.load()?;
+    let params = joint_params(args.candidates, args.clusters, args.weights.as_deref())?;
+    let joint = params.check().map_err(CliError::from_display)?;
+    let result = joint.estimate(&pair).map_err(CliError::from_display)?;
+    let count = |c: JointCluster| result.clusters.iter().filter(|x| **x == Some(c)).count();
+    let output = JointOutput {
+        pair: &pair.name,
+        weights: args
+            .weights
+            .as_ref()
+            .map_or(SHIPPED_JOINT_WEIGHTS.into(), |p| p.display().to_string()),
+        candidates: state_space_name(args.candidates),
+        result: &result,
+        cluster_motions: result
+            .motions
+            .iter()
+            .enumerate()
+            .map(|(k, m)| ClusterSummary {
+                cluster: k,
+                motion: *m,
+                points: count(JointCluster::Object(k)),
+                background: k == result.background,
+            })
+            .collect(),
+        outliers: count(JointCluster::Outlier),
+    };
+    let json = serde_json::to_string(&output).map_err(CliError::from_display)?;
+    println!("{json}");
+    if let Some(path) = &args.svg {
+        let estimate = JointEstimate {
+            associations: result.associations.clone(),
+            clusters: result.clusters.clone(),
+            motions: result.motions.clone(),
+            background: result.background,
+            ego_motion: result.ego_motion,
+            iterations: result.sweeps,
+            converged: result.converged,
+        };
+        let outliers = result
+            .associations
+            .iter()
+            .filter(|a| **a == Some(Association::Outlier))
+            .count();
+        let title = format!(
+            "{}: joint model, {} moving clusters, {} association outliers, {} sweeps",
+            pair.name,
+            result.motions.len().saturating_sub(1),
+            outliers,
+            result.sweeps
+        );
+        draw_joint(&pair, &estimate, title, path)?;
+        eprintln!("pgm: drew {} into {}", pair.name, path.display());
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `pgm eval joint`.
+#[derive(Args, Debug)]
+pub struct JointEvalArgs {
+    /// The joint method to evaluate.
+    #[arg(long, default_value = "joint", value_parser = joint_method_names())]
+    pub method: String,
+    /// A stored scan-pair data set with ground truth (simulated pairs have
+    /// associations, labels and motions).
+    #[arg(long, conflicts_with_all = ["carmen", "log", "scans", "bag"])]
+    pub pairs: Option<PathBuf>,
+    /// Input logs or a bag (as `pgm eval clustering`).
+    #[command(flatten)]
+    pub source: SourceArgs,
+    /// leigh-gtm1 options.
+    #[command(flatten)]
+    pub leigh: LeighArgs,
+    /// Logs and bags: scan distance of the pairs.
+    #[arg(long, default_value_t = 5)]
+    pub k: usize,
+    /// The joint model's weights and boosters, written by `pgm train joint` (default:
+    /// the shipped ones).
+    #[arg(long)]
+    pub weights: Option<PathBuf>,
+    /// The joint model's cluster states: `auto` or a fixed `D` (2-32, the outlier
+    /// cluster included).
+    #[arg(long, default_value = "auto", value_parser = parse_clusters)]
+    pub clusters: Clusters,
+    /// CRF-Matching (crf-matching+kmeans, separate) and the joint model: `--candidates`
+    /// sets the association states of both; `--matching-weights` CRF-Matching's.
+    #[command(flatten)]
+    pub matching: MatchingOptionArgs,
+    /// CRF-Clustering's weights for `separate` (default: the shipped ones).
+    #[arg(long)]
+    pub crf_weights: Option<PathBuf>,
+    /// Motion K-Means: number of clusters (the joint paper's experiments: 4).
+    #[arg(long, default_value_t = JOINT_PAPER_KMEANS_K)]
+    pub kmeans_k: usize,
+    /// Also print every pair's outcome (JSON: an `outcomes` array of
+    /// [`pgm_datasets::evaluation::JointOutcome`]).
+    #[arg(long)]
+    pub per_pair: bool,
+    /// Print one JSON object.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// The `--json` object of `pgm eval joint`.
+#[derive(Serialize)]
+struct EvalOutput<'a> {
+    method: &'a str,
+    data: String,
+    /// The distinct pair-name prefixes (`sim:PRESET:SEED`, `leigh-gtm1`, a bag's
+    /// stem): which sets and seeds the pairs come from.
+    pair_sets: Vec<String>,
+    weights: String,
+    #[serde(flatten)]
+    summary: &'a JointSummary,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    outcomes: Option<&'a [JointOutcome]>,
+}
+
+/// The distinct pair-name prefixes (before the last `:`) of `pairs`.
+pub fn pair_sets(pairs: &[pgm_datasets::ScanPair]) -> Vec<String> {
+    pairs
+        .iter()
+        .map(|p| {
+            p.name
+                .rsplit_once(':')
+                .map_or(p.name.as_str(), |(set, _)| set)
+                .to_string()
+        })
+        .collect::<std::collections::BTreeSet<_>>()
+        .into_iter()
+        .collect()
+}
+
+/// A figure or `n/a`.
+fn show(x: Option<f64>, scale: f64, digits: usize, unit: &str) -> String {
+    x.map_or("n/a".into(), |x| format!("{:.digits$}{unit}", scale * x))
+}
+
+/// Which weights `method` runs with.
+fn weights_used(args: &JointEvalArgs) -> String {
+    let joint = args
+        .weights
+        .as_ref()
+        .map_or(SHIPPED_JOINT_WEIGHTS.into(), |p| p.display().to_string());
+    let matching = args.matching.matching_weights.as_ref().map_or(
+        "shipped CRF-Matching weights (pgm train matching --simulate 40 --seed 1000)".into(),
+        |p| p.display().to_string(),
+    );
+    let crf = args.crf_weights.as_ref().map_or(
+        "shipped CRF-Clustering weights (pgm train clustering --simulate 40 --seed 1000)".into(),
+        |p| p.display().to_string(),
+    );
+    match args.method.as_str() {
+        "joint" => joint,
+        "icp+kmeans" => "none (no learned weights)".into(),
+        "crf-matching+kmeans" => matching,
+        _ => format!("{matching}; {crf}"),
+    }
+}
+
+/// Runs `pgm eval joint`.
+pub fn run_eval_joint(args: JointEvalArgs) -> CliResult {
+    let source = pair_source(args.pairs.as_deref(), &args.source, &args.leigh, args.k)?;
+    let mut pairs = load_pairs(&source)?.pairs;
+    let total = pairs.len();
+    pairs.retain(scorable_for_joint);
+    if pairs.is_empty() {
+        return Err(CliError(format!(
+            "{source}: none of the {total} pairs has a ground-truth label, association or \
+             ego-motion (nothing to score)"
+        )));
+    }
+    if pairs.len() < total {
+        eprintln!(
+            "note: {} of {total} pairs have no ground truth and are not scored",
+            total - pairs.len()
+        );
+    }
+    let mut options = args.matching.apply(MethodOptions::default())?;
+    options.joint = joint_params(
+        args.matching.candidates,
+        args.clusters,
+        args.weights.as_deref(),
+    )?;
+    if let Some(path) = &args.crf_weights {
+        options = options
+            .with_crf_weights(path)
+            .map_err(CliError::from_display)?;
+    }
+    options.kmeans.k = args.kmeans_k;
+    let method = joint_estimator(&args.method, &options).map_err(CliError::from_display)?;
+    let report = evaluate_joint(&pairs, method.as_ref()).map_err(CliError::from_display)?;
+    let data = format!("{source}; every pair scored, none trained on");
+    let sets = pair_sets(&pairs);
+    let weights = weights_used(&args);
+    let unconverged = report.outcomes.iter().filter(|o| !o.converged).count();
+    if unconverged > 0 {
+        eprintln!(
+            "note: {} stopped unconverged on {unconverged} of {} pairs",
+            report.method, report.summary.pairs
+        );
+    }
+    if args.json {
+        let json = EvalOutput {
+            method: &report.method,
+            data,
+            pair_sets: sets,
+            weights,
+            summary: &report.summary,
+            outcomes: args.per_pair.then_some(report.outcomes.as_slice()),
+        };
+        println!(
+            "{}",
+            serde_json::to_string(&json).map_err(CliError::from_display)?
+        );
+        return Ok(ExitCode::SUCCESS);
+    }
+    print_report(&report, &data, &sets, &weights);
+    if args.per_pair {
+        print_outcomes(&report.outcomes);
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The text form of a joint report.
+fn print_report(report: &JointReport, data: &str, sets: &[String], weights: &str) {
+    let s = &report.summary;
+    println!("method {}: {} pairs of {data}", report.method, s.pairs);
+    println!("pair sets (names before the last `:`): {}", sets.join(", "));
+    println!("weights: {weights}");
+    println!(
+        "associations   {} exact, {} within one beam, SED {}",
+        show(s.association_accuracy, 100.0, 2, " %"),
+        show(s.association_accuracy_within_one, 100.0, 2, " %"),
+        show(s.association_sed, 1.0, 2, "")
+    );
+    println!(
+        "outliers       {} predicted, {} true, {} of the true ones found",
+        show(s.outliers_predicted, 1.0, 2, " %"),
+        show(s.outliers_true, 1.0, 2, " %"),
+        show(s.outliers_found, 1.0, 2, " %")
+    );
+    println!(
+        "clustering     {} accuracy, SED {}, V-measure {}",
+        show(s.clustering_accuracy, 100.0, 2, " %"),
+        show(s.clustering_sed, 1.0, 2, ""),
+        show(s.v_measure_mean, 1.0, 3, "")
+    );
+    println!(
+        "moving objects {} of {} correctly clustered; median error {}, {}",
+        report.objects_correct,
+        report.objects_total,
+        show(s.object_rotation_error_median, 1.0, 4, " rad"),
+        show(s.object_translation_error_median, 1.0, 3, " m")
+    );
+    println!(
+        "ego-motion     median error {}, {}",
+        show(s.ego_rotation_error_median, 1.0, 5, " rad"),
+        show(s.ego_translation_error_median, 1.0, 4, " m")
+    );
+    println!("iterations     {:.1} mean", s.iterations_mean);
+}
+
+/// One line per pair: association and clustering accuracy, objects, ego error.
+fn print_outcomes(outcomes: &[JointOutcome]) {
+    println!(
+        "{:<28} {:>8} {:>8} {:>8} {:>7} {:>9} {:>10} {:>6}",
+        "pair", "assoc %", "clust %", "V", "objects", "ego m", "ego rad", "iters"
+    );
+    for o in outcomes {
+        let a = o.association.as_ref();
+        let c = o.clustering.as_ref();
+        println!(
+            "{:<28} {:>8} {:>8} {:>8} {:>7} {:>9} {:>10} {:>6}",
+            o.name,
+            show(a.map(|a| a.accuracy), 100.0, 2, ""),
+            show(c.map(|c| c.accuracy), 100.0, 2, ""),
+            show(c.map(|c| c.v_measure.v_measure), 1.0, 3, ""),
+            format!(
+                "{}/{}",
+                o.objects.iter().filter(|x| x.correct).count(),
+                o.objects.len()
+            ),
+            show(o.ego_error.map(|e| e.translation), 1.0, 4, ""),
+            show(o.ego_error.map(|e| e.rotation), 1.0, 5, ""),
+            o.iterations
+        );
+    }
+}
