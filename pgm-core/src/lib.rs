@@ -142,6 +142,7 @@ pub mod bp;
 pub mod error;
 pub mod exact;
 pub mod factor;
+pub mod fsutil;
 pub mod graph;
 pub mod hook;
 pub mod hybrid;

@@ -141,33 +141,11 @@ impl MatchingWeights {
     /// disk and renamed into place (removed when anything fails), so `path` holds the
     /// old file or the new one, never a part, and no other file is touched.
     pub fn save(&self, path: impl AsRef<Path>) -> Result<()> {
-        let path = path.as_ref();
         let json = self.to_json()?;
-        let io = |path: &Path| {
-            let path = path.to_path_buf();
-            move |source| Error::Io { path, source }
-        };
-        let name = path.file_name().ok_or_else(|| Error::InvalidParameter {
-            name: "weight file path",
-            value: path.display().to_string(),
-            expected: "a path naming a file",
-        })?;
-        let mut tmp_name = std::ffi::OsString::from(".");
-        tmp_name.push(name);
-        tmp_name.push(format!(".{}.tmp", std::process::id()));
-        let tmp = path.with_file_name(tmp_name);
-        let write = || -> Result<()> {
-            use std::io::Write;
-            let mut file = std::fs::File::create(&tmp).map_err(io(&tmp))?;
-            file.write_all(json.as_bytes()).map_err(io(&tmp))?;
-            file.sync_all().map_err(io(&tmp))?;
-            std::fs::rename(&tmp, path).map_err(io(path))
-        };
-        let result = write();
-        if result.is_err() {
-            let _ = std::fs::remove_file(&tmp);
-        }
-        result
+        pgm_core::fsutil::write_atomically(path, json.as_bytes()).map_err(|e| match e {
+            pgm_core::Error::Io { path, source } => Error::Io { path, source },
+            other => Error::Core(other),
+        })
     }
 
     /// All-zero weights and boosters without stumps (scores 0): the starting point of

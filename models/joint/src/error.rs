@@ -22,6 +22,22 @@ pub enum Error {
         /// What is wrong.
         problem: String,
     },
+    /// A weight file whose content is not usable weights (the file, then why).
+    #[error("{origin}: {problem}")]
+    WeightFile {
+        /// The file (or other source) the weights came from.
+        origin: String,
+        /// What is wrong.
+        problem: String,
+    },
+    /// A weight file that cannot be read or written.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file.
+        path: std::path::PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
     /// An error of the shared scan code (geometry, registration, associations).
     #[error(transparent)]
     Features(#[from] pgm_features::Error),
@@ -53,6 +69,12 @@ impl From<Error> for pgm_features::Error {
                 expected,
             },
             Error::BadPair { pair, problem } => pgm_features::Error::BadPair { pair, problem },
+            Error::WeightFile { origin, problem } => {
+                pgm_features::Error::Core(pgm_core::Error::Learning(format!("{origin}: {problem}")))
+            }
+            Error::Io { path, source } => {
+                pgm_features::Error::Core(pgm_core::Error::Io { path, source })
+            }
             Error::Features(e) => e,
             Error::Core(e) => pgm_features::Error::Core(e),
         }

@@ -47,6 +47,40 @@ pub struct TrainingOptions {
     pub prior_variance: f64,
 }
 
+impl TrainingOptions {
+    /// Checks the options before anything is allocated (a candidate count of 2^64 − 1
+    /// would reserve that many states per return).
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] naming the option: candidates outside 1..=64, a
+    /// negative or non-finite gate or prior variance (the variance must be positive),
+    /// no stumps.
+    pub fn check(&self) -> Result<()> {
+        if !(1..=64).contains(&self.candidates) {
+            return Err(
+                InvalidParameter::new("candidates", self.candidates, "1..=64 candidates").into(),
+            );
+        }
+        InvalidParameter::non_negative(
+            "candidate_gate",
+            self.candidate_gate,
+            "a number of metres >= 0",
+        )?;
+        if !(self.prior_variance.is_finite() && self.prior_variance > 0.0) {
+            return Err(InvalidParameter::new(
+                "prior_variance",
+                self.prior_variance,
+                "a finite variance > 0",
+            )
+            .into());
+        }
+        if self.stumps == 0 {
+            return Err(InvalidParameter::new("stumps", 0, "at least 1 stump").into());
+        }
+        Ok(())
+    }
+}
+
 impl Default for TrainingOptions {
     fn default() -> Self {
         Self {
@@ -227,6 +261,7 @@ pub fn train_boosters(
     pairs: &[ScanPair],
     options: &TrainingOptions,
 ) -> Result<(AssociationBoosters, SampleCounts, SampleCounts)> {
+    options.check()?;
     let placeholder = AssociationBoosters::untrained();
     let sets: Vec<(TrainingSet, TrainingSet)> = pairs
         .par_iter()
@@ -270,6 +305,7 @@ pub fn train(
     if pairs.is_empty() {
         return Err(InvalidParameter::new("pairs", 0, "at least one labelled pair").into());
     }
+    options.check()?;
     let half = if pairs.len() >= 2 { pairs.len() / 2 } else { 1 };
     let (booster_pairs, weight_pairs) = if pairs.len() >= 2 {
         (&pairs[..half], &pairs[half..])

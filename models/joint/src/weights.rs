@@ -104,16 +104,19 @@ impl JointWeights {
     /// # Errors
     /// When the text is not a joint-model weight file or its values are invalid.
     pub fn from_json(json: &str, origin: &str) -> Result<Self> {
-        let file: WeightFile = serde_json::from_str(json).map_err(|e| Error::BadPair {
-            pair: origin.to_string(),
-            problem: format!("not a joint-model weight file: {e}"),
-        })?;
+        let in_file = |problem: String| Error::WeightFile {
+            origin: origin.to_string(),
+            problem,
+        };
+        let file: WeightFile = serde_json::from_str(json)
+            .map_err(|e| in_file(format!("not a joint-model weight file: {e}")))?;
         let named = serde_json::json!({
             "model": file.model,
             "version": file.version,
             "weights": file.weights,
         });
-        let w = Weights::from_json(feature_set(), &named.to_string())?;
+        let w = Weights::from_json(feature_set(), &named.to_string())
+            .map_err(|e| in_file(e.to_string()))?;
         let weights = Self {
             weights: w.values().to_vec(),
             boosters: AssociationBoosters {
@@ -121,7 +124,7 @@ impl JointWeights {
                 outlier: file.outlier_booster,
             },
         };
-        weights.check_ref()?;
+        weights.check_ref().map_err(|e| in_file(e.to_string()))?;
         Ok(weights)
     }
 
@@ -154,27 +157,23 @@ impl JointWeights {
     /// When the file cannot be read or is not a valid weight file (both named).
     pub fn load(path: impl AsRef<Path>) -> Result<Self> {
         let path = path.as_ref();
-        let text = std::fs::read_to_string(path).map_err(|e| Error::BadPair {
-            pair: path.display().to_string(),
-            problem: e.to_string(),
+        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
+            path: path.to_path_buf(),
+            source,
         })?;
         Self::from_json(&text, &path.display().to_string())
     }
 
-    /// Writes the weights atomically (a temporary sibling, then a rename).
+    /// Writes the weights atomically ([`pgm_core::fsutil::write_atomically`]).
     ///
     /// # Errors
     /// When the file cannot be written (named).
     pub fn save(&self, path: impl AsRef<Path>) -> Result<()> {
-        let path = path.as_ref();
         let json = self.to_json()?;
-        let tmp = path.with_extension("json.tmp");
-        std::fs::write(&tmp, json)
-            .and_then(|()| std::fs::rename(&tmp, path))
-            .map_err(|e| Error::BadPair {
-                pair: path.display().to_string(),
-                problem: e.to_string(),
-            })
+        pgm_core::fsutil::write_atomically(path, json.as_bytes()).map_err(|e| match e {
+            pgm_core::Error::Io { path, source } => Error::Io { path, source },
+            other => Error::Core(other),
+        })
     }
 
     /// All-zero weights and boosters without stumps: the starting point of training,

@@ -92,3 +92,34 @@ fn training_learns_usable_weights_and_refuses_unlabelled_pairs() {
         .to_string();
     assert!(e.contains("ground-truth"), "{e}");
 }
+
+/// Training options are checked before anything is allocated.
+#[test]
+fn training_options_out_of_range_are_refused() {
+    let pairs = simulate_pairs(&SimConfig::default().check().unwrap(), 5, 1);
+    for options in [
+        TrainingOptions {
+            candidates: usize::MAX,
+            ..TrainingOptions::default()
+        },
+        TrainingOptions {
+            candidates: 0,
+            ..TrainingOptions::default()
+        },
+        TrainingOptions {
+            candidate_gate: f64::NAN,
+            ..TrainingOptions::default()
+        },
+        TrainingOptions {
+            prior_variance: 0.0,
+            ..TrainingOptions::default()
+        },
+        TrainingOptions {
+            stumps: 0,
+            ..TrainingOptions::default()
+        },
+    ] {
+        let e = train(&pairs, &options, &mut ()).unwrap_err().to_string();
+        assert!(e.contains("parameter"), "{e}");
+    }
+}

@@ -23,8 +23,7 @@ use crate::error::{Error, Result};
 use std::collections::BTreeMap;
 use std::fmt;
 use std::fs;
-use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::Arc;
 
 /// A weight vector with the feature set that names it.
@@ -154,32 +153,7 @@ impl Weights {
     /// Writes the weight file atomically (temporary file in the same directory, then
     /// rename).
     pub fn save(&self, path: impl AsRef<Path>) -> Result<()> {
-        let path = path.as_ref();
-        let io = |path: &Path| {
-            let path = path.to_path_buf();
-            move |source| Error::Io { path, source }
-        };
-        let file_name = path.file_name().ok_or_else(|| Error::InvalidParameter {
-            name: "weight file path",
-            value: path.display().to_string(),
-            expected: "a path naming a file",
-        })?;
-        let mut temporary_name = std::ffi::OsString::from(".");
-        temporary_name.push(file_name);
-        temporary_name.push(format!(".{}.tmp", std::process::id()));
-        let temporary: PathBuf = path.with_file_name(temporary_name);
-        let write = || -> Result<()> {
-            let mut file = fs::File::create(&temporary).map_err(io(&temporary))?;
-            file.write_all(self.to_json().as_bytes())
-                .map_err(io(&temporary))?;
-            file.sync_all().map_err(io(&temporary))?;
-            fs::rename(&temporary, path).map_err(io(path))
-        };
-        let result = write();
-        if result.is_err() {
-            let _ = fs::remove_file(&temporary);
-        }
-        result
+        crate::fsutil::write_atomically(path, self.to_json().as_bytes())
     }
 }
 
