@@ -388,3 +388,53 @@ fn joint_reads_a_carmen_log() {
     assert_eq!(code, Some(2), "{err}");
     assert!(err.contains("scan 2: no such laser scan"), "{err}");
 }
+
+/// `pgm train joint --association-weights` takes the association part of a
+/// CRF-Matching weight file and learns the clustering weights; a file of another
+/// model is refused with status 2, naming it, and nothing is written.
+#[test]
+fn train_joint_takes_the_association_part_of_crf_matching() {
+    let dir = std::env::temp_dir().join(format!("pgm-cli-joint-train-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let matching =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("models/crf-matching/weights/default.json");
+    let out = dir.join("joint.json");
+    let (stdout, stderr, code) = pgm(&[
+        "train",
+        "joint",
+        "--simulate",
+        "4",
+        "--seed",
+        "1000",
+        "--association-weights",
+        matching.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, Some(0), "{stderr}");
+    let v = json(&stdout);
+    assert_eq!(v["booster_pairs"], 0);
+    assert_eq!(v["association_weights"], matching.to_str().unwrap());
+    let shipped: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&matching).unwrap()).unwrap();
+    assert_eq!(
+        v["weights"]["sequence.next"], shipped["weights"]["sequence.next"],
+        "the association weights are CRF-Matching's"
+    );
+    // A joint-model file is not a CRF-Matching file.
+    let bad_out = dir.join("bad.json");
+    let (_, stderr, code) = pgm(&[
+        "train",
+        "joint",
+        "--simulate",
+        "2",
+        "--association-weights",
+        out.to_str().unwrap(),
+        "--out",
+        bad_out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, Some(2), "{stderr}");
+    assert!(stderr.contains("joint.json"), "{stderr}");
+    assert!(!bad_out.exists());
+    std::fs::remove_dir_all(&dir).unwrap();
+}

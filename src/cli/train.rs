@@ -34,7 +34,21 @@ pub enum TrainCommand {
     /// CRF-Matching boosters and weights (pseudo-likelihood).
     Matching(TrainMatchingArgs),
     /// The joint model's boosters and 30 weights (pseudo-likelihood).
-    Joint(TrainMatchingArgs),
+    Joint(TrainJointArgs),
+}
+
+/// `pgm train joint`: the options of `pgm train matching`, and where the association
+/// chain's part may come from.
+#[derive(Args, Debug)]
+pub struct TrainJointArgs {
+    /// The options shared with `pgm train matching`.
+    #[command(flatten)]
+    pub common: TrainMatchingArgs,
+    /// Take the association chain's 18 weights and two boosters from this CRF-Matching
+    /// weight file (written by `pgm train matching`) and learn only the 12 clustering
+    /// weights (piecewise training; the shipped weights are made this way).
+    #[arg(long, value_name = "FILE")]
+    pub association_weights: Option<PathBuf>,
 }
 
 /// `pgm train matching` and `pgm train joint`.
@@ -321,8 +335,15 @@ fn learning_progress() -> Result<
     Ok((bar, observer))
 }
 
-fn run_joint(args: TrainMatchingArgs) -> CliResult {
+fn run_joint(joint_args: TrainJointArgs) -> CliResult {
+    let args = &joint_args.common;
     args.check()?;
+    let association = joint_args
+        .association_weights
+        .as_ref()
+        .map(pgm_joint::AssociationPart::load_matching)
+        .transpose()
+        .map_err(CliError::from_display)?;
     let pairs = training_pairs(args.data.as_deref(), args.simulate, args.seed, &args.preset)?;
     let options = pgm_joint::learning::TrainingOptions {
         candidates: args.candidates,
@@ -331,7 +352,10 @@ fn run_joint(args: TrainMatchingArgs) -> CliResult {
         ..pgm_joint::learning::TrainingOptions::default()
     };
     let (bar, mut observer) = learning_progress()?;
-    let trained = pgm_joint::learning::train(&pairs, &options, &mut observer);
+    let trained = match &association {
+        Some(a) => pgm_joint::learning::train_clustering(&pairs, &options, a, &mut observer),
+        None => pgm_joint::learning::train(&pairs, &options, &mut observer),
+    };
     drop(observer);
     bar.finish_and_clear();
     let (weights, report) = trained.map_err(|e| in_data(&args.data, e))?;
@@ -342,6 +366,10 @@ fn run_joint(args: TrainMatchingArgs) -> CliResult {
     let summary = serde_json::json!({
         "model": "joint",
         "out": args.out.display().to_string(),
+        "association_weights": joint_args
+            .association_weights
+            .as_ref()
+            .map(|p| p.display().to_string()),
         "booster_pairs": report.booster_pairs,
         "data_samples": report.data_samples.0,
         "data_positives": report.data_samples.1,

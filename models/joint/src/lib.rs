@@ -36,4 +36,4 @@ pub mod weights;
 
 pub use error::{Error, Result};
 pub use estimator::{ClusterLabel, Clusters, Joint, JointParams, JointResult};
-pub use weights::JointWeights;
+pub use weights::{AssociationPart, JointWeights};

@@ -9,8 +9,11 @@
 //! docs of those two name every weight. The paper counts 18 + 12 = 30 as well.
 //!
 //! The default weights and boosters (`weights/default.json`, compiled in with
-//! `include_str!`) were learned from simulated pairs; the command that produced them
-//! is in the workspace README.
+//! `include_str!`) were learned from simulated pairs: the association part is
+//! CRF-Matching's shipped one and the clustering weights were learned with it,
+//! `pgm train joint --simulate 40 --seed 1000 --association-weights
+//! models/crf-matching/weights/default.json --out models/joint/weights/default.json`
+//! (see [`crate::learning::train_clustering`]).
 
 use crate::{Error, Result};
 use pgm_core::learning::{FeatureSet, Weights};
@@ -69,6 +72,81 @@ struct WeightFile {
     weights: serde_json::Value,
     data_booster: Booster,
     outlier_booster: Booster,
+}
+
+/// The association chain's learned parameters on their own: its 18 weights (in
+/// [`ASSOCIATION_TEMPLATES`] order) and the two boosters. CRF-Matching learns exactly
+/// these (the same features, boosters and pseudo-likelihood), so the joint model can
+/// take them from a CRF-Matching weight file and learn only its clustering weights:
+/// piecewise training (Sutton and McCallum 2005), which here loses nothing, because the
+/// pseudo-likelihood of the two chains separates (see [`crate::learning`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct AssociationPart {
+    /// The 18 association weights.
+    pub weights: Vec<f64>,
+    /// The data and outlier boosters.
+    pub boosters: AssociationBoosters,
+}
+
+/// Model name and feature-set version of the CRF-Matching weight files
+/// [`AssociationPart::from_matching_json`] reads.
+pub const MATCHING_MODEL: (&str, u32) = ("crf-matching", 1);
+
+impl AssociationPart {
+    /// The association part of a CRF-Matching weight file (`pgm train matching`):
+    /// `{"model": "crf-matching", "version": 1, "weights": {18 named weights},
+    /// "data_booster", "outlier_booster"}`; `origin` names the source in errors.
+    ///
+    /// # Errors
+    /// [`Error::WeightFile`] naming `origin` when the text is not such a file, a weight
+    /// is missing, extra or not finite, or a booster does not fit.
+    pub fn from_matching_json(json: &str, origin: &str) -> Result<Self> {
+        let in_file = |problem: String| Error::WeightFile {
+            origin: origin.to_string(),
+            problem,
+        };
+        let file: WeightFile = serde_json::from_str(json)
+            .map_err(|e| in_file(format!("not a CRF-Matching weight file: {e}")))?;
+        let mut features = FeatureSet::new(MATCHING_MODEL.0, MATCHING_MODEL.1);
+        for (name, names) in ASSOCIATION_TEMPLATES {
+            features
+                .add_template(name, names)
+                .expect("fixed template names are valid and distinct");
+        }
+        let named = serde_json::json!({
+            "model": file.model,
+            "version": file.version,
+            "weights": file.weights,
+        });
+        let w = Weights::from_json(Arc::new(features), &named.to_string())
+            .map_err(|e| in_file(e.to_string()))?;
+        let part = Self {
+            weights: w.values().to_vec(),
+            boosters: AssociationBoosters {
+                data: file.data_booster,
+                outlier: file.outlier_booster,
+            },
+        };
+        pgm_features::association_chain::check_association_weights(&part.weights)
+            .map_err(|e| in_file(e.to_string()))?;
+        part.boosters
+            .check_ref()
+            .map_err(|e| in_file(e.to_string()))?;
+        Ok(part)
+    }
+
+    /// [`AssociationPart::from_matching_json`] of a file.
+    ///
+    /// # Errors
+    /// As `from_matching_json`, and [`Error::Io`] when the file cannot be read.
+    pub fn load_matching(path: impl AsRef<Path>) -> Result<Self> {
+        let path = path.as_ref();
+        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        Self::from_matching_json(&text, &path.display().to_string())
+    }
 }
 
 impl JointWeights {

@@ -123,3 +123,32 @@ fn training_options_out_of_range_are_refused() {
         assert!(e.contains("parameter"), "{e}");
     }
 }
+
+/// Piecewise training keeps the given association part and learns the clustering
+/// weights; a CRF-Matching weight file reads as an association part, anything else is
+/// refused naming the source.
+#[test]
+fn piecewise_training_keeps_the_association_part() {
+    use pgm_joint::AssociationPart;
+    let pairs = simulate_pairs(&SimConfig::default().check().unwrap(), 11, 4);
+    let shipped = JointWeights::default();
+    let part = AssociationPart {
+        weights: shipped.weights[..18].to_vec(),
+        boosters: shipped.boosters.clone(),
+    };
+    let (w, report) =
+        pgm_joint::learning::train_clustering(&pairs, &TrainingOptions::default(), &part, &mut ())
+            .unwrap();
+    assert_eq!(&w.weights[..18], &part.weights[..]);
+    assert_eq!(w.boosters, part.boosters);
+    assert_eq!(report.booster_pairs, 0);
+    assert!(w.weights[18..].iter().any(|&x| x != 0.0));
+    let matching = include_str!("../../crf-matching/weights/default.json");
+    let read = AssociationPart::from_matching_json(matching, "matching.json").unwrap();
+    assert_eq!(read.weights.len(), 18);
+    let joint_file = shipped.to_json().unwrap();
+    let e = AssociationPart::from_matching_json(&joint_file, "joint.json")
+        .unwrap_err()
+        .to_string();
+    assert!(e.starts_with("joint.json"), "{e}");
+}
