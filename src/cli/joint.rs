@@ -51,7 +51,8 @@ use std::process::ExitCode;
 
 /// How the shipped joint weights were made (the README has the command).
 pub const SHIPPED_JOINT_WEIGHTS: &str =
-    "shipped joint weights (pgm train joint --simulate 40 --seed 1000)";
+    "shipped joint weights (pgm train joint --simulate 40 --seed 1000 --association-weights \
+     models/crf-matching/weights/default.json)";
 
 /// Parses `--clusters`: `auto` (adaptive, at most the default number of cluster
 /// states) or a fixed number of cluster states `D` (2-32, the outlier cluster
