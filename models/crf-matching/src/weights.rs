@@ -18,10 +18,10 @@
 use crate::{Error, Result};
 use pgm_core::learning::{FeatureSet, Weights};
 use pgm_features::association_chain::{
-    check_association_weights, AssociationBoosters, ASSOCIATION_TEMPLATES, ASSOCIATION_WEIGHTS,
+    check_association_weights, read_boosted_weights, write_boosted_weights, AssociationBoosters,
+    ASSOCIATION_TEMPLATES, ASSOCIATION_WEIGHTS,
 };
-use pgm_features::boosting::Booster;
-use serde::{Deserialize, Serialize};
+
 use std::path::Path;
 use std::sync::Arc;
 
@@ -56,16 +56,6 @@ pub struct MatchingWeights {
     pub boosters: AssociationBoosters,
 }
 
-/// The on-disk form: the named weights (the core's weight format) and the boosters.
-#[derive(Serialize, Deserialize)]
-struct WeightFile {
-    model: String,
-    version: u32,
-    weights: serde_json::Value,
-    data_booster: Booster,
-    outlier_booster: Booster,
-}
-
 impl MatchingWeights {
     /// Checks the sizes: 18 finite weights, boosters over the right feature counts
     /// with finite stumps.
@@ -87,44 +77,17 @@ impl MatchingWeights {
             origin: origin.to_string(),
             problem,
         };
-        let file: WeightFile = serde_json::from_str(json)
-            .map_err(|e| in_file(format!("not a CRF-Matching weight file: {e}")))?;
-        let named = serde_json::json!({
-            "model": file.model,
-            "version": file.version,
-            "weights": file.weights,
-        });
-        let w = Weights::from_json(feature_set(), &named.to_string())
-            .map_err(|e| in_file(e.to_string()))?;
-        let weights = Self {
-            weights: w.values().to_vec(),
-            boosters: AssociationBoosters {
-                data: file.data_booster,
-                outlier: file.outlier_booster,
-            },
-        };
+        let (weights, boosters) =
+            read_boosted_weights(feature_set(), json, "a CRF-Matching weight file")
+                .map_err(in_file)?;
+        let weights = Self { weights, boosters };
         weights.check_ref().map_err(|e| in_file(e.to_string()))?;
         Ok(weights)
     }
 
     /// The JSON form (named weights and the boosters' stumps).
     pub fn to_json(&self) -> Result<String> {
-        let named: serde_json::Value =
-            serde_json::from_str(&self.named()?.to_json()).map_err(|e| Error::BadPair {
-                pair: "weights".into(),
-                problem: e.to_string(),
-            })?;
-        let file = WeightFile {
-            model: MODEL_NAME.into(),
-            version: MODEL_VERSION,
-            weights: named["weights"].clone(),
-            data_booster: self.boosters.data.clone(),
-            outlier_booster: self.boosters.outlier.clone(),
-        };
-        serde_json::to_string_pretty(&file).map_err(|e| Error::BadPair {
-            pair: "weights".into(),
-            problem: e.to_string(),
-        })
+        Ok(write_boosted_weights(&self.named()?, &self.boosters))
     }
 
     /// Loads weights written by `pgm train matching`.

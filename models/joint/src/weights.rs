@@ -19,11 +19,11 @@ use crate::{Error, Result};
 use pgm_core::learning::{FeatureSet, Weights};
 use pgm_core::param::InvalidParameter;
 use pgm_features::association_chain::{
-    AssociationBoosters, ASSOCIATION_TEMPLATES, ASSOCIATION_WEIGHTS,
+    read_boosted_weights, write_boosted_weights, AssociationBoosters, ASSOCIATION_TEMPLATES,
+    ASSOCIATION_WEIGHTS,
 };
-use pgm_features::boosting::Booster;
 use pgm_features::clustering_chain::{CLUSTERING_TEMPLATES, CLUSTERING_WEIGHTS};
-use serde::{Deserialize, Serialize};
+
 use std::path::Path;
 use std::sync::Arc;
 
@@ -64,16 +64,6 @@ pub struct JointWeights {
     pub boosters: AssociationBoosters,
 }
 
-/// The on-disk form: the named weights (the core's weight format) and the boosters.
-#[derive(Serialize, Deserialize)]
-struct WeightFile {
-    model: String,
-    version: u32,
-    weights: serde_json::Value,
-    data_booster: Booster,
-    outlier_booster: Booster,
-}
-
 /// The association chain's learned parameters on their own: its 18 weights (in
 /// [`ASSOCIATION_TEMPLATES`] order) and the two boosters. CRF-Matching learns exactly
 /// these (the same features, boosters and pseudo-likelihood), so the joint model can
@@ -105,28 +95,16 @@ impl AssociationPart {
             origin: origin.to_string(),
             problem,
         };
-        let file: WeightFile = serde_json::from_str(json)
-            .map_err(|e| in_file(format!("not a CRF-Matching weight file: {e}")))?;
         let mut features = FeatureSet::new(MATCHING_MODEL.0, MATCHING_MODEL.1);
         for (name, names) in ASSOCIATION_TEMPLATES {
             features
                 .add_template(name, names)
                 .expect("fixed template names are valid and distinct");
         }
-        let named = serde_json::json!({
-            "model": file.model,
-            "version": file.version,
-            "weights": file.weights,
-        });
-        let w = Weights::from_json(Arc::new(features), &named.to_string())
-            .map_err(|e| in_file(e.to_string()))?;
-        let part = Self {
-            weights: w.values().to_vec(),
-            boosters: AssociationBoosters {
-                data: file.data_booster,
-                outlier: file.outlier_booster,
-            },
-        };
+        let (weights, boosters) =
+            read_boosted_weights(Arc::new(features), json, "a CRF-Matching weight file")
+                .map_err(in_file)?;
+        let part = Self { weights, boosters };
         pgm_features::association_chain::check_association_weights(&part.weights)
             .map_err(|e| in_file(e.to_string()))?;
         part.boosters
@@ -186,22 +164,10 @@ impl JointWeights {
             origin: origin.to_string(),
             problem,
         };
-        let file: WeightFile = serde_json::from_str(json)
-            .map_err(|e| in_file(format!("not a joint-model weight file: {e}")))?;
-        let named = serde_json::json!({
-            "model": file.model,
-            "version": file.version,
-            "weights": file.weights,
-        });
-        let w = Weights::from_json(feature_set(), &named.to_string())
-            .map_err(|e| in_file(e.to_string()))?;
-        let weights = Self {
-            weights: w.values().to_vec(),
-            boosters: AssociationBoosters {
-                data: file.data_booster,
-                outlier: file.outlier_booster,
-            },
-        };
+        let (weights, boosters) =
+            read_boosted_weights(feature_set(), json, "a joint-model weight file")
+                .map_err(in_file)?;
+        let weights = Self { weights, boosters };
         weights.check_ref().map_err(|e| in_file(e.to_string()))?;
         Ok(weights)
     }
@@ -211,22 +177,7 @@ impl JointWeights {
     /// # Errors
     /// When the weights do not fit the feature set.
     pub fn to_json(&self) -> Result<String> {
-        let named: serde_json::Value =
-            serde_json::from_str(&self.named()?.to_json()).map_err(|e| Error::BadPair {
-                pair: "weights".into(),
-                problem: e.to_string(),
-            })?;
-        let file = WeightFile {
-            model: MODEL_NAME.into(),
-            version: MODEL_VERSION,
-            weights: named["weights"].clone(),
-            data_booster: self.boosters.data.clone(),
-            outlier_booster: self.boosters.outlier.clone(),
-        };
-        serde_json::to_string_pretty(&file).map_err(|e| Error::BadPair {
-            pair: "weights".into(),
-            problem: e.to_string(),
-        })
+        Ok(write_boosted_weights(&self.named()?, &self.boosters))
     }
 
     /// Loads weights written by `pgm train joint`.
