@@ -624,9 +624,13 @@ fn segment_motions_with(
     if let Some(search) = params.global_search {
         // The best motion of a correlative search around the prior, refined by the
         // tight schedule (the search's grid is finer than its first distance).
-        let hypotheses = search
-            .check()?
-            .search(&pair.reference, &pair.current, prior)?;
+        // Only the best is used: asking for one lets the search prune with it alone.
+        let hypotheses = CorrelativeParams {
+            hypotheses: 1,
+            ..search
+        }
+        .check()?
+        .search(&pair.reference, &pair.current, prior)?;
         if let Some(best) = hypotheses.first() {
             let first = if params.tight_ego_distance > 0.0 {
                 params.tight_ego_distance

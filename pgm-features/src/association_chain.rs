@@ -537,6 +537,30 @@ impl<'a> AssociationTables<'a> {
         band: usize,
         outlier_motions: &[Pose2],
     ) -> Self {
+        Self::build(problem, candidates, band, outlier_motions, None)
+    }
+
+    /// [`AssociationTables::new`] over the same problem and band as `self` (the
+    /// tables of the previous round), with new `candidates` and `outlier_motions`:
+    /// the motion-independent part of the data booster's margin is taken from `self`
+    /// for every candidate both rounds share (it depends on the two returns alone),
+    /// so a round costs only its new candidates. The tables are those
+    /// [`AssociationTables::new`] builds, value for value.
+    ///
+    /// # Panics
+    /// As [`AssociationTables::new`].
+    pub fn next_round(self, candidates: Vec<Vec<usize>>, outlier_motions: &[Pose2]) -> Self {
+        let (problem, band) = (self.problem, self.band);
+        Self::build(problem, candidates, band, outlier_motions, Some(&self))
+    }
+
+    fn build(
+        problem: &'a AssociationProblem,
+        candidates: Vec<Vec<usize>>,
+        band: usize,
+        outlier_motions: &[Pose2],
+        previous: Option<&Self>,
+    ) -> Self {
         let n = problem.len();
         assert_eq!(candidates.len(), n, "candidates of {n} nodes");
         assert_eq!(outlier_motions.len(), n, "outlier motions of {n} nodes");
@@ -550,7 +574,25 @@ impl<'a> AssociationTables<'a> {
         let mut data_rest = Vec::with_capacity(total);
         let mut features = [0.0; ASSOCIATION_FEATURES];
         for (i, c) in candidates.iter().enumerate() {
+            // The previous round's candidates of node `i` (sorted, as these).
+            let mut known = previous.map_or(&[][..], |p| &p.candidates[i][..]);
+            let known_offset = previous.map_or(0, |p| p.offsets[i]);
+            let mut skipped = 0;
             for &j in c {
+                // Both lists are sorted: walk the previous one along.
+                while let Some((&first, rest)) = known.split_first() {
+                    if first >= j {
+                        break;
+                    }
+                    known = rest;
+                    skipped += 1;
+                }
+                if let (Some(&first), Some(p)) = (known.first(), previous) {
+                    if first == j {
+                        data_rest.push(p.data_rest[known_offset + skipped]);
+                        continue;
+                    }
+                }
                 // The registered features are scored by the step functions later.
                 association_features(
                     &problem.current,

@@ -578,7 +578,12 @@ impl Search<'_> {
         let angle = self.first_angle + (f64::from(start) + half_span) * self.step;
         let (sin, cos) = angle.sin_cos();
         let [tx, ty] = self.translation;
-        let mut wide = Vec::new();
+        // Narrow returns fill the block's slots from the front, wide ones from the
+        // back (the order within each kind does not matter to a sum).
+        let n = self.points.len();
+        self.rotated.resize(at + n, 0);
+        let slots = &mut self.rotated[at..];
+        let (mut front, mut back) = (0, n);
         for (q, range) in self.points.iter().zip(&self.ranges) {
             // A hair more than the arc, against rounding in the rotations.
             let slack = if level == 0 {
@@ -596,15 +601,15 @@ impl Search<'_> {
                 0
             };
             if narrow {
-                self.rotated.push(index);
+                slots[front] = index;
+                front += 1;
             } else {
-                wide.push(index);
+                back -= 1;
+                slots[back] = index;
             }
         }
-        let narrow = self.rotated.len() - at;
-        self.narrow.push(narrow);
-        self.rotated.extend_from_slice(&wide);
-        (at, narrow)
+        self.narrow.push(front);
+        (at, front)
     }
 
     /// The bound of `node` at depth `depth`: the sum over the returns of the grid
@@ -842,7 +847,8 @@ impl CorrelativeGrid {
             let (cx, cy) = ((p[0] / side).floor(), (p[1] / side).floor());
             let (dx, dy) = (p[0] - (cx + 0.5) * side, p[1] - (cy + 0.5) * side);
             let d2 = dx * dx + dy * dy;
-            let entry = cells.entry((cx as i64, cy as i64)).or_insert((p, d2));
+            // Keyed by row first: the search then reads the grid (row-major) in order.
+            let entry = cells.entry((cy as i64, cx as i64)).or_insert((p, d2));
             if d2 < entry.1 || (d2 == entry.1 && (p[0], p[1]) < (entry.0[0], entry.0[1])) {
                 *entry = (p, d2);
             }

@@ -239,20 +239,24 @@ impl Matcher {
         let mut rounds = 0;
         let (mut labels, mut max_marginals, mut converged);
         let mut model;
+        let mut previous: Option<MatchingModel> = None;
         loop {
             rounds += 1;
             let chosen_under = motions.clone();
             let own: Vec<Pose2> = group_of.iter().map(|&g| motions[g]).collect();
             let ego = vec![motions[0]; n];
             let candidates = problem.candidates(p.state_space, &own, &ego, p.candidate_gate);
-            model = MatchingModel::new(
-                &problem,
-                candidates,
-                group_of.clone(),
-                motions.clone(),
-                &p.weights.weights,
-                p.band,
-            );
+            model = match previous.take() {
+                Some(last) => last.next_round(candidates, group_of.clone(), motions.clone()),
+                None => MatchingModel::new(
+                    &problem,
+                    candidates,
+                    group_of.clone(),
+                    motions.clone(),
+                    &p.weights.weights,
+                    p.band,
+                ),
+            };
             let initial: Vec<usize> = (0..n)
                 .map(|i| {
                     let keep = chosen[i].and_then(|j| model.state_of(i, j));
@@ -277,6 +281,7 @@ impl Matcher {
             if settled || rounds >= p.max_rounds || matches!(p.state_space, StateSpace::Full) {
                 break;
             }
+            previous = Some(model);
         }
         if p.polish_ego {
             // The static returns the CRF associates decide the ego-motion's final ICP

@@ -70,6 +70,28 @@ impl<'a> MatchingModel<'a> {
         }
     }
 
+    /// The model of the next round (new `candidates`, `group_of` and starting
+    /// `motions`; the same problem, weights and band): the same model
+    /// [`MatchingModel::new`] builds, with the data scores of the candidates both
+    /// rounds share taken from this one ([`AssociationTables::next_round`]).
+    pub fn next_round(
+        self,
+        candidates: Vec<Vec<usize>>,
+        group_of: Vec<usize>,
+        motions: Vec<Pose2>,
+    ) -> Self {
+        let per_node: Vec<Pose2> = group_of.iter().map(|&g| motions[g]).collect();
+        let n = group_of.len();
+        Self {
+            tables: self.tables.next_round(candidates, &per_node),
+            weights: self.weights,
+            group_of,
+            stats: vec![RigidAlignment::new(); motions.len()],
+            labels: vec![None; n],
+            motions,
+        }
+    }
+
     /// The same model with dense pairwise tables (see [`AssociationTables::dense`]).
     pub fn dense(mut self) -> Self {
         self.tables = self.tables.dense();

@@ -174,3 +174,63 @@ fn full_state_space_matches_about_as_well_as_pruned() {
     eprintln!("exact association accuracy: full {f:.3}, pruned {p:.3}");
     assert!(f >= p - 0.05 && f >= 0.7, "full {f} vs pruned {p}");
 }
+
+/// A round's tables built from the previous round's (data scores of shared candidates
+/// reused) are the tables built afresh, value for value, in both directions of
+/// overlap: candidates gained, kept and lost.
+#[test]
+fn next_round_tables_are_fresh_tables() {
+    use pgm_core::hybrid::chain::{FeatureTable, HybridChainModel};
+    use pgm_crf_matching::model::MatchingModel;
+    use pgm_features::association_chain::AssociationProblem;
+    let weights = MatchingWeights::default();
+    let pair = coarse_pair(5);
+    let problem = AssociationProblem::new(&pair, &weights.boosters).unwrap();
+    let n = problem.len();
+    let ego = pair.odometry.unwrap();
+    let moved = pgm_features::Pose2::new(ego.x() + 0.4, ego.y() - 0.2, ego.theta() + 0.05);
+    let first = problem.candidates(StateSpace::Pruned(6), &vec![ego; n], &vec![ego; n], 1.0);
+    let second = problem.candidates(StateSpace::Pruned(6), &vec![moved; n], &vec![moved; n], 1.0);
+    assert_ne!(
+        first, second,
+        "the rounds must differ for the test to mean anything"
+    );
+    let shared = (0..n)
+        .filter(|&i| first[i].iter().any(|j| second[i].contains(j)))
+        .count();
+    assert!(shared > n / 2, "{shared} of {n} nodes share candidates");
+    let build = |candidates: Vec<Vec<usize>>| {
+        MatchingModel::new(
+            &problem,
+            candidates,
+            vec![0; n],
+            vec![ego],
+            &weights.weights,
+            8,
+        )
+    };
+    let fresh = build(second.clone());
+    let reused = build(first).next_round(second, vec![0; n], vec![ego]);
+    let width = weights.weights.len();
+    let table = |model: &MatchingModel, i: usize, pair: bool| {
+        let states = model.num_states(0, i) * if pair { model.num_states(0, i + 1) } else { 1 };
+        let mut features = vec![0.0; states * width];
+        let mut sink = FeatureTable::new(width, &mut features);
+        if pair {
+            model.write_pair(0, i, &mut sink);
+        } else {
+            model.write_local(0, i, &mut sink);
+        }
+        features
+    };
+    for i in 0..n {
+        assert_eq!(
+            table(&fresh, i, false),
+            table(&reused, i, false),
+            "node {i}"
+        );
+        if i + 1 < n {
+            assert_eq!(table(&fresh, i, true), table(&reused, i, true), "pair {i}");
+        }
+    }
+}

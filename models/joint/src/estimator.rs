@@ -300,6 +300,7 @@ impl Joint {
             .convergence(p.convergence)
             .check()?;
         let mut chosen: Vec<Option<usize>> = vec![None; n];
+        let mut previous: Option<JointModel> = None;
         let (mut sweeps, mut rounds) = (0, 0);
         let (mut confidence, mut converged);
         loop {
@@ -308,15 +309,18 @@ impl Joint {
             let own = node_motions(&problem, &clusters, &motions, background);
             let ego = vec![motions[background]; n];
             let candidates = problem.candidates(p.state_space, &own, &ego, p.candidate_gate);
-            let mut model = JointModel::new(
-                &problem,
-                candidates,
-                motions.clone(),
-                background,
-                &p.weights.weights,
-                p.band,
-                &clusters,
-            );
+            let mut model = match previous.take() {
+                Some(last) => last.next_round(candidates, motions.clone(), &clusters),
+                None => JointModel::new(
+                    &problem,
+                    candidates,
+                    motions.clone(),
+                    background,
+                    &p.weights.weights,
+                    p.band,
+                    &clusters,
+                ),
+            };
             let start_association: Vec<usize> = (0..n)
                 .map(|i| {
                     let keep = chosen[i].and_then(|j| model.tables().state_of(i, j));
@@ -342,6 +346,7 @@ impl Joint {
             if settled || rounds >= p.max_rounds || matches!(p.state_space, StateSpace::Full) {
                 break;
             }
+            previous = Some(model);
         }
         // Discard vacuous clusters; the background is cluster 0 unless it emptied.
         let mut count = vec![0usize; outlier_cluster];

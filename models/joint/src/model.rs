@@ -117,6 +117,34 @@ impl<'a> JointModel<'a> {
         }
     }
 
+    /// The model of the next round (new `candidates`, `motions` and starting
+    /// `clusters`; the same problem, background, weights and band): the same model
+    /// [`JointModel::new`] builds, with the data scores of the candidates both rounds
+    /// share taken from this one ([`AssociationTables::next_round`]).
+    ///
+    /// # Panics
+    /// As [`JointModel::new`].
+    pub fn next_round(
+        self,
+        candidates: Vec<Vec<usize>>,
+        motions: Vec<Pose2>,
+        clusters: &[usize],
+    ) -> Self {
+        assert!(motions.len() <= clustering_chain::MAX_MOTION_CLUSTERS);
+        let n = self.cluster.len();
+        let per_node = node_motions(self.tables.problem(), clusters, &motions, self.background);
+        Self {
+            tables: self.tables.next_round(candidates, &per_node),
+            weights: self.weights,
+            motions,
+            background: self.background,
+            surface: self.surface,
+            association: vec![None; n],
+            cluster: vec![None; n],
+            stats: RigidAlignment::new(),
+        }
+    }
+
     /// The motion cluster whose motion node `i`'s association features use (see
     /// [`JointModel`]'s docs on the outlier cluster).
     pub fn carrier_of(&self, i: usize) -> usize {
