@@ -26,6 +26,7 @@
 //! alternation cannot move a return into the outlier state of either chain first.)
 
 use crate::weights::{ASSOCIATION_BASE, CLUSTERING_BASE};
+use nalgebra::Point2;
 use pgm_core::exact::PairPattern;
 use pgm_core::hybrid::chain::{FeatureSink, HybridChainModel};
 use pgm_features::association_chain::{AssociationProblem, AssociationTables};
@@ -195,37 +196,10 @@ impl<'a> JointModel<'a> {
     /// Re-solves every motion cluster's motion from its returns' current associations
     /// (trimmed as CRF-Matching's groups); returns the largest change.
     pub fn solve_motions(&mut self) -> f64 {
-        let p = self.tables.problem();
         let mut change = 0.0f64;
         let mut pairs = Vec::new();
         for c in 0..self.motions.len() {
-            pairs.clear();
-            for i in 0..self.cluster.len() {
-                if self.cluster[i] != Some(c) {
-                    continue;
-                }
-                if let Some(g) = self.partner(i) {
-                    pairs.push((p.current.surface[i], *g, p.variances[i]));
-                }
-            }
-            let mut motion = self.motions[c];
-            for round in 0..TRIM_ITERATIONS {
-                let before = pairs.len();
-                pairs.retain(|(s, g, var)| {
-                    (motion.transform_point(s) - g).norm_squared()
-                        <= INLIER_SIGMAS * INLIER_SIGMAS * var
-                });
-                if pairs.len() < MIN_CLUSTER_POINTS || (round > 0 && pairs.len() == before) {
-                    break;
-                }
-                self.stats.clear();
-                for (s, g, var) in &pairs {
-                    self.stats.add(s, g, 1.0 / var);
-                }
-                if let Some(a) = self.stats.solve() {
-                    motion = a.motion;
-                }
-            }
+            let motion = self.fit_cluster(c, &mut pairs, None);
             let m = &mut self.motions[c];
             change = change
                 .max(motion.translation_error(m))
@@ -233,6 +207,72 @@ impl<'a> JointModel<'a> {
             *m = motion;
         }
         change
+    }
+
+    /// Every motion cluster's motion solved once more from its returns' current
+    /// associations, those of the clusters other than the background with a von
+    /// Mises prior on the rotation centred on the background's rotation, of
+    /// concentration `1/σ²` for `sigma` (rad; see [`RigidAlignment::solve_with_rotation_prior`]
+    /// and [`crate::JointParams::object_rotation_sigma`]); the background's motion as it is.
+    /// The model's motions are left unchanged.
+    pub fn object_motions_with_prior(&mut self, sigma: f64) -> Vec<Pose2> {
+        let prior = (self.motions[self.background].theta(), 1.0 / (sigma * sigma));
+        let mut pairs = Vec::new();
+        (0..self.motions.len())
+            .map(|c| {
+                if c == self.background {
+                    self.motions[c]
+                } else {
+                    self.fit_cluster(c, &mut pairs, Some(prior))
+                }
+            })
+            .collect()
+    }
+
+    /// Cluster `c`'s motion from its returns with a partner, trimmed: from its current
+    /// motion, pairs farther than [`INLIER_SIGMAS`] association standard deviations
+    /// leave and the rest are solved again (eq. 6, weights `1/σ²`), at most
+    /// [`TRIM_ITERATIONS`] times; fewer than [`MIN_CLUSTER_POINTS`] pairs keep the
+    /// motion. `prior`: `(θ₀, κ)` of a rotation prior. `pairs` is scratch space.
+    fn fit_cluster(
+        &mut self,
+        c: usize,
+        pairs: &mut Vec<(Point2<f64>, Point2<f64>, f64)>,
+        prior: Option<(f64, f64)>,
+    ) -> Pose2 {
+        let p = self.tables.problem();
+        pairs.clear();
+        for i in 0..self.cluster.len() {
+            if self.cluster[i] != Some(c) {
+                continue;
+            }
+            if let Some(g) = self.partner(i) {
+                pairs.push((p.current.surface[i], *g, p.variances[i]));
+            }
+        }
+        let mut motion = self.motions[c];
+        for round in 0..TRIM_ITERATIONS {
+            let before = pairs.len();
+            pairs.retain(|(s, g, var)| {
+                (motion.transform_point(s) - g).norm_squared()
+                    <= INLIER_SIGMAS * INLIER_SIGMAS * var
+            });
+            if pairs.len() < MIN_CLUSTER_POINTS || (round > 0 && pairs.len() == before) {
+                break;
+            }
+            self.stats.clear();
+            for (s, g, var) in pairs.iter() {
+                self.stats.add(s, g, 1.0 / var);
+            }
+            let solved = match prior {
+                Some((theta0, kappa)) => self.stats.solve_with_rotation_prior(theta0, kappa),
+                None => self.stats.solve(),
+            };
+            if let Some(a) = solved {
+                motion = a.motion;
+            }
+        }
+        motion
     }
 }
 
