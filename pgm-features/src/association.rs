@@ -621,26 +621,39 @@ fn segment_motions_with(
     if params.tight_ego_distance > 0.0 {
         runs.push((prior, params.tight_ego_distance));
     }
-    if let Some(search) = params.global_search {
-        // The best motion of a correlative search around the prior, refined by the
-        // tight schedule (the search's grid is finer than its first distance).
-        // Only the best is used: asking for one lets the search prune with it alone.
-        let hypotheses = CorrelativeParams {
-            hypotheses: 1,
-            ..search
+    let ego = match params.global_search {
+        None => icp.align_best(&pair.current, &runs)?.motion,
+        Some(search) => {
+            // The best motion of a correlative search around the prior, refined by the
+            // tight schedule (the search's grid is finer than its first distance).
+            // Only the best is used: asking for one lets the search prune with it
+            // alone. The search and the runs from the prior are independent: they
+            // run side by side (rayon; one thread runs them in turn), and the
+            // result is [`Icp::align_best`] over all the runs in their order.
+            let matcher = CorrelativeParams {
+                hypotheses: 1,
+                ..search
+            }
+            .check()?;
+            let (hypotheses, from_prior) = rayon::join(
+                || matcher.search(&pair.reference, &pair.current, prior),
+                || icp.align_best(&pair.current, &runs),
+            );
+            let (hypotheses, mut best) = (hypotheses?, from_prior?);
+            if let Some(h) = hypotheses.first() {
+                let first = if params.tight_ego_distance > 0.0 {
+                    params.tight_ego_distance
+                } else {
+                    nearest.icp.initial_max_distance
+                };
+                let r = icp.align_best(&pair.current, &[(h.motion, first)])?;
+                if r.is_better_run_than(&best) {
+                    best = r;
+                }
+            }
+            best.motion
         }
-        .check()?
-        .search(&pair.reference, &pair.current, prior)?;
-        if let Some(best) = hypotheses.first() {
-            let first = if params.tight_ego_distance > 0.0 {
-                params.tight_ego_distance
-            } else {
-                nearest.icp.initial_max_distance
-            };
-            runs.push((best.motion, first));
-        }
-    }
-    let ego = icp.align_best(&pair.current, &runs)?.motion;
+    };
     let (points, beams) = pair.current.points();
     let segments = segment_by_gap(&points, params.segment_gap);
     let (reference_points, reference_beams) = pair.reference.points();

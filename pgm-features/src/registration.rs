@@ -247,6 +247,21 @@ pub struct IcpResult {
     pub rms_error: f64,
 }
 
+impl IcpResult {
+    /// Whether this run beats `earlier`, a run of [`Icp::align_best`] that came
+    /// before it: more inliers, or as many with a lower RMS error; runs that end at
+    /// the same minimum (within [`SAME_MINIMUM`]) keep the earlier one — their RMS
+    /// errors differ only by rounding, which would make the choice depend on the
+    /// order the returns were summed in.
+    pub fn is_better_run_than(&self, earlier: &IcpResult) -> bool {
+        let same = self.motion.translation_error(&earlier.motion) <= SAME_MINIMUM
+            && self.motion.rotation_error(&earlier.motion) <= SAME_MINIMUM;
+        !same
+            && (self.inliers > earlier.inliers
+                || (self.inliers == earlier.inliers && self.rms_error < earlier.rms_error))
+    }
+}
+
 /// Two ICP runs of [`Icp::align_best`] whose motions differ by at most this (m and
 /// rad) ended at the same minimum.
 pub const SAME_MINIMUM: f64 = 1e-6;
@@ -398,17 +413,7 @@ impl Icp {
         for &(start, d) in runs {
             InvalidParameter::positive("first distance", d, "a distance in metres > 0")?;
             let r = self.align_from(current, start, d.max(self.params.final_max_distance))?;
-            let better = best.as_ref().is_none_or(|b| {
-                // Runs that end at the same minimum (within 1 µm and 1 µrad) keep the
-                // earlier one: their RMS errors differ only by rounding, which would
-                // make the choice depend on the order the returns were summed in.
-                let same = r.motion.translation_error(&b.motion) <= SAME_MINIMUM
-                    && r.motion.rotation_error(&b.motion) <= SAME_MINIMUM;
-                !same
-                    && (r.inliers > b.inliers
-                        || (r.inliers == b.inliers && r.rms_error < b.rms_error))
-            });
-            if better {
+            if best.as_ref().is_none_or(|b| r.is_better_run_than(b)) {
                 best = Some(r);
             }
         }
