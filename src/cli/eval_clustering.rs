@@ -9,8 +9,9 @@
 //! ([`pgm_datasets::evaluation::DetectionSummary`]; `--min-object-returns N`, default
 //! 5). The data may also come from a bag (`--bag FILE --scan-topic T …`, see `pgm data
 //! pairs`). The methods and association sources are those of [`pgm::methods`];
-//! `--method joint` scores the joint model's clusters (the outlier cluster's returns
-//! as background, [`pgm_features::methods::JointClusters`]; `--joint-weights FILE`).
+//! `--method joint` scores the joint model's clusters (a return of the outlier
+//! cluster takes the moving cluster of its surface, else the background,
+//! [`pgm_features::methods::JointClusters`]; `--joint-weights FILE`).
 //! `--json` prints one object `{"method", "associations", "data", "pair_sets",
 //! "weights", "pairs",
 //! "homogeneity_mean", "homogeneity_std", "completeness_mean", "completeness_std",
