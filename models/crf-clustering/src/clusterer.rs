@@ -199,7 +199,7 @@ impl Clusterer {
         let free = free_space_evidence(input, d, &inferred.labels, &moving, ego);
         let (point_labels, objects) = split_objects(
             input,
-            d,
+            p,
             &inferred.labels,
             &inferred.motions,
             &moving,
