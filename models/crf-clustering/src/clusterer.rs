@@ -28,7 +28,7 @@ use crate::segmentation::initial_clusters;
 use crate::Result;
 use pgm_core::ParamGuard;
 use pgm_features::methods::{ClusterWithAssociations, MotionClustering};
-use pgm_features::{ClusterMotion, PointAssociations, Pose2, ScanPair};
+use pgm_features::{ClusterMotion, PointAssociations, Pose2, RigidAlignment, ScanPair};
 use serde::Serialize;
 
 /// How the background cluster was chosen.
@@ -197,11 +197,17 @@ impl Clusterer {
             moving_clusters(input, d, &inferred.labels, &inferred.motions, background);
         let ego = input.ego_motion.unwrap_or(bg_motion);
         let free = free_space_evidence(input, d, &inferred.labels, &moving, ego);
+        let reported = match p.object_rotation_sigma {
+            Some(sigma) => {
+                with_rotation_prior(input, &inferred, &moving, background, bg_motion, sigma)
+            }
+            None => inferred.motions.clone(),
+        };
         let (point_labels, objects) = split_objects(
             input,
             p,
             &inferred.labels,
-            &inferred.motions,
+            &reported,
             &moving,
             &displacement,
             &free,
@@ -231,6 +237,40 @@ impl Clusterer {
             converged: inferred.converged,
         }
     }
+}
+
+/// The motions to report: each moving cluster's (not the background's) solved again
+/// from its associated returns (eq. 3, weights `1/σ_i²`) with a rotation prior
+/// centred on the background's rotation `bg_motion`, of standard deviation `sigma`
+/// (rad; [`crate::ClusteringParams::object_rotation_sigma`]); the others as inferred.
+fn with_rotation_prior(
+    input: &ClusteringInput,
+    inferred: &Inferred,
+    moving: &[bool],
+    background: usize,
+    bg_motion: Pose2,
+    sigma: f64,
+) -> Vec<Pose2> {
+    let mut stats = vec![RigidAlignment::new(); inferred.motions.len()];
+    for (i, &l) in inferred.labels.iter().enumerate() {
+        if let (Some(g), Some(stats)) = (input.partners[i], stats.get_mut(l)) {
+            stats.add(&input.points[i], &g, 1.0 / input.variances[i]);
+        }
+    }
+    let kappa = 1.0 / (sigma * sigma);
+    inferred
+        .motions
+        .iter()
+        .enumerate()
+        .map(|(l, &m)| {
+            if l == background || !moving.get(l).copied().unwrap_or(false) {
+                return m;
+            }
+            stats[l]
+                .solve_with_rotation_prior(bg_motion.theta(), kappa)
+                .map_or(m, |a| a.motion)
+        })
+        .collect()
 }
 
 impl From<Clustering> for MotionClustering {

@@ -131,6 +131,14 @@ pub struct ClusteringParams {
     /// ([`pgm_core::hybrid::HybridInference`] with the two-pass sequential schedule,
     /// kept for checking; graphs with `knn > 0` always use it).
     pub chain_solver: bool,
+    /// The reported motion of every moving object is solved once more from its
+    /// cluster's associations with a prior on its rotation, `θ ~ N(θ_background, σ²)`
+    /// (the object's own turn between two scans is small;
+    /// [`pgm_features::RigidAlignment::solve_with_rotation_prior`], closed form), as the
+    /// joint model's (`pgm_joint::JointParams::object_rotation_sigma`). `Some(σ)` in
+    /// rad (default 0.05: a car turning at 0.5 rad/s seen 0.1 s apart); `None`
+    /// reports eq. 3 alone. Labels, the background and its motion are unchanged.
+    pub object_rotation_sigma: Option<f64>,
     /// The learned weights (default: the shipped ones).
     pub weights: ClusteringWeights,
     /// The moving-object thresholds beyond the paper.
@@ -150,6 +158,7 @@ impl Default for ClusteringParams {
             update: UpdateSchedule::EverySweep,
             odometry_sigma: [0.3, 0.3, 0.1],
             chain_solver: true,
+            object_rotation_sigma: Some(0.05),
             weights: ClusteringWeights::default(),
             detection: DetectionParams::default(),
         }
@@ -187,6 +196,13 @@ impl ParamGuard for ClusteringParams {
             return Err(InvalidParameter::new("max_sweeps", self.max_sweeps, "at least 1").into());
         }
         InvalidParameter::non_negative("motion_tolerance", self.motion_tolerance, "a number >= 0")?;
+        if let Some(sigma) = self.object_rotation_sigma {
+            InvalidParameter::positive(
+                "object_rotation_sigma",
+                sigma,
+                "a standard deviation in rad > 0",
+            )?;
+        }
         if !self
             .odometry_sigma
             .iter()
