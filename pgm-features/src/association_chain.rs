@@ -479,6 +479,11 @@ pub struct AssociationTables<'a> {
     /// Per entry of `pattern`: its transition feature and, within the band, the
     /// reference step `g_k − g_j` with its length.
     pattern_entries: Vec<PatternEntry>,
+    /// Every reference step within the band, `g_k − g_j` with its length, at
+    /// `j · (2·band + 1) + (k − j − 1 + band)` (they depend on the reference scan
+    /// alone: computed once per problem and band, and handed on from round to round;
+    /// unused slots past the scan's ends are zero).
+    band_steps: Arc<Vec<(nalgebra::Vector2<f64>, f64)>>,
 }
 
 impl std::fmt::Debug for AssociationTables<'_> {
@@ -552,6 +557,26 @@ impl<'a> AssociationTables<'a> {
     pub fn next_round(self, candidates: Vec<Vec<usize>>, outlier_motions: &[Pose2]) -> Self {
         let (problem, band) = (self.problem, self.band);
         Self::build(problem, candidates, band, outlier_motions, Some(&self))
+    }
+
+    /// The reference steps within `band` of every reference return (see
+    /// `band_steps`).
+    fn band_steps(problem: &AssociationProblem, band: usize) -> Vec<(nalgebra::Vector2<f64>, f64)> {
+        let reference = &problem.reference.surface;
+        let m = reference.len();
+        let width = 2 * band + 1;
+        let mut steps = vec![(nalgebra::Vector2::zeros(), 0.0); m * width];
+        for j in 0..m {
+            for slot in 0..width {
+                // k − j − 1 + band = slot.
+                let Some(k) = (j + 1 + slot).checked_sub(band).filter(|&k| k < m) else {
+                    continue;
+                };
+                let step = reference[k] - reference[j];
+                steps[j * width + slot] = (step, step.norm());
+            }
+        }
+        steps
     }
 
     fn build(
@@ -631,11 +656,16 @@ impl<'a> AssociationTables<'a> {
                 })
                 .collect()
         });
+        let band_steps = match previous {
+            Some(p) => Arc::clone(&p.band_steps),
+            None => Arc::new(Self::band_steps(problem, band)),
+        };
         Self {
             problem,
             band,
             offsets,
             data_rest,
+            band_steps,
             outlier,
             cache: RefCell::new(LocalCache {
                 motion: vec![None; n],
@@ -806,16 +836,9 @@ impl<'a> AssociationTables<'a> {
         let d = k as isize - j as isize;
         sink.add(entry, base + sequence_feature(d, pair.band), 1.0);
         if (d - 1).abs() <= pair.band {
-            let reference = &self.problem.reference.surface;
-            let reference_step = reference[k] - reference[j];
-            write_geometry(
-                pair,
-                reference_step,
-                reference_step.norm(),
-                entry,
-                base,
-                sink,
-            );
+            let width = 2 * self.band + 1;
+            let (reference_step, norm) = self.band_steps[j * width + (d - 1 + pair.band) as usize];
+            write_geometry(pair, reference_step, norm, entry, base, sink);
         }
     }
 }
