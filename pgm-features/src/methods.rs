@@ -533,10 +533,19 @@ impl<E: JointEstimator> MotionClusterer for JointClusters<E> {
     }
 
     fn cluster(&self, pair: &ScanPair) -> Result<MotionClustering> {
-        Ok(self
-            .0
-            .estimate(pair)?
-            .to_motion_clustering_on_surfaces(&pair.current, SURFACE_GAP))
+        let estimate = self.0.estimate(pair)?;
+        if estimate.clusters.len() != pair.current.len() {
+            return Err(crate::Error::BadPair {
+                pair: pair.name.clone(),
+                problem: format!(
+                    "{} gave {} cluster entries for the {} beams of the current scan",
+                    self.0.name(),
+                    estimate.clusters.len(),
+                    pair.current.len()
+                ),
+            });
+        }
+        Ok(estimate.to_motion_clustering_on_surfaces(&pair.current, SURFACE_GAP))
     }
 }
 
