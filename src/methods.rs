@@ -50,6 +50,11 @@ fn invalid(e: impl fmt::Display) -> MethodError {
     MethodError(e.to_string())
 }
 
+/// `e` prefixed with the method whose parameter it concerns.
+fn of(method: &str, e: impl fmt::Display) -> MethodError {
+    MethodError(format!("{method}: {e}"))
+}
+
 fn unknown(kind: &str, name: &str, known: &[(&str, &str)]) -> MethodError {
     let names: Vec<&str> = known.iter().map(|(n, _)| *n).collect();
     MethodError(format!(
@@ -91,15 +96,25 @@ impl MethodOptions {
     /// Checks the parameters of every method, used or not: a value that means nothing
     /// is an error even when the chosen method would not read it (`pgm cluster
     /// --associations true --gate nan` is refused, not silently ignored).
+    /// The error names the method whose parameter it is (`motion K-Means: parameter
+    /// `k` = 0: …`).
     pub fn check(&self) -> Result<(), MethodError> {
-        self.crf.check_ref().map_err(invalid)?;
-        self.kmeans.check_ref().map_err(invalid)?;
-        self.cbd.check_ref().map_err(invalid)?;
-        self.icp.check_ref().map_err(invalid)?;
-        self.nearest.check_ref().map_err(invalid)?;
-        self.segment.check_ref().map_err(invalid)?;
-        self.matching.check_ref().map_err(invalid)?;
-        self.joint.check_ref().map_err(invalid)
+        self.crf.check_ref().map_err(|e| of("CRF-Clustering", e))?;
+        self.kmeans
+            .check_ref()
+            .map_err(|e| of("motion K-Means", e))?;
+        self.cbd.check_ref().map_err(|e| of("CBD", e))?;
+        self.icp.check_ref().map_err(|e| of("ICP", e))?;
+        self.nearest
+            .check_ref()
+            .map_err(|e| of("ICP associations", e))?;
+        self.segment
+            .check_ref()
+            .map_err(|e| of("segment-wise ICP", e))?;
+        self.matching
+            .check_ref()
+            .map_err(|e| of("CRF-Matching", e))?;
+        self.joint.check_ref().map_err(|e| of("the joint model", e))
     }
 
     /// These options with the joint model's weights and boosters loaded from `path` (a

@@ -167,6 +167,22 @@ fn show(x: Option<f64>, digits: usize) -> String {
 /// Runs `pgm eval clustering`.
 pub fn run(args: ClusteringEvalArgs) -> CliResult {
     let source = pair_source(args.pairs.as_deref(), &args.source, &args.leigh, args.k)?;
+    let mut options = args.crf.options()?;
+    if let Some(path) = &args.joint_weights {
+        options = options
+            .with_joint_weights(path)
+            .map_err(CliError::from_display)?;
+    }
+    options.kmeans.k = args.kmeans_k;
+    options.cbd.margin = args.cbd_margin;
+    options.check().map_err(CliError::from_display)?;
+    if args.min_object_returns == 0 {
+        return Err(CliError(
+            "--min-object-returns 0: an object without a return in the current scan cannot \
+             be detected (expected at least 1)"
+                .into(),
+        ));
+    }
     let mut pairs = load_pairs(&source)?.pairs;
     if args.no_prior {
         for p in &mut pairs {
@@ -187,15 +203,6 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
             total - pairs.len()
         );
     }
-    let mut options = args.crf.options()?;
-    if let Some(path) = &args.joint_weights {
-        options = options
-            .with_joint_weights(path)
-            .map_err(CliError::from_display)?;
-    }
-    options.kmeans.k = args.kmeans_k;
-    options.cbd.margin = args.cbd_margin;
-    options.check().map_err(CliError::from_display)?;
     let which = args
         .associations
         .as_deref()
