@@ -5,6 +5,7 @@
 mod common;
 
 use common::*;
+use std::path::Path;
 
 /// Item 1: every numeric option is checked, also where the chosen method (or source)
 /// does not use it, and before the data are read.
@@ -103,5 +104,109 @@ fn unused_options_are_checked_in_every_evaluation() {
     );
     // Sensible values still run.
     ok(&["eval", "joint", "--pairs", &ds, "--kmeans-k", "3", "--json"]);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// The shipped weight file of `model` (crf-clustering, crf-matching, joint).
+fn shipped(model: &str) -> String {
+    format!(
+        "{}/models/{model}/weights/default.json",
+        env!("CARGO_MANIFEST_DIR")
+    )
+}
+
+/// Item 3: every weights option names a missing file once, and a weight file of
+/// another model as such.
+#[test]
+fn weight_file_errors_name_the_file_once_and_the_kind_of_file() {
+    let dir = temp_dir("weights");
+    let (ds, _) = simulated(&dir, "ds", 5, 1);
+    let out = dir.join("w.json");
+    let out = out.to_str().unwrap();
+    // (arguments before the file, the kind the option wants)
+    let options: [(Vec<&str>, &str); 7] = [
+        (
+            vec!["cluster", "--pairs", &ds, "--weights"],
+            "CRF-Clustering",
+        ),
+        (
+            vec![
+                "eval",
+                "clustering",
+                "--method",
+                "crf",
+                "--pairs",
+                &ds,
+                "--weights",
+            ],
+            "CRF-Clustering",
+        ),
+        (
+            vec!["eval", "joint", "--pairs", &ds, "--crf-weights"],
+            "CRF-Clustering",
+        ),
+        (
+            vec!["match", "--pairs", &ds, "--matching-weights"],
+            "CRF-Matching",
+        ),
+        (
+            vec![
+                "train",
+                "joint",
+                "--simulate",
+                "2",
+                "--out",
+                out,
+                "--association-weights",
+            ],
+            "CRF-Matching",
+        ),
+        (vec!["joint", "--pairs", &ds, "--weights"], "joint-model"),
+        (
+            vec![
+                "eval",
+                "clustering",
+                "--method",
+                "joint",
+                "--pairs",
+                &ds,
+                "--joint-weights",
+            ],
+            "joint-model",
+        ),
+    ];
+    let missing = dir.join("nope.json");
+    let missing = missing.to_str().unwrap();
+    for (args, kind) in &options {
+        let mut a = args.clone();
+        a.push(missing);
+        let err = refused(&a, &[missing, "No such file"]);
+        assert_eq!(
+            err.matches(missing).count(),
+            1,
+            "{a:?}: path repeated\n{err}"
+        );
+        for (model, title) in [
+            ("crf-clustering", "CRF-Clustering"),
+            ("crf-matching", "CRF-Matching"),
+            ("joint", "joint-model"),
+        ] {
+            if title == *kind {
+                continue;
+            }
+            let file = shipped(model);
+            let mut a = args.clone();
+            a.push(&file);
+            let err = refused(
+                &a,
+                &[
+                    &format!("not a {kind} weight file"),
+                    &format!("it is a {title} weight file"),
+                ],
+            );
+            assert_eq!(err.matches(file.as_str()).count(), 1, "{a:?}\n{err}");
+        }
+    }
+    assert!(!Path::new(out).exists(), "a refused training wrote {out}");
     std::fs::remove_dir_all(&dir).unwrap();
 }

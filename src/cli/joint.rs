@@ -171,7 +171,10 @@ fn joint_params(
         ..JointParams::default()
     };
     if let Some(path) = weights {
-        params.weights = pgm_joint::JointWeights::load(path).map_err(CliError::from_display)?;
+        params.weights = pgm::methods::load_weights(path, pgm::methods::WeightKind::Joint, |p| {
+            pgm_joint::JointWeights::load(p)
+        })
+        .map_err(CliError::from_display)?;
     }
     Ok(params)
 }
