@@ -210,3 +210,24 @@ fn weight_file_errors_name_the_file_once_and_the_kind_of_file() {
     assert!(!Path::new(out).exists(), "a refused training wrote {out}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Item 5: a `--view` too large is refused for its size, not called infinite.
+#[test]
+fn plot_view_errors_say_what_the_limit_is() {
+    let dir = temp_dir("view");
+    let (ds, _) = simulated(&dir, "ds", 5, 1);
+    let svg = dir.join("p.svg");
+    let svg = svg.to_str().unwrap();
+    let err = refused(
+        &["plot", &ds, "--svg", svg, "--view", "0,1e300,0,1"],
+        &["1e300 m lies beyond 1e5 m of the sensor"],
+    );
+    assert!(!err.contains("not a finite"), "{err}");
+    refused(
+        &["plot", &ds, "--svg", svg, "--view", "0,inf,0,1"],
+        &["inf is not a finite number"],
+    );
+    assert!(!Path::new(svg).exists());
+    ok(&["plot", &ds, "--svg", svg, "--view=-5,5,-3,3"]);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
