@@ -231,3 +231,71 @@ fn plot_view_errors_say_what_the_limit_is() {
     ok(&["plot", &ds, "--svg", svg, "--view=-5,5,-3,3"]);
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Item 6: a pair of a scan with itself is refused by every one-pair command and
+/// source, with the words of the pair builders' `k = 0`.
+#[test]
+fn a_scan_paired_with_itself_is_refused() {
+    let dir = temp_dir("same-scan");
+    let carmen = write(
+        &dir,
+        "log.clf",
+        &(0..3)
+            .map(|t| {
+                let ranges = vec!["2.0"; 181].join(" ");
+                format!("FLASER 181 {ranges} 0 0 0 0 0 0 {t}.0 host {t}.0\n")
+            })
+            .collect::<String>(),
+    );
+    for command in ["cluster", "match", "joint"] {
+        refused(
+            &[
+                command,
+                "--carmen",
+                &carmen,
+                "--reference",
+                "1",
+                "--current",
+                "1",
+            ],
+            &[
+                "--reference 1 --current 1",
+                "the two scans of a pair must differ",
+            ],
+        );
+    }
+    let scans = write(
+        &dir,
+        "scans.txt",
+        "SCAN 5 1.0 1.0 l -1.0 0.1 0.0 10.0 3 1.0 2.0 3.0\nSCAN 6 1.1 1.1 l -1.0 0.1 0.0 10.0 3 1.0 2.0 3.0\n",
+    );
+    refused(
+        &[
+            "cluster",
+            "--scans",
+            &scans,
+            "--reference",
+            "5",
+            "--current",
+            "5",
+        ],
+        &["the two scans of a pair must differ"],
+    );
+    // The same message as the pair builders' k = 0.
+    refused(
+        &[
+            "data", "summary", "--scans", &scans, "--people", &scans, "--k", "0",
+        ],
+        &["the two scans of a pair must differ"],
+    );
+    ok(&[
+        "cluster",
+        "--carmen",
+        &carmen,
+        "--reference",
+        "0",
+        "--current",
+        "1",
+    ]);
+    std::fs::remove_dir_all(&dir).unwrap();
+}

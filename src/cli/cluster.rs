@@ -181,6 +181,14 @@ impl OnePairArgs {
 
 /// Loads the pair named by the arguments.
 fn load_pair(args: &OnePairArgs) -> Result<ScanPair, CliError> {
+    if let (Some(i), Some(j)) = (args.reference, args.current) {
+        // Before the log is read; the builders refuse it too.
+        if i == j {
+            return Err(CliError(format!(
+                "--reference {i} --current {j}: the two scans of a pair must differ"
+            )));
+        }
+    }
     if let Some(path) = &args.pairs {
         let pairs = pgm_datasets::read_pairs(path).map_err(CliError::from_display)?;
         let found = pairs

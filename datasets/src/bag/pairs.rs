@@ -333,7 +333,7 @@ pub fn bag_pairs(log: &BagLog, options: &BagPairOptions) -> Result<BagPairs> {
 ///
 /// # Errors
 /// A scan that does not exist or has no valid return ([`Error::Scan`], naming the
-/// bag and the scan's message number).
+/// bag and the scan's message number); `i == j` (the two scans of a pair must differ).
 pub fn bag_scan_pair(
     log: &BagLog,
     i: usize,
@@ -341,6 +341,7 @@ pub fn bag_scan_pair(
     laser_mount: Option<Pose2>,
     notes: &mut Vec<String>,
 ) -> Result<ScanPair> {
+    crate::builders::distinct_scans(&log.path, i, j)?;
     let (mount, note) = self::laser_mount(log, laser_mount);
     notes.push(note);
     let scans = prepared_scans(log, &mount, notes);
