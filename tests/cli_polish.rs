@@ -299,3 +299,21 @@ fn a_scan_paired_with_itself_is_refused() {
     ]);
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Item 8: the help of `pgm demo` says what it runs and writes.
+#[test]
+fn demo_help_names_the_joint_model_and_both_pictures() {
+    for args in [&["--help"][..], &["demo", "--help"][..]] {
+        let (out, _) = ok(args);
+        let line = out
+            .lines()
+            .find(|l| l.contains("built-in simulator"))
+            .unwrap_or_else(|| panic!("{args:?}:\n{out}"));
+        for needle in ["joint model", "crf-clustering.svg", "joint.svg"] {
+            assert!(
+                line.contains(needle),
+                "{args:?}: {needle:?} not in {line:?}"
+            );
+        }
+    }
+}
