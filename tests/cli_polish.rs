@@ -317,3 +317,32 @@ fn demo_help_names_the_joint_model_and_both_pictures() {
         }
     }
 }
+
+/// Item 10: the two object counts of `pgm eval clustering` say what they count, and
+/// agree with the JSON fields (whose names stay).
+#[test]
+fn eval_clustering_text_says_what_each_object_count_counts() {
+    let dir = temp_dir("counts");
+    let (ds, _) = simulated(&dir, "ds", 7, 3);
+    let args = ["eval", "clustering", "--method", "crf", "--pairs", &ds];
+    let (text, _) = ok(&args);
+    let (out, _) = ok(&[&args[..], &["--json"]].concat());
+    let j = json(&out);
+    let n = |f: &str| j[f].as_u64().unwrap_or_else(|| panic!("{f} in {j}"));
+    let detection = format!(
+        "detection (true movers with >= {} returns in the current scan): {} of {} detected",
+        n("min_object_returns"),
+        n("objects_detected"),
+        n("objects_counted")
+    );
+    let motion = format!(
+        "motion errors (every true mover with a known motion, any number of returns): {} of {} found",
+        n("objects_found"),
+        n("objects_total")
+    );
+    for line in [detection, motion] {
+        assert!(text.contains(&line), "{line:?} not in\n{text}");
+    }
+    assert!(!text.contains("moving objects found"), "{text}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
