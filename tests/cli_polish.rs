@@ -346,3 +346,51 @@ fn eval_clustering_text_says_what_each_object_count_counts() {
     assert!(!text.contains("moving objects found"), "{text}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Item 4: a file that is not text, given where a text log (or a UAI model or a pair
+/// file) is read, is refused naming the file, the line and the byte offset.
+#[test]
+fn binary_files_given_as_logs_name_the_line_and_byte() {
+    let dir = temp_dir("binary");
+    let path = dir.join("log.bin");
+    let mut bytes = b"SCAN 0 1.0 1.0 l -1 0.1 0 10 2 1 2\n# note\n".to_vec();
+    let offset = bytes.len() + 3;
+    bytes.extend_from_slice(b"abc\xff\xfe\x00junk\n");
+    std::fs::write(&path, &bytes).unwrap();
+    let log = path.to_str().unwrap();
+    let needles = [
+        &format!("{log}:3: byte {offset} (0xff) is not UTF-8 text")[..],
+        "binary or compressed",
+    ];
+    refused(
+        &[
+            "cluster",
+            "--scans",
+            log,
+            "--reference",
+            "0",
+            "--current",
+            "1",
+        ],
+        &needles,
+    );
+    refused(
+        &[
+            "cluster",
+            "--carmen",
+            log,
+            "--reference",
+            "0",
+            "--current",
+            "1",
+        ],
+        &needles,
+    );
+    refused(
+        &["data", "summary", "--scans", log, "--people", log],
+        &needles,
+    );
+    refused(&["plot", log, "--svg", &format!("{log}.svg")], &needles);
+    refused(&["map", log], &[&format!("{log}:3: byte {offset}")]);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
