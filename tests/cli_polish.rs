@@ -394,3 +394,42 @@ fn binary_files_given_as_logs_name_the_line_and_byte() {
     refused(&["map", log], &[&format!("{log}:3: byte {offset}")]);
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Item 7: a command that reads one pair of a data set opens only that pair's file;
+/// the damaged pair is still an error when it is the one asked for.
+#[test]
+fn one_damaged_pair_file_only_stops_the_commands_that_read_it() {
+    let dir = temp_dir("damaged");
+    let (ds, pairs) = simulated(&dir, "ds", 5, 3);
+    let damaged = Path::new(&ds).join("pair-00001.json");
+    let text = std::fs::read_to_string(&damaged).unwrap();
+    std::fs::write(&damaged, &text[..text.len() / 2]).unwrap();
+    let damaged = damaged.to_str().unwrap();
+    let svg = dir.join("p.svg");
+    let svg = svg.to_str().unwrap();
+    ok(&["plot", &ds, "--pair", "2", "--svg", svg]);
+    refused(
+        &["plot", &ds, "--pair", "1", "--svg", svg],
+        &[damaged, "EOF"],
+    );
+    refused(
+        &["plot", &ds, "--pair", "3", "--svg", svg],
+        &["--pair 3", "3 pairs"],
+    );
+    for command in ["cluster", "match", "joint"] {
+        let (out, _) = ok(&[command, "--pairs", &ds, "--pair", "2"]);
+        assert_eq!(json(&out)["pair"], pairs[2].name.as_str(), "{command}");
+        ok(&[command, "--pairs", &ds, "--pair", &pairs[0].name]);
+        refused(&[command, "--pairs", &ds, "--pair", "1"], &[damaged]);
+        refused(
+            &[command, "--pairs", &ds, "--pair", &pairs[1].name],
+            &[damaged],
+        );
+    }
+    // Commands that read every pair still refuse the data set.
+    refused(
+        &["eval", "clustering", "--method", "cbd", "--pairs", &ds],
+        &[damaged],
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
