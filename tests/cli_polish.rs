@@ -433,3 +433,66 @@ fn one_damaged_pair_file_only_stops_the_commands_that_read_it() {
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Item 2: a person centre beyond the reach its scan declares (range_max + 1 m) is
+/// refused naming the people file, line and value, and the scan line.
+#[test]
+fn person_centres_beyond_the_lasers_reach_are_refused() {
+    let dir = temp_dir("reach");
+    let scans: String = (0..4)
+        .map(|i| {
+            format!(
+                "SCAN {} {}.0 {}.0 l -1.0 0.1 0.0 10.0 3 1.0 2.0 3.0\n",
+                130 + i,
+                i,
+                i
+            )
+        })
+        .collect();
+    let scans = write(&dir, "scans.txt", &scans);
+    let people = |far: &str| {
+        write(
+            &dir,
+            "people.txt",
+            &format!("PERSON 130 1 1.0 0.5\n# far\nPERSON 131 1 {far} -2.1637\n"),
+        )
+    };
+    for far in ["50000", "11.5"] {
+        let file = people(far);
+        for args in [
+            &[
+                "data", "summary", "--scans", &scans, "--people", &file, "--k", "1",
+            ][..],
+            &[
+                "eval",
+                "clustering",
+                "--method",
+                "cbd",
+                "--scans",
+                &scans,
+                "--people",
+                &file,
+                "--k",
+                "1",
+                "--labels",
+                "displacement",
+            ][..],
+        ] {
+            refused(
+                args,
+                &[
+                    &format!("{file}:3: field `x y` = `{far} -2.1637`"),
+                    "beyond its reach",
+                    &format!("scan 131 ({scans}:2) declares range_max 10 m"),
+                    "at most 1 m beyond",
+                ],
+            );
+        }
+    }
+    // Within range_max + 1 m: accepted.
+    let file = people("10.7");
+    let args = ["--scans", &scans, "--people", &file, "--k", "1"];
+    let without_odometry = ["--walking-speed", "0", "--moving-threshold", "0"];
+    ok(&[&["data", "summary"][..], &args, &without_odometry].concat());
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -365,3 +365,39 @@ fn one_pair_builders_refuse_a_scan_paired_with_itself() {
     );
     assert!(leigh_scan_pair(Path::new("scans.txt"), &scans, 5, 6).is_ok());
 }
+
+#[test]
+fn person_centres_are_held_against_their_scans_reach() {
+    use pgm_datasets::leigh::{check_people_reach, people_out_of_reach, PERSON_REACH_MARGIN};
+    let scans = parse_scans(
+        Path::new("scans.txt"),
+        "SCAN 5 1.0 1.0 l -1.0 0.1 0.0 10.0 2 1.0 2.0\nSCAN 6 1.1 1.1 l -1.0 0.1 0.0 4.0 2 1.0 2.0\n",
+    )
+    .unwrap();
+    let people = |text: &str| parse_people(Path::new("people.txt"), text).unwrap();
+    // Scan 5 reaches 10 m + margin, scan 6 only 4 m + margin; scan 9 is not in the
+    // log: the log's largest range_max.
+    let near = people("PERSON 5 1 10.5 0.0\nPERSON 6 1 4.9 0.0\nPERSON 9 1 10.9 0.0\n");
+    assert!(people_out_of_reach(&scans, &near).is_none());
+    for (text, line, range_max) in [
+        ("PERSON 5 1 1.0 0.0\nPERSON 6 1 5.2 0.0\n", 2, 4.0),
+        ("PERSON 9 1 0.0 -11.2\n", 1, 10.0),
+    ] {
+        let far = people(text);
+        let out = people_out_of_reach(&scans, &far).unwrap();
+        assert_eq!((out.annotation.line, out.range_max), (line, range_max));
+        assert!(out.distance > range_max + PERSON_REACH_MARGIN);
+        let err = check_people_reach(
+            &scans,
+            Path::new("scans.txt"),
+            &far,
+            Path::new("people.txt"),
+        )
+        .unwrap_err();
+        assert!(
+            err.to_string()
+                .starts_with(&format!("people.txt:{line}: field `x y`")),
+            "{err}"
+        );
+    }
+}
