@@ -496,3 +496,84 @@ fn person_centres_beyond_the_lasers_reach_are_refused() {
     ok(&[&["data", "summary"][..], &args, &without_odometry].concat());
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Item 9: a damaged record inside a ROS 1 chunk names the topic and message it is
+/// (its header still names its connection) or follows (it does not), and where it lies.
+#[test]
+fn damaged_bag_records_name_the_topic_and_message() {
+    use pgm::datasets::bag::synthetic::{drive, ros1_bag, serialise, Wire};
+    let dir = temp_dir("bag-record");
+    let records = drive(4);
+    let good = ros1_bag(&records);
+    let scan = records
+        .iter()
+        .filter(|r| r.topic == "/scan")
+        .nth(1)
+        .unwrap();
+    let data = serialise(&scan.msg, 2, Wire::Ros1);
+    let at = good
+        .windows(data.len())
+        .position(|w| w == data.as_slice())
+        .unwrap();
+    // The data length of the second scan message runs past the chunk: its header
+    // still names the scan topic.
+    let mut bytes = good.clone();
+    bytes[at - 4..at].copy_from_slice(&0x7fff_ffffu32.to_le_bytes());
+    let path = dir.join("length.bag");
+    std::fs::write(&path, &bytes).unwrap();
+    let bag = path.to_str().unwrap();
+    let cluster = [
+        "cluster",
+        "--bag",
+        bag,
+        "--scan-topic",
+        "/scan",
+        "--reference",
+        "0",
+        "--current",
+        "1",
+    ];
+    refused(
+        &cluster,
+        &[
+            "topic /scan, message 2",
+            "this message's record",
+            "of the chunk at byte",
+            "out of bounds",
+        ],
+    );
+    // The header length of the same record is garbled: the error names the message
+    // before it.
+    let mut bytes = good.clone();
+    let header_len_at = at - 4 - 38 - 4;
+    assert_eq!(
+        &bytes[header_len_at..header_len_at + 4],
+        &38u32.to_le_bytes()
+    );
+    bytes[header_len_at..header_len_at + 4].copy_from_slice(&0x7fff_ffffu32.to_le_bytes());
+    let path = dir.join("header.bag");
+    std::fs::write(&path, &bytes).unwrap();
+    let bag = path.to_str().unwrap();
+    let cluster = [
+        "cluster",
+        "--bag",
+        bag,
+        "--scan-topic",
+        "/scan",
+        "--reference",
+        "0",
+        "--current",
+        "1",
+    ];
+    let err = refused(
+        &cluster,
+        &[
+            "topic /",
+            ", message ",
+            "the record after this message",
+            "at byte",
+        ],
+    );
+    assert!(!err.contains("rosbag::Error"), "{err}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
