@@ -36,7 +36,8 @@ enum Command {
     Joint(cli::joint::JointArgs),
     /// Learn model weights from labelled pairs (`pgm train clustering …`).
     Train(cli::train::TrainArgs),
-    /// CRF-Clustering on the built-in simulator: summary table and an SVG.
+    /// CRF-Clustering, the joint model and the joint paper's methods on the built-in
+    /// simulator: summary tables and two SVGs (crf-clustering.svg, joint.svg).
     Demo(cli::demo::DemoArgs),
 }
 

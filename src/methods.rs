@@ -50,6 +50,11 @@ fn invalid(e: impl fmt::Display) -> MethodError {
     MethodError(e.to_string())
 }
 
+/// `e` prefixed with the method whose parameter it concerns.
+fn of(method: &str, e: impl fmt::Display) -> MethodError {
+    MethodError(format!("{method}: {e}"))
+}
+
 fn unknown(kind: &str, name: &str, known: &[(&str, &str)]) -> MethodError {
     let names: Vec<&str> = known.iter().map(|(n, _)| *n).collect();
     MethodError(format!(
@@ -84,38 +89,139 @@ impl MethodOptions {
     /// These options with the CRF-Matching weights and boosters loaded from `path` (a
     /// file written by `pgm train matching`).
     pub fn with_matching_weights(mut self, path: &std::path::Path) -> Result<Self, MethodError> {
-        self.matching.weights = MatchingWeights::load(path).map_err(invalid)?;
+        self.matching.weights =
+            load_weights(path, WeightKind::Matching, |p| MatchingWeights::load(p))?;
         Ok(self)
     }
 
     /// Checks the parameters of every method, used or not: a value that means nothing
     /// is an error even when the chosen method would not read it (`pgm cluster
     /// --associations true --gate nan` is refused, not silently ignored).
+    /// The error names the method whose parameter it is (`motion K-Means: parameter
+    /// `k` = 0: …`).
     pub fn check(&self) -> Result<(), MethodError> {
-        self.crf.check_ref().map_err(invalid)?;
-        self.kmeans.check_ref().map_err(invalid)?;
-        self.cbd.check_ref().map_err(invalid)?;
-        self.icp.check_ref().map_err(invalid)?;
-        self.nearest.check_ref().map_err(invalid)?;
-        self.segment.check_ref().map_err(invalid)?;
-        self.matching.check_ref().map_err(invalid)?;
-        self.joint.check_ref().map_err(invalid)
+        self.crf.check_ref().map_err(|e| of("CRF-Clustering", e))?;
+        self.kmeans
+            .check_ref()
+            .map_err(|e| of("motion K-Means", e))?;
+        self.cbd.check_ref().map_err(|e| of("CBD", e))?;
+        self.icp.check_ref().map_err(|e| of("ICP", e))?;
+        self.nearest
+            .check_ref()
+            .map_err(|e| of("ICP associations", e))?;
+        self.segment
+            .check_ref()
+            .map_err(|e| of("segment-wise ICP", e))?;
+        self.matching
+            .check_ref()
+            .map_err(|e| of("CRF-Matching", e))?;
+        self.joint.check_ref().map_err(|e| of("the joint model", e))
     }
 
     /// These options with the joint model's weights and boosters loaded from `path` (a
     /// file written by `pgm train joint`).
     pub fn with_joint_weights(mut self, path: &std::path::Path) -> Result<Self, MethodError> {
-        self.joint.weights = JointWeights::load(path).map_err(invalid)?;
+        self.joint.weights = load_weights(path, WeightKind::Joint, |p| JointWeights::load(p))?;
         Ok(self)
     }
 
     /// These options with the CRF-Clustering weights loaded from `path` (a file
     /// written by `pgm train clustering`).
     pub fn with_crf_weights(mut self, path: &std::path::Path) -> Result<Self, MethodError> {
-        self.crf.weights = ClusteringWeights::load(path)
-            .map_err(|e| MethodError(format!("{}: {e}", path.display())))?;
+        self.crf.weights =
+            load_weights(path, WeightKind::Clustering, |p| ClusteringWeights::load(p))?;
         Ok(self)
     }
+}
+
+/// The kinds of weight file, by the model that reads them (the `model` field every
+/// weight file starts with).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum WeightKind {
+    /// CRF-Clustering (`pgm train clustering`; `--weights`, `--crf-weights`).
+    Clustering,
+    /// CRF-Matching (`pgm train matching`; `--matching-weights`,
+    /// `--association-weights`).
+    Matching,
+    /// The joint model (`pgm train joint`; `--weights` of the joint commands,
+    /// `--joint-weights`).
+    Joint,
+}
+
+impl WeightKind {
+    const ALL: [WeightKind; 3] = [
+        WeightKind::Clustering,
+        WeightKind::Matching,
+        WeightKind::Joint,
+    ];
+
+    /// The `model` field of such a file.
+    pub fn model(self) -> &'static str {
+        match self {
+            WeightKind::Clustering => "crf-clustering",
+            WeightKind::Matching => "crf-matching",
+            WeightKind::Joint => "joint",
+        }
+    }
+
+    /// The model's name in messages.
+    pub fn title(self) -> &'static str {
+        match self {
+            WeightKind::Clustering => "CRF-Clustering",
+            WeightKind::Matching => "CRF-Matching",
+            WeightKind::Joint => "joint-model",
+        }
+    }
+
+    /// The command that writes such a file.
+    pub fn trainer(self) -> &'static str {
+        match self {
+            WeightKind::Clustering => "pgm train clustering",
+            WeightKind::Matching => "pgm train matching",
+            WeightKind::Joint => "pgm train joint",
+        }
+    }
+}
+
+/// Loads a weight file of `kind` with `load`. The error names the file once (the
+/// loaders' own errors name it already, and a prefix made `PATH: PATH: …`) and, for a
+/// weight file of another model, says which kind of file it is instead of the parser's
+/// complaint about the first field it does not know.
+pub fn load_weights<T, E: fmt::Display>(
+    path: &std::path::Path,
+    kind: WeightKind,
+    load: impl FnOnce(&std::path::Path) -> Result<T, E>,
+) -> Result<T, MethodError> {
+    load(path).map_err(|e| {
+        let shown = path.display().to_string();
+        if let Some(other) = weight_kind_of(path).filter(|k| *k != kind) {
+            return MethodError(format!(
+                "{shown}: not a {} weight file: it is a {} weight file (`\"model\": \"{}\"`, \
+                 written by `{}`); {} weights are written by `{}`",
+                kind.title(),
+                other.title(),
+                other.model(),
+                other.trainer(),
+                kind.title(),
+                kind.trainer()
+            ));
+        }
+        let message = e.to_string();
+        if message.starts_with(&shown) {
+            MethodError(message)
+        } else {
+            MethodError(format!("{shown}: {message}"))
+        }
+    })
+}
+
+/// The kind of weight file at `path` by its `model` field, if it is JSON with one
+/// that names a model of this workspace.
+fn weight_kind_of(path: &std::path::Path) -> Option<WeightKind> {
+    let text = std::fs::read_to_string(path).ok()?;
+    let value: serde_json::Value = serde_json::from_str(&text).ok()?;
+    let model = value.get("model")?.as_str()?;
+    WeightKind::ALL.into_iter().find(|k| k.model() == model)
 }
 
 /// The association sources: name and what it is.

@@ -81,12 +81,13 @@ pub const MAX_VIEW_ASPECT: f64 = 100.0;
 /// ```
 pub fn check_view(view: [f64; 4]) -> Result<(), PlotError> {
     let bad = |problem: String| Err(PlotError::View { view, problem });
-    if let Some(v) = view
-        .iter()
-        .find(|v| !(v.is_finite() && v.abs() <= MAX_VIEW_DISTANCE))
-    {
+    if let Some(v) = view.iter().find(|v| !v.is_finite()) {
+        return bad(format!("{v:?} is not a finite number of metres"));
+    }
+    if let Some(v) = view.iter().find(|v| v.abs() > MAX_VIEW_DISTANCE) {
         return bad(format!(
-            "{v:?} is not a finite number of metres within {MAX_VIEW_DISTANCE:e} m of the sensor"
+            "{v:e} m lies beyond {MAX_VIEW_DISTANCE:e} m of the sensor, the largest range \
+             the readers accept (no return lies farther)"
         ));
     }
     let [x0, x1, y0, y1] = view;

@@ -163,8 +163,10 @@ fn log_pair(name: &str, i: usize, j: usize, a: &Scan, b: &Scan) -> ScanPair {
 /// `path` (FLASER / ROBOTLASER1 lines counted from 0), for running a model on: no
 /// ground truth, the odometry prior from the poses on the two lines, named
 /// `<file stem>:<i>-<j>`. A missing scan or one without any valid return is an
-/// [`Error::Scan`] naming the file, the line and the scan index.
+/// [`Error::Scan`] naming the file, the line and the scan index; so is `i == j` (the
+/// two scans of a pair must differ).
 pub fn carmen_scan_pair(path: &Path, log: &CarmenLog, i: usize, j: usize) -> Result<ScanPair> {
+    distinct_scans(path, i, j)?;
     let get = |k: usize| {
         let s = log.scans.get(k).ok_or_else(|| Error::Scan {
             path: path.to_path_buf(),
@@ -186,6 +188,7 @@ pub fn carmen_scan_pair(path: &Path, log: &CarmenLog, i: usize, j: usize) -> Res
 /// style scan log read from `path`, as [`carmen_scan_pair`] (odometry prior when the
 /// scans carry odometry).
 pub fn leigh_scan_pair(path: &Path, scans: &LeighScans, i: usize, j: usize) -> Result<ScanPair> {
+    distinct_scans(path, i, j)?;
     let get = |k: usize| {
         let s = scans.get(k).ok_or_else(|| Error::Scan {
             path: path.to_path_buf(),
@@ -206,6 +209,21 @@ pub fn leigh_scan_pair(path: &Path, scans: &LeighScans, i: usize, j: usize) -> R
     };
     let (a, b) = (get(i)?, get(j)?);
     Ok(log_pair(&file_stem(path), i, j, a, b))
+}
+
+/// The one-pair builders refuse a scan paired with itself, as the pair builders refuse
+/// `k = 0`: the two scans of a pair must differ.
+pub(crate) fn distinct_scans(path: &Path, i: usize, j: usize) -> Result<()> {
+    if i == j {
+        return Err(Error::Scan {
+            path: path.to_path_buf(),
+            line: 0,
+            scan: i,
+            problem: "reference and current are the same scan: the two scans of a pair must differ"
+                .into(),
+        });
+    }
+    Ok(())
 }
 
 fn file_stem(path: &Path) -> String {

@@ -56,6 +56,19 @@ pub enum Error {
         /// Which declared count the expectation comes from.
         context: String,
     },
+    /// A file read as text holds bytes that are not UTF-8 (a binary or compressed
+    /// file given as a log).
+    #[error("{}:{line}: byte {offset} (0x{byte:02x}) is not UTF-8 text: not a text file (a binary or compressed file?)", path.display())]
+    NotText {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line of the first byte that is not UTF-8.
+        line: usize,
+        /// Its offset in the file, from 0.
+        offset: usize,
+        /// Its value.
+        byte: u8,
+    },
     /// A JSON file does not parse as the expected structure.
     #[error("{}: {source}", path.display())]
     Json {

@@ -79,7 +79,7 @@ pub struct IndexEntry {
 }
 
 fn read_json_value(path: &Path) -> Result<serde_json::Value> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let text = crate::text::read_text(path)?;
     serde_json::from_str(&text).map_err(|source| Error::Json {
         path: path.to_path_buf(),
         source,
@@ -280,10 +280,15 @@ pub fn check_limits(pair: &ScanPair) -> std::result::Result<(), PairViolation> {
     Ok(())
 }
 
-/// Reads a data set: a directory, an index file or a single pair file (see the
-/// module docs). Pairs come back in index order, each validated.
-pub fn read_pairs(path: impl AsRef<Path>) -> Result<Vec<ScanPair>> {
-    let path = path.as_ref();
+/// A data set opened at its index (or a single pair file), pairs not yet read.
+enum Opened {
+    /// A single pair file, already read.
+    Single(Box<ScanPair>),
+    /// An index and the directory its pair files are relative to.
+    Indexed { base: PathBuf, index: Index },
+}
+
+fn open_data_set(path: &Path) -> Result<Opened> {
     let index_path = if path.is_dir() {
         path.join(INDEX_FILE)
     } else {
@@ -292,27 +297,74 @@ pub fn read_pairs(path: impl AsRef<Path>) -> Result<Vec<ScanPair>> {
     let value = read_json_value(&index_path)?;
     let is_index = value.get("format").is_some();
     if !is_index {
-        return Ok(vec![pair_from_value(&index_path, value)?]);
+        return Ok(Opened::Single(Box::new(pair_from_value(
+            &index_path,
+            value,
+        )?)));
     }
     let index = index_from_value(&index_path, value)?;
     let base = index_path
         .parent()
         .map(Path::to_path_buf)
         .unwrap_or_default();
-    let mut pairs = Vec::with_capacity(index.pairs.len());
-    for entry in &index.pairs {
-        let file = Path::new(&entry.file);
-        let pair = read_pair(base.join(file))?;
-        if pair.name != entry.name {
-            return Err(Error::Invalid {
-                path: base.join(file),
-                field: "name".into(),
-                problem: format!("`{}`, but the index lists `{}`", pair.name, entry.name),
-            });
-        }
-        pairs.push(pair);
+    Ok(Opened::Indexed { base, index })
+}
+
+/// Reads and validates the pair file of one index entry; its name must be the
+/// index's.
+fn read_entry(base: &Path, entry: &IndexEntry) -> Result<ScanPair> {
+    let file = base.join(&entry.file);
+    let pair = read_pair(&file)?;
+    if pair.name != entry.name {
+        return Err(Error::Invalid {
+            path: file,
+            field: "name".into(),
+            problem: format!("`{}`, but the index lists `{}`", pair.name, entry.name),
+        });
     }
-    Ok(pairs)
+    Ok(pair)
+}
+
+/// Reads a data set: a directory, an index file or a single pair file (see the
+/// module docs). Pairs come back in index order, each validated.
+pub fn read_pairs(path: impl AsRef<Path>) -> Result<Vec<ScanPair>> {
+    match open_data_set(path.as_ref())? {
+        Opened::Single(pair) => Ok(vec![*pair]),
+        Opened::Indexed { base, index } => index
+            .pairs
+            .iter()
+            .map(|entry| read_entry(&base, entry))
+            .collect(),
+    }
+}
+
+/// Reads the one pair of a data set (as [`read_pairs`] takes it) that `choose` picks
+/// from the pairs' names in index order, and opens no other pair file: a damaged pair
+/// file elsewhere in the set does not stop a command that needs one pair, and the
+/// chosen pair is validated as [`read_pairs`] validates every pair. Returns the pair
+/// (`None` when `choose` picks none or an index beyond the set) and the number of
+/// pairs in the set.
+///
+/// # Errors
+/// As [`read_pairs`], for the index and the chosen pair's file only.
+pub fn read_chosen_pair(
+    path: impl AsRef<Path>,
+    choose: impl FnOnce(&[&str]) -> Option<usize>,
+) -> Result<(Option<ScanPair>, usize)> {
+    match open_data_set(path.as_ref())? {
+        Opened::Single(pair) => {
+            let chosen = choose(&[pair.name.as_str()]) == Some(0);
+            Ok((chosen.then_some(*pair), 1))
+        }
+        Opened::Indexed { base, index } => {
+            let names: Vec<&str> = index.pairs.iter().map(|e| e.name.as_str()).collect();
+            let count = names.len();
+            match choose(&names).and_then(|k| index.pairs.get(k)) {
+                Some(entry) => Ok((Some(read_entry(&base, entry)?), count)),
+                None => Ok((None, count)),
+            }
+        }
+    }
 }
 
 /// Writes `bytes` to `path` through a temporary file in the same directory, flushed

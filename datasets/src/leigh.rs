@@ -20,7 +20,9 @@
 //! `(scan_idx, person_id)`. Values that parse but mean nothing are errors naming file,
 //! line and field: positions, ranges and time stamps beyond
 //! [`limits`], person centres farther than any laser reaches
-//! ([`limits::MAX_RANGE`]).
+//! ([`limits::MAX_RANGE`]). Read together with its scan log
+//! ([`check_people_reach`]), an annotation must also lie within the reach its scan
+//! declares: `range_max` plus [`PERSON_REACH_MARGIN`].
 
 use crate::error::{limits, Error, Result};
 use crate::text::{read_text, Fields};
@@ -311,6 +313,98 @@ pub fn parse_people(path: &Path, text: &str) -> Result<Vec<PersonAnnotation>> {
         });
     }
     Ok(out)
+}
+
+/// How far (m) beyond its scan's `range_max` an annotated person centre may lie: the
+/// centre is behind the returns on the person's near side by about a body radius
+/// (returns within 0.35 m of a centre are the person's), and single annotations
+/// jitter by up to about 0.5 m (data README), so 1 m. A centre farther away marks no
+/// return the laser could have measured (a typo or a unit mistake: leigh-gtm1's
+/// centres lie within 7.3 m of an 11 m laser).
+pub const PERSON_REACH_MARGIN: f64 = 1.0;
+
+/// An annotation beyond the laser's reach (see [`people_out_of_reach`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OutOfReach<'a> {
+    /// The annotation.
+    pub annotation: &'a PersonAnnotation,
+    /// Its distance from the laser (m).
+    pub distance: f64,
+    /// The `range_max` it was held against (m).
+    pub range_max: f64,
+    /// The scan that declares it (`None`: the annotation's scan is not in the log, and
+    /// the log's largest `range_max` was used).
+    pub scan: Option<&'a IndexedScan>,
+}
+
+/// The first annotation (in the order of `people`) whose centre lies farther from the
+/// laser than its scan's `range_max` plus [`PERSON_REACH_MARGIN`] (an annotation of a
+/// scan the log does not have: the log's largest `range_max`).
+pub fn people_out_of_reach<'a>(
+    scans: &'a LeighScans,
+    people: &'a [PersonAnnotation],
+) -> Option<OutOfReach<'a>> {
+    let largest = scans
+        .scans
+        .iter()
+        .map(|s| s.scan.max_range)
+        .fold(None, |m: Option<f64>, r| Some(m.map_or(r, |m| m.max(r))))?;
+    people.iter().find_map(|a| {
+        let scan = scans.get(a.scan);
+        let range_max = scan.map_or(largest, |s| s.scan.max_range);
+        let distance = a.centre.coords.norm();
+        (distance > range_max + PERSON_REACH_MARGIN).then_some(OutOfReach {
+            annotation: a,
+            distance,
+            range_max,
+            scan,
+        })
+    })
+}
+
+/// Checks that every annotation of `people` (read from `people_path`) lies within the
+/// reach of its scan in `scans` (read from `scans_path`): `range_max` plus
+/// [`PERSON_REACH_MARGIN`].
+///
+/// # Errors
+/// [`Error::Field`] naming the people file, the annotation's line, its centre and the
+/// scan line whose `range_max` it exceeds.
+pub fn check_people_reach(
+    scans: &LeighScans,
+    scans_path: &Path,
+    people: &[PersonAnnotation],
+    people_path: &Path,
+) -> Result<()> {
+    let Some(far) = people_out_of_reach(scans, people) else {
+        return Ok(());
+    };
+    let a = far.annotation;
+    let declared = match far.scan {
+        Some(s) => format!(
+            "scan {} ({}:{}) declares range_max {} m",
+            a.scan,
+            scans_path.display(),
+            s.line,
+            far.range_max
+        ),
+        None => format!(
+            "scan {} is not in {}, whose largest range_max is {} m",
+            a.scan,
+            scans_path.display(),
+            far.range_max
+        ),
+    };
+    Err(Error::Field {
+        path: people_path.to_path_buf(),
+        line: a.line,
+        field: "x y".into(),
+        value: format!("{} {}", a.centre.x, a.centre.y),
+        problem: format!(
+            "a person centre {:.2} m from the laser, beyond its reach: {declared}, and a \
+             centre may lie at most {PERSON_REACH_MARGIN} m beyond it",
+            far.distance
+        ),
+    })
 }
 
 /// Sets each scan's odometry from `odometry` (by scan index). Every scan must have a

@@ -46,6 +46,6 @@ pub mod testdata;
 mod text;
 
 pub use error::{Error, Result};
-pub use format::{read_pairs, write_pairs};
+pub use format::{read_chosen_pair, read_pairs, write_pairs};
 pub use pair::{Association, ClusterMotion, GroundTruth, PairViolation, ScanPair};
 pub use pgm_features::ParamGuard;

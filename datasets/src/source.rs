@@ -199,6 +199,7 @@ pub fn read_leigh(
         leigh::attach_odometry(&mut log, &odo, path)?;
     }
     let annotations = leigh::read_people(people)?;
+    leigh::check_people_reach(&log, scans, &annotations, people)?;
     Ok((log, annotations))
 }
 

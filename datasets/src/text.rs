@@ -4,9 +4,21 @@
 use crate::error::{limits, Error, Result};
 use std::path::{Path, PathBuf};
 
-/// Reads a whole text file, naming it in the error.
+/// Reads a whole text file, naming it in the error; bytes that are not UTF-8 (a
+/// binary or compressed file given as a log) are an [`Error::NotText`] naming the
+/// line and byte offset of the first one.
 pub(crate) fn read_text(path: &Path) -> Result<String> {
-    std::fs::read_to_string(path).map_err(|e| Error::io(path, e))
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    String::from_utf8(bytes).map_err(|e| {
+        let offset = e.utf8_error().valid_up_to();
+        let bytes = e.as_bytes();
+        Error::NotText {
+            path: path.to_path_buf(),
+            line: 1 + bytes[..offset].iter().filter(|&&b| b == b'\n').count(),
+            offset,
+            byte: bytes[offset],
+        }
+    })
 }
 
 /// The fields of one line, with the file and line number for error messages.

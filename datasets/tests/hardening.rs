@@ -90,8 +90,13 @@ fn a_pair_of_log_scans_names_the_file_line_and_scan_that_cannot_be_used() {
     );
     let log = carmen(&text).unwrap();
     let path = Path::new("log.clf");
-    let pair = carmen_scan_pair(path, &log, 0, 0).unwrap();
-    assert_eq!(pair.name, "log:0-0");
+    // A scan paired with itself is refused, as the pair builders refuse k = 0.
+    let err = carmen_scan_pair(path, &log, 0, 0).unwrap_err();
+    assert!(
+        err.to_string()
+            .contains("the two scans of a pair must differ"),
+        "{err}"
+    );
     let err = carmen_scan_pair(path, &log, 0, 1).unwrap_err();
     assert!(
         matches!(
@@ -116,7 +121,8 @@ fn a_pair_of_log_scans_names_the_file_line_and_scan_that_cannot_be_used() {
         "SCAN 4 1.0 1.0 laser -1.0 0.1 0.0 10.0 2 1.0 2.0\nSCAN 5 1.0 1.0 laser -1.0 0.1 0.0 10.0 2 0 nan\n",
     )
     .unwrap();
-    assert!(leigh_scan_pair(Path::new("scans.txt"), &scans, 4, 4).is_ok());
+    let err = leigh_scan_pair(Path::new("scans.txt"), &scans, 4, 4).unwrap_err();
+    assert!(err.to_string().contains("must differ"), "{err}");
     let err = leigh_scan_pair(Path::new("scans.txt"), &scans, 4, 5).unwrap_err();
     assert!(err.to_string().starts_with("scans.txt:2: scan 5"), "{err}");
 }
@@ -341,4 +347,57 @@ fn a_scan_offset_k_never_wraps() {
         pairs.iter().map(|p| p.name.as_str()).collect::<Vec<_>>(),
         ["leigh-gtm1:10-11"]
     );
+}
+
+#[test]
+fn one_pair_builders_refuse_a_scan_paired_with_itself() {
+    let scans = parse_scans(
+        Path::new("scans.txt"),
+        "SCAN 5 1.0 1.0 l -1.0 0.1 0.0 10.0 2 1.0 2.0\nSCAN 6 1.1 1.1 l -1.0 0.1 0.0 10.0 2 1.0 2.0\n",
+    )
+    .unwrap();
+    let err = leigh_scan_pair(Path::new("scans.txt"), &scans, 5, 5).unwrap_err();
+    assert!(
+        err.to_string().contains(
+            "scan 5: reference and current are the same scan: the two scans of a pair must differ"
+        ),
+        "{err}"
+    );
+    assert!(leigh_scan_pair(Path::new("scans.txt"), &scans, 5, 6).is_ok());
+}
+
+#[test]
+fn person_centres_are_held_against_their_scans_reach() {
+    use pgm_datasets::leigh::{check_people_reach, people_out_of_reach, PERSON_REACH_MARGIN};
+    let scans = parse_scans(
+        Path::new("scans.txt"),
+        "SCAN 5 1.0 1.0 l -1.0 0.1 0.0 10.0 2 1.0 2.0\nSCAN 6 1.1 1.1 l -1.0 0.1 0.0 4.0 2 1.0 2.0\n",
+    )
+    .unwrap();
+    let people = |text: &str| parse_people(Path::new("people.txt"), text).unwrap();
+    // Scan 5 reaches 10 m + margin, scan 6 only 4 m + margin; scan 9 is not in the
+    // log: the log's largest range_max.
+    let near = people("PERSON 5 1 10.5 0.0\nPERSON 6 1 4.9 0.0\nPERSON 9 1 10.9 0.0\n");
+    assert!(people_out_of_reach(&scans, &near).is_none());
+    for (text, line, range_max) in [
+        ("PERSON 5 1 1.0 0.0\nPERSON 6 1 5.2 0.0\n", 2, 4.0),
+        ("PERSON 9 1 0.0 -11.2\n", 1, 10.0),
+    ] {
+        let far = people(text);
+        let out = people_out_of_reach(&scans, &far).unwrap();
+        assert_eq!((out.annotation.line, out.range_max), (line, range_max));
+        assert!(out.distance > range_max + PERSON_REACH_MARGIN);
+        let err = check_people_reach(
+            &scans,
+            Path::new("scans.txt"),
+            &far,
+            Path::new("people.txt"),
+        )
+        .unwrap_err();
+        assert!(
+            err.to_string()
+                .starts_with(&format!("people.txt:{line}: field `x y`")),
+            "{err}"
+        );
+    }
 }

@@ -57,6 +57,28 @@ pub struct UaiModel {
     pub tables: Vec<Vec<f64>>,
 }
 
+/// Reads a whole text file; bytes that are not UTF-8 (a binary or compressed file) are
+/// a parse error naming the line and byte offset of the first one.
+fn read_text(path: &Path) -> Result<String> {
+    let bytes = std::fs::read(path).map_err(|source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    String::from_utf8(bytes).map_err(|e| {
+        let offset = e.utf8_error().valid_up_to();
+        let bytes = e.as_bytes();
+        Error::Parse {
+            path: path.to_path_buf(),
+            line: 1 + bytes[..offset].iter().filter(|&&b| b == b'\n').count(),
+            message: format!(
+                "byte {offset} (0x{:02x}) is not UTF-8 text: not a UAI file (a binary or \
+                 compressed file?)",
+                bytes[offset]
+            ),
+        }
+    })
+}
+
 struct Tokens {
     path: PathBuf,
     tokens: Vec<(String, usize)>,
@@ -65,10 +87,7 @@ struct Tokens {
 
 impl Tokens {
     fn read(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        let text = read_text(path)?;
         Ok(Self::from_text(path, &text))
     }
 
@@ -409,10 +428,7 @@ impl Evidence {
         cardinalities: &[usize],
     ) -> Result<EvidenceSamples> {
         let path = path.as_ref();
-        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        let text = read_text(path)?;
         Self::parse_samples_str(path, &text, cardinalities)
     }
 

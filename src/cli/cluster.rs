@@ -181,22 +181,32 @@ impl OnePairArgs {
 
 /// Loads the pair named by the arguments.
 fn load_pair(args: &OnePairArgs) -> Result<ScanPair, CliError> {
+    if let (Some(i), Some(j)) = (args.reference, args.current) {
+        // Before the log is read; the builders refuse it too.
+        if i == j {
+            return Err(CliError(format!(
+                "--reference {i} --current {j}: the two scans of a pair must differ"
+            )));
+        }
+    }
     if let Some(path) = &args.pairs {
-        let pairs = pgm_datasets::read_pairs(path).map_err(CliError::from_display)?;
-        let found = pairs
-            .iter()
-            .position(|p| p.name == args.pair)
-            .or_else(|| args.pair.parse::<usize>().ok().filter(|&i| i < pairs.len()));
-        return match found {
-            Some(i) => Ok(pairs[i].clone()),
-            None => Err(CliError(format!(
-                "{}: no pair named {:?} and no index {:?} among its {} pairs",
+        // Only the pair asked for is read: a damaged file of another pair does not
+        // matter.
+        let (pair, count) = pgm_datasets::read_chosen_pair(path, |names| {
+            names
+                .iter()
+                .position(|n| *n == args.pair)
+                .or_else(|| args.pair.parse::<usize>().ok())
+        })
+        .map_err(CliError::from_display)?;
+        return pair.ok_or_else(|| {
+            CliError(format!(
+                "{}: no pair named {:?} and no index {:?} among its {count} pairs",
                 path.display(),
                 args.pair,
                 args.pair,
-                pairs.len()
-            ))),
-        };
+            ))
+        });
     }
     if let Some(path) = &args.bag.bag {
         if args.scans.is_some() {

@@ -186,6 +186,25 @@ impl BagArgs {
     /// The pair builder's options for pairs `k` scans apart with people labels by
     /// `leigh`.
     pub fn options(&self, k: usize, leigh: LeighPairOptions) -> Result<BagPairOptions, CliError> {
+        self.check()?;
+        Ok(BagPairOptions {
+            k,
+            laser_mount: self.laser_mount,
+            mocap: MocapOptions {
+                pose_delay: self.pose_delay,
+                label_margin: self.label_margin,
+                object_min_speed: self.object_min_speed,
+                ..MocapOptions::default()
+            },
+            object_footprint: self.object_footprint,
+            leigh,
+            name: None,
+        })
+    }
+
+    /// Checks the numeric bag options, whether a bag is read or not (an option that
+    /// means nothing is an error even where the command does not use it).
+    pub fn check(&self) -> Result<(), CliError> {
         if !(self.label_margin.is_finite() && self.label_margin >= 0.0) {
             return Err(CliError(format!(
                 "--label-margin {}: must be a finite distance >= 0",
@@ -204,19 +223,7 @@ impl BagArgs {
                 self.pose_delay
             )));
         }
-        Ok(BagPairOptions {
-            k,
-            laser_mount: self.laser_mount,
-            mocap: MocapOptions {
-                pose_delay: self.pose_delay,
-                label_margin: self.label_margin,
-                object_min_speed: self.object_min_speed,
-                ..MocapOptions::default()
-            },
-            object_footprint: self.object_footprint,
-            leigh,
-            name: None,
-        })
+        Ok(())
     }
 }
 
@@ -235,6 +242,19 @@ pub struct LabelArgs {
     /// Track rule: the line is fitted over the annotated scans from i - W to j + W.
     #[arg(long, default_value_t = LeighPairOptions::default().track_window)]
     pub track_window: usize,
+}
+
+impl LabelArgs {
+    /// Checks `--walking-speed` (used by the track rule only, checked always).
+    pub fn check(&self) -> Result<(), CliError> {
+        if !(self.walking_speed.is_finite() && self.walking_speed >= 0.0) {
+            return Err(CliError(format!(
+                "--walking-speed {}: must be a finite speed >= 0 (m/s)",
+                self.walking_speed
+            )));
+        }
+        Ok(())
+    }
 }
 
 impl Default for LabelArgs {
@@ -291,6 +311,34 @@ pub struct SourceArgs {
 }
 
 impl SourceArgs {
+    /// Checks every numeric option of the sources (bag, labelling rule, CARMEN laser
+    /// geometry), whichever source is given: an option that means nothing is an error
+    /// even where the command does not read it.
+    pub fn check(&self) -> Result<(), CliError> {
+        self.bag.check()?;
+        self.labels.check()?;
+        for (option, value) in [
+            ("--laser-fov", self.laser_fov),
+            ("--laser-resolution", self.laser_resolution),
+        ] {
+            if let Some(v) = value {
+                if !(v.is_finite() && v > 0.0 && v <= 360.0) {
+                    return Err(CliError(format!(
+                        "{option} {v}: expected degrees in (0, 360]"
+                    )));
+                }
+            }
+        }
+        if let Some(v) = self.laser_start {
+            if !(v.is_finite() && v.abs() <= 360.0) {
+                return Err(CliError(format!(
+                    "--laser-start {v}: expected degrees in [-360, 360]"
+                )));
+            }
+        }
+        Ok(())
+    }
+
     /// The CARMEN reader options these arguments ask for.
     pub fn carmen_options(&self) -> carmen::CarmenOptions {
         carmen::CarmenOptions {
@@ -359,6 +407,24 @@ pub struct SummaryArgs {
 }
 
 impl LeighArgs {
+    /// Checks `--moving-threshold` and `--person-radius` (used by leigh-gtm1 logs and
+    /// bags with people only, checked always).
+    pub fn check(&self) -> Result<(), CliError> {
+        if !(self.moving_threshold.is_finite() && self.moving_threshold >= 0.0) {
+            return Err(CliError(format!(
+                "--moving-threshold {}: must be a finite distance >= 0 (m)",
+                self.moving_threshold
+            )));
+        }
+        if !(self.person_radius.is_finite() && self.person_radius > 0.0) {
+            return Err(CliError(format!(
+                "--person-radius {}: must be a positive finite distance (m)",
+                self.person_radius
+            )));
+        }
+        Ok(())
+    }
+
     /// The pair builder's options for pairs `k` scans apart with the rule of `labels`.
     pub fn options_with(&self, k: usize, labels: &LabelArgs) -> LeighPairOptions {
         LeighPairOptions {
@@ -376,13 +442,17 @@ impl LeighArgs {
 }
 
 /// The pair source the arguments name: `stored` (`--pairs`) or exactly one of the log
-/// sources of [`SourceArgs`].
+/// sources of [`SourceArgs`]. Every option of every source is checked first, also
+/// those the named source does not read (`--k 0` with `--pairs` is refused too).
 pub fn pair_source(
     stored: Option<&Path>,
     source: &SourceArgs,
     leigh_args: &LeighArgs,
     k: usize,
 ) -> Result<PairSource, CliError> {
+    check_k(k)?;
+    source.check()?;
+    leigh_args.check()?;
     let given = [
         stored.is_some(),
         source.carmen.is_some(),
@@ -433,6 +503,16 @@ pub fn pair_source(
         odometry: source.odometry.clone(),
         options: leigh,
     })
+}
+
+/// Checks a scan distance `--k`: the two scans of a pair must differ.
+pub fn check_k(k: usize) -> Result<(), CliError> {
+    if k == 0 {
+        return Err(CliError(
+            "--k 0: the two scans of a pair must differ (k >= 1)".into(),
+        ));
+    }
+    Ok(())
 }
 
 /// Loads the pairs of `source`, printing the readers' notes on stderr.
@@ -489,6 +569,8 @@ fn leigh_log(
         notes.push(note);
         let scans = prepared_scans(&log, &mount, &mut notes);
         let (scans, people) = to_leigh(&log, &scans, &mut notes);
+        pgm_datasets::bag::pairs::check_people_reach(&log, &scans, &people)
+            .map_err(CliError::from_display)?;
         (scans, people, format!("bag {}", path.display()))
     } else {
         let (Some(scans), Some(people)) = (&source.scans, &source.people) else {
@@ -517,6 +599,11 @@ struct SummaryRow {
 }
 
 fn run_summary(args: SummaryArgs) -> CliResult {
+    for &k in &args.k {
+        check_k(k)?;
+    }
+    args.source.check()?;
+    args.leigh.check()?;
     let (log, annotations, name) = leigh_log(&args.source)?;
     let mut rows = Vec::new();
     for rule in [LabelRule::Track, LabelRule::Displacement] {

@@ -7,8 +7,13 @@
 //! ([`pgm_datasets::evaluation::evaluate_clustering`]) and prints the mean and standard
 //! deviation over pairs, and the detection metrics
 //! ([`pgm_datasets::evaluation::DetectionSummary`]; `--min-object-returns N`, default
-//! 5). The data may also come from a bag (`--bag FILE --scan-topic T …`, see `pgm data
-//! pairs`). The methods and association sources are those of [`pgm::methods`];
+//! 5). The text output says what each object count counts: `detection (true movers
+//! with >= N returns in the current scan): D of C detected` (JSON `objects_detected`,
+//! `objects_counted`) and, for methods that estimate motions, `motion errors (every
+//! true mover with a known motion, any number of returns): F of T found` (JSON
+//! `objects_found`, `objects_total`; the stricter "found" rule of the motion errors,
+//! [`pgm_datasets::evaluation`]). The data may also come from a bag (`--bag FILE
+//! --scan-topic T …`, see `pgm data pairs`). The methods and association sources are those of [`pgm::methods`];
 //! `--method joint` scores the joint model's clusters (a return of the outlier
 //! cluster takes the moving cluster of its surface, else the background,
 //! [`pgm_features::methods::JointClusters`]; `--joint-weights FILE`).
@@ -167,6 +172,22 @@ fn show(x: Option<f64>, digits: usize) -> String {
 /// Runs `pgm eval clustering`.
 pub fn run(args: ClusteringEvalArgs) -> CliResult {
     let source = pair_source(args.pairs.as_deref(), &args.source, &args.leigh, args.k)?;
+    let mut options = args.crf.options()?;
+    if let Some(path) = &args.joint_weights {
+        options = options
+            .with_joint_weights(path)
+            .map_err(CliError::from_display)?;
+    }
+    options.kmeans.k = args.kmeans_k;
+    options.cbd.margin = args.cbd_margin;
+    options.check().map_err(CliError::from_display)?;
+    if args.min_object_returns == 0 {
+        return Err(CliError(
+            "--min-object-returns 0: an object without a return in the current scan cannot \
+             be detected (expected at least 1)"
+                .into(),
+        ));
+    }
     let mut pairs = load_pairs(&source)?.pairs;
     if args.no_prior {
         for p in &mut pairs {
@@ -187,15 +208,6 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
             total - pairs.len()
         );
     }
-    let mut options = args.crf.options()?;
-    if let Some(path) = &args.joint_weights {
-        options = options
-            .with_joint_weights(path)
-            .map_err(CliError::from_display)?;
-    }
-    options.kmeans.k = args.kmeans_k;
-    options.cbd.margin = args.cbd_margin;
-    options.check().map_err(CliError::from_display)?;
     let which = args
         .associations
         .as_deref()
@@ -304,9 +316,14 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
         d.mover_pairs,
         show(d.v_measure_mover_pairs, 3)
     );
+    // Two object counts with different rules (module docs of
+    // pgm_datasets::evaluation): the detection metrics count the true movers with at
+    // least --min-object-returns returns; the found objects of the motion errors are
+    // every true mover with a known motion. Each line says which.
     println!(
-        "objects detected {} of {} with >= {} returns (recall {}); false alarms per pair {:.3}; \
-         pairs without a mover reported moving {} of {} ({})",
+        "detection (true movers with >= {2} returns in the current scan): {0} of {1} \
+         detected, recall {3}; false alarms per pair {4:.3}; pairs without a mover reported \
+         moving {5} of {6} ({7})",
         d.objects_detected,
         d.objects_counted,
         d.min_object_returns,
@@ -321,7 +338,7 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
         show(d.false_alarm_pair_share, 3)
     );
     println!(
-        "moving points: precision {}, recall {}; detected objects' motion error (median) {} m, {} rad",
+        "moving points: precision {}, recall {}; motion error of the detected objects (median) {} m, {} rad",
         show(d.moving_precision, 3),
         show(d.moving_recall, 3),
         show(d.object_translation_error_median, 3),
@@ -329,7 +346,8 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
     );
     if clusterer_needs_associations(&args.method) || args.method == "joint" {
         println!(
-            "moving objects found {} of {}; median motion error {} m at the centroid, {} rad",
+            "motion errors (every true mover with a known motion, any number of returns): \
+             {} of {} found; median error {} m at the centroid, {} rad",
             found.found,
             found.total,
             found

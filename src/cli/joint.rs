@@ -171,7 +171,10 @@ fn joint_params(
         ..JointParams::default()
     };
     if let Some(path) = weights {
-        params.weights = pgm_joint::JointWeights::load(path).map_err(CliError::from_display)?;
+        params.weights = pgm::methods::load_weights(path, pgm::methods::WeightKind::Joint, |p| {
+            pgm_joint::JointWeights::load(p)
+        })
+        .map_err(CliError::from_display)?;
     }
     Ok(params)
 }
@@ -376,6 +379,22 @@ fn weights_used(args: &JointEvalArgs) -> String {
 /// Runs `pgm eval joint`.
 pub fn run_eval_joint(args: JointEvalArgs) -> CliResult {
     let source = pair_source(args.pairs.as_deref(), &args.source, &args.leigh, args.k)?;
+    let mut options = args.matching.apply(MethodOptions::default())?;
+    options.joint = joint_params(
+        args.matching.candidates,
+        args.clusters,
+        args.object_rotation_sigma,
+        args.weights.as_deref(),
+    )?;
+    if let Some(path) = &args.crf_weights {
+        options = options
+            .with_crf_weights(path)
+            .map_err(CliError::from_display)?;
+    }
+    options.kmeans.k = args.kmeans_k;
+    // Every method's options, used by `--method` or not (`--kmeans-k 0` is refused
+    // with `--method joint` too).
+    options.check().map_err(CliError::from_display)?;
     let mut pairs = load_pairs(&source)?.pairs;
     let total = pairs.len();
     pairs.retain(scorable_for_joint);
@@ -391,19 +410,6 @@ pub fn run_eval_joint(args: JointEvalArgs) -> CliResult {
             total - pairs.len()
         );
     }
-    let mut options = args.matching.apply(MethodOptions::default())?;
-    options.joint = joint_params(
-        args.matching.candidates,
-        args.clusters,
-        args.object_rotation_sigma,
-        args.weights.as_deref(),
-    )?;
-    if let Some(path) = &args.crf_weights {
-        options = options
-            .with_crf_weights(path)
-            .map_err(CliError::from_display)?;
-    }
-    options.kmeans.k = args.kmeans_k;
     let method = joint_estimator(&args.method, &options).map_err(CliError::from_display)?;
     let report = evaluate_joint(&pairs, method.as_ref()).map_err(CliError::from_display)?;
     let data = format!("{source}; every pair scored, none trained on");

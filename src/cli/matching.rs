@@ -207,6 +207,7 @@ pub fn run_eval_association(args: AssociationEvalArgs) -> CliResult {
         );
     }
     let options = args.matching.apply(MethodOptions::default())?;
+    options.check().map_err(CliError::from_display)?;
     let method = association_source(&args.method, &options).map_err(CliError::from_display)?;
     let evaluated =
         evaluate_association(&scored, method.as_ref()).map_err(CliError::from_display)?;

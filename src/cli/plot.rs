@@ -33,22 +33,23 @@ pub struct PlotArgs {
 
 /// Runs `pgm plot`.
 pub fn run(args: PlotArgs) -> CliResult {
-    let pairs = pgm::datasets::read_pairs(&args.dataset).map_err(CliError::from_display)?;
-    let pair = pairs.get(args.pair).ok_or_else(|| {
-        CliError(format!(
-            "{}: --pair {} but the data set has {} pairs",
-            args.dataset.display(),
-            args.pair,
-            pairs.len()
-        ))
-    })?;
     if !(200..=10_000).contains(&args.width) {
         return Err(CliError(format!(
             "--width {}: expected 200..=10000 pixels",
             args.width
         )));
     }
-    let mut picture = PairPicture::new(pair);
+    // Only the pair asked for is read: a damaged file of another pair does not matter.
+    let (pair, count) = pgm::datasets::read_chosen_pair(&args.dataset, |_| Some(args.pair))
+        .map_err(CliError::from_display)?;
+    let pair = pair.ok_or_else(|| {
+        CliError(format!(
+            "{}: --pair {} but the data set has {count} pairs",
+            args.dataset.display(),
+            args.pair,
+        ))
+    })?;
+    let mut picture = PairPicture::new(&pair);
     picture.width = args.width;
     picture.boxes = !args.no_boxes;
     picture.view = args.view;

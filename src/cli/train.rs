@@ -341,7 +341,11 @@ fn run_joint(joint_args: TrainJointArgs) -> CliResult {
     let association = joint_args
         .association_weights
         .as_ref()
-        .map(pgm_joint::AssociationPart::load_matching)
+        .map(|path| {
+            pgm::methods::load_weights(path, pgm::methods::WeightKind::Matching, |p| {
+                pgm_joint::AssociationPart::load_matching(p)
+            })
+        })
         .transpose()
         .map_err(CliError::from_display)?;
     let pairs = training_pairs(args.data.as_deref(), args.simulate, args.seed, &args.preset)?;

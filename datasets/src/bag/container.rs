@@ -73,6 +73,18 @@ pub enum ReadError<E> {
     Message(E),
     /// The container is malformed or cannot be read.
     Container(String),
+    /// The container is malformed at a place the reader can name: the topic and the
+    /// message (from 1) that a damaged record is or follows.
+    Located {
+        /// The topic.
+        topic: String,
+        /// The message's number on the topic, from 1.
+        message: usize,
+        /// Its record time (ns), when known.
+        time_ns: Option<u64>,
+        /// What is wrong, and where in the file.
+        problem: String,
+    },
 }
 
 fn container<E>(s: impl Into<String>) -> ReadError<E> {
@@ -82,6 +94,17 @@ fn container<E>(s: impl Into<String>) -> ReadError<E> {
 fn prefixed<E>(prefix: &str, e: ReadError<E>) -> ReadError<E> {
     match e {
         ReadError::Container(c) => ReadError::Container(format!("{prefix}: {c}")),
+        ReadError::Located {
+            topic,
+            message,
+            time_ns,
+            problem,
+        } => ReadError::Located {
+            topic,
+            message,
+            time_ns,
+            problem: format!("{prefix}: {problem}"),
+        },
         other => other,
     }
 }
@@ -314,9 +337,24 @@ fn read_exact_at<R: Read + Seek>(r: &mut R, at: u64, n: usize) -> Result<Vec<u8>
 /// Record headers are small (a chunk's has four fields); a longer one is refused.
 const MAX_RECORD_HEADER: u64 = 1 << 20;
 
+/// One record of a ROS 1 bag's chunk section, where [`check_ros1_layout`] found it.
+#[derive(Clone, Copy, Debug)]
+struct SectionRecord {
+    /// Byte of the record in the file.
+    at: u64,
+    /// Byte of its data (after the data length).
+    data_at: u64,
+    /// Its data length.
+    data_len: u64,
+    /// Whether it is a chunk stored uncompressed (its records can be walked in the
+    /// file).
+    plain_chunk: bool,
+}
+
 /// Checks what the `rosbag` crate trusts: the index position and every chunk's sizes.
-/// Only record headers are read (`len` is the file's length).
-fn check_ros1_layout<R: Read + Seek>(r: &mut R, len: u64) -> Result<(), String> {
+/// Only record headers are read (`len` is the file's length). Returns the records of
+/// the chunk section in file order, for naming where a later error lies.
+fn check_ros1_layout<R: Read + Seek>(r: &mut R, len: u64) -> Result<Vec<SectionRecord>, String> {
     let u32_at = |r: &mut R, at: u64, what: &str| -> Result<u64, String> {
         if at + 4 > len {
             return Err(format!("{what} at byte {at}: the file ends"));
@@ -355,6 +393,7 @@ fn check_ros1_layout<R: Read + Seek>(r: &mut R, len: u64) -> Result<(), String> 
         ));
     }
     let end = index_pos;
+    let mut records = Vec::new();
     while pos < end {
         let at = pos;
         let (header, dpos) = header_at(r, pos, "record")?;
@@ -366,7 +405,14 @@ fn check_ros1_layout<R: Read + Seek>(r: &mut R, len: u64) -> Result<(), String> 
                 "record at byte {at}: {dlen} data bytes run past the chunk section (ends at {end})"
             ));
         }
-        if fields.get(&b"op"[..]) == Some(&&[5u8][..]) {
+        let is_chunk = fields.get(&b"op"[..]) == Some(&&[5u8][..]);
+        records.push(SectionRecord {
+            at,
+            data_at: dpos + 4,
+            data_len: dlen,
+            plain_chunk: is_chunk && fields.get(&b"compression"[..]) == Some(&&b"none"[..]),
+        });
+        if is_chunk {
             let size = match fields.get(&b"size"[..]) {
                 Some(v) if v.len() == 4 => u64::from(u32::from_le_bytes([v[0], v[1], v[2], v[3]])),
                 _ => return Err(format!("chunk at byte {at}: no 4-byte size")),
@@ -393,7 +439,37 @@ fn check_ros1_layout<R: Read + Seek>(r: &mut R, len: u64) -> Result<(), String> 
         }
         pos = dpos + 4 + dlen;
     }
-    Ok(())
+    Ok(records)
+}
+
+/// Where record `m` of the uncompressed chunk `chunk` lies in the file, and the
+/// connection its header names, if the records before it and its header can be read
+/// (error messages only: the `rosbag` crate does not say where it stopped).
+fn locate_chunk_record(path: &Path, chunk: &SectionRecord, m: usize) -> Option<(u64, Option<u32>)> {
+    if !chunk.plain_chunk {
+        return None;
+    }
+    let mut file = fs::File::open(path).ok()?;
+    let data = read_exact_at(
+        &mut file,
+        chunk.data_at,
+        usize::try_from(chunk.data_len).ok()?,
+    )
+    .ok()?;
+    let mut pos = 0usize;
+    for _ in 0..m {
+        let hlen = le_u32(&data, pos)? as usize;
+        let dlen = le_u32(&data, pos.checked_add(4)?.checked_add(hlen)?)? as usize;
+        pos = pos.checked_add(8)?.checked_add(hlen)?.checked_add(dlen)?;
+    }
+    let at = chunk.data_at + pos as u64;
+    let conn = le_u32(&data, pos)
+        .and_then(|hlen| data.get(pos + 4..(pos + 4).checked_add(hlen as usize)?))
+        .and_then(header_fields)
+        .and_then(|f| f.get(&b"conn"[..]).copied())
+        .filter(|v| v.len() == 4)
+        .map(|v| u32::from_le_bytes([v[0], v[1], v[2], v[3]]));
+    Some((at, conn))
 }
 
 fn read_ros1<E>(
@@ -402,14 +478,14 @@ fn read_ros1<E>(
     callback: &mut Callback<'_, E>,
 ) -> Result<ContainerSummary, ReadError<E>> {
     let cerr = |s: String| container::<E>(s);
-    {
+    let layout = {
         let mut file = fs::File::open(path).map_err(|e| cerr(format!("cannot open: {e}")))?;
         let len = file
             .metadata()
             .map_err(|e| cerr(format!("cannot read: {e}")))?
             .len();
-        check_ros1_layout(&mut file, len).map_err(|e| cerr(format!("ROS 1 bag: {e}")))?;
-    }
+        check_ros1_layout(&mut file, len).map_err(|e| cerr(format!("ROS 1 bag: {e}")))?
+    };
     let bag = rosbag::RosBag::new(path).map_err(|e| cerr(format!("ROS 1 bag: {e}")))?;
     let mut connections: BTreeMap<u32, Connection> = BTreeMap::new();
     let mut counts: BTreeMap<String, (String, usize)> = BTreeMap::new();
@@ -419,12 +495,54 @@ fn read_ros1<E>(
         let rosbag::ChunkRecord::Chunk(chunk) = record else {
             continue;
         };
+        // The last message read from this chunk: (topic, number, time), for naming
+        // where a damaged record lies.
+        let mut last: Option<(String, usize, u64)> = None;
         for (m, item) in chunk.messages().enumerate() {
-            let item = item.map_err(|e| {
-                cerr(format!(
-                    "ROS 1 bag, chunk section record {k}, chunk record {m}: {e}"
-                ))
-            })?;
+            let item = match item {
+                Ok(item) => item,
+                Err(e) => {
+                    let e = e.to_string();
+                    let e = e.strip_prefix("rosbag::Error: ").unwrap_or(&e);
+                    let located = layout
+                        .get(k)
+                        .and_then(|c| locate_chunk_record(path, c, m).map(|l| (c.at, l)));
+                    let at = match located {
+                        Some((chunk_at, (record_at, _))) => format!(
+                            "record {m} of the chunk at byte {chunk_at}, at byte {record_at}"
+                        ),
+                        None => format!("record {m} of chunk section record {k}"),
+                    };
+                    let own = located
+                        .and_then(|(_, (_, conn))| conn)
+                        .and_then(|c| connections.get(&c))
+                        .map(|c| c.topic.clone());
+                    return Err(match (own, &last) {
+                        // The record's own header names its topic: the next message.
+                        (Some(topic), _) => {
+                            let message = counts.get(&topic).map_or(0, |(_, n)| *n) + 1;
+                            ReadError::Located {
+                                topic,
+                                message,
+                                time_ns: None,
+                                problem: format!(
+                                    "ROS 1 bag: this message's record ({at}) cannot be read: {e}"
+                                ),
+                            }
+                        }
+                        (None, Some((topic, number, time))) => ReadError::Located {
+                            topic: topic.clone(),
+                            message: *number,
+                            time_ns: Some(*time),
+                            problem: format!(
+                                "ROS 1 bag: the record after this message ({at}; its header names \
+                                 no known connection) cannot be read: {e}"
+                            ),
+                        },
+                        (None, None) => cerr(format!("ROS 1 bag, {at}: {e}")),
+                    });
+                }
+            };
             match item {
                 rosbag::MessageRecord::Connection(c) => {
                     connections.entry(c.id).or_insert_with(|| Connection {
@@ -449,6 +567,7 @@ fn read_ros1<E>(
                         .entry(connection.topic.clone())
                         .or_insert_with(|| (connection.type_name.clone(), 0));
                     entry.1 += 1;
+                    last = Some((connection.topic.clone(), entry.1, d.time));
                     if wanted.contains(&connection.topic.as_str()) {
                         callback(RawMessage {
                             connection,
@@ -710,5 +829,5 @@ pub fn check_ros1_bytes(data: &[u8]) -> Result<(), String> {
     if !data.starts_with(b"#ROSBAG V2.0\n") {
         return Err("not a ROS 1 bag 2.0".into());
     }
-    check_ros1_layout(&mut std::io::Cursor::new(data), data.len() as u64)
+    check_ros1_layout(&mut std::io::Cursor::new(data), data.len() as u64).map(|_| ())
 }

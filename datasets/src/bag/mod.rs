@@ -643,6 +643,20 @@ pub fn read_bag(path: &Path, topics: &BagTopics) -> Result<BagLog> {
         Err(ReadError::Container(problem)) => {
             return Err(bag_error(path, BagLocation::default(), problem));
         }
+        Err(ReadError::Located {
+            topic,
+            message,
+            time_ns,
+            problem,
+        }) => {
+            let location = BagLocation {
+                topic,
+                message,
+                time: time_ns.map(|t| t as f64 * 1e-9),
+                field: String::new(),
+            };
+            return Err(bag_error(path, location, problem));
+        }
     };
     log.format = summary.format.unwrap_or(BagFormat::Ros1);
     log.topics = summary.topics;

@@ -225,6 +225,46 @@ pub fn to_leigh(
     (leigh, people)
 }
 
+/// Checks that every annotation of the bag's people topic lies within the reach of
+/// its scan (`range_max` plus [`crate::leigh::PERSON_REACH_MARGIN`]); `scans` and
+/// `people` as [`to_leigh`] made them.
+///
+/// # Errors
+/// [`crate::Error::Bag`] naming the people topic, the message and the position.
+pub fn check_people_reach(
+    log: &BagLog,
+    scans: &LeighScans,
+    people: &[PersonAnnotation],
+) -> Result<()> {
+    let Some(far) = crate::leigh::people_out_of_reach(scans, people) else {
+        return Ok(());
+    };
+    let a = far.annotation;
+    Err(crate::bag::bag_error(
+        &log.path,
+        crate::bag::BagLocation {
+            topic: log.read.people.clone().unwrap_or_default(),
+            message: a.line,
+            time: None,
+            field: "position".into(),
+        },
+        format!(
+            "person {} at ({}, {}) is {:.2} m from the laser, beyond its reach: scan {} \
+             (message {} of {}) declares range_max {} m, and a centre may lie at most {} m \
+             beyond it",
+            a.person,
+            a.centre.x,
+            a.centre.y,
+            far.distance,
+            a.scan,
+            far.scan.map_or(0, |s| s.line),
+            log.read.scan,
+            far.range_max,
+            crate::leigh::PERSON_REACH_MARGIN
+        ),
+    ))
+}
+
 /// The pairs of a bag (module docs).
 ///
 /// # Errors
@@ -248,6 +288,7 @@ pub fn bag_pairs(log: &BagLog, options: &BagPairOptions) -> Result<BagPairs> {
     let scans = prepared_scans(log, &mount, &mut notes);
     if log.read.people.is_some() {
         let (leigh, people) = to_leigh(log, &scans, &mut notes);
+        check_people_reach(log, &leigh, &people)?;
         let leigh_options = LeighPairOptions {
             k,
             name,
@@ -333,7 +374,7 @@ pub fn bag_pairs(log: &BagLog, options: &BagPairOptions) -> Result<BagPairs> {
 ///
 /// # Errors
 /// A scan that does not exist or has no valid return ([`Error::Scan`], naming the
-/// bag and the scan's message number).
+/// bag and the scan's message number); `i == j` (the two scans of a pair must differ).
 pub fn bag_scan_pair(
     log: &BagLog,
     i: usize,
@@ -341,6 +382,7 @@ pub fn bag_scan_pair(
     laser_mount: Option<Pose2>,
     notes: &mut Vec<String>,
 ) -> Result<ScanPair> {
+    crate::builders::distinct_scans(&log.path, i, j)?;
     let (mount, note) = self::laser_mount(log, laser_mount);
     notes.push(note);
     let scans = prepared_scans(log, &mount, notes);
