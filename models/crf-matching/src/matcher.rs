@@ -195,10 +195,23 @@ impl Matcher {
     /// Errors name the pair.
     pub fn match_pair(&self, pair: &ScanPair) -> Result<Matching> {
         let p = &self.params;
-        let problem = AssociationProblem::new(pair, &p.weights.boosters)?;
-        let n = problem.len();
+        // The problem (shape features, search structures) and the motion hypotheses
+        // do not depend on each other: they are built side by side (rayon; one
+        // thread builds them in turn).
+        let n = pair.current.valid.iter().filter(|&&v| v).count();
+        let (problem, hypotheses) = if n == 0 {
+            (AssociationProblem::new(pair, &p.weights.boosters), None)
+        } else {
+            let (problem, hypotheses) = rayon::join(
+                || AssociationProblem::new(pair, &p.weights.boosters),
+                || segment_motions(pair, &self.segment_icp),
+            );
+            (problem, Some(hypotheses))
+        };
+        let problem = problem?;
+        debug_assert_eq!(problem.len(), n, "one node per valid current return");
         let beams = pair.current.len();
-        if n == 0 {
+        let Some(hypotheses) = hypotheses else {
             return Ok(Matching {
                 associations: vec![None; beams],
                 confidence: vec![None; beams],
@@ -210,9 +223,9 @@ impl Matcher {
                 converged: false,
                 note: Some("no return to associate: kept the prior".into()),
             });
-        }
+        };
         // Motion groups: 0 for the ego-motion, one per moved segment.
-        let hypotheses = segment_motions(pair, &self.segment_icp)?;
+        let hypotheses = hypotheses?;
         let mut motions = vec![hypotheses.ego];
         let mut group_of = vec![0usize; n];
         if p.segment_motions {

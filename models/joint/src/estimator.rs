@@ -299,10 +299,23 @@ impl Joint {
     /// Runs the joint model on `pair` (see the module docs). Errors name the pair.
     pub fn estimate(&self, pair: &ScanPair) -> Result<JointResult> {
         let p = &self.params;
-        let problem = AssociationProblem::new(pair, &p.weights.boosters)?;
-        let n = problem.len();
+        // The problem (shape features, search structures) and the motion hypotheses
+        // do not depend on each other: they are built side by side (rayon; one
+        // thread builds them in turn).
+        let n = pair.current.valid.iter().filter(|&&v| v).count();
+        let (problem, initial) = if n == 0 {
+            (AssociationProblem::new(pair, &p.weights.boosters), None)
+        } else {
+            let (problem, initial) = rayon::join(
+                || AssociationProblem::new(pair, &p.weights.boosters),
+                || self.initial_clusters(pair, n),
+            );
+            (problem, Some(initial))
+        };
+        let problem = problem?;
+        debug_assert_eq!(problem.len(), n, "one node per valid current return");
         let beams = pair.current.len();
-        if n == 0 {
+        let Some(initial) = initial else {
             let ego = pair.odometry.unwrap_or_default();
             return Ok(JointResult {
                 associations: vec![None; beams],
@@ -315,8 +328,8 @@ impl Joint {
                 rounds: 0,
                 converged: true,
             });
-        }
-        let (mut motions, mut clusters) = self.initial_clusters(pair, n)?;
+        };
+        let (mut motions, mut clusters) = initial?;
         let outlier_cluster = motions.len();
         let background = 0;
         let solver = HybridChainParams::default()
