@@ -45,7 +45,7 @@ use crate::matching::{
     MOTION_FEATURES, OUTLIER_FEATURES,
 };
 use crate::registration::Icp;
-use crate::{Error, InvalidParameter, Pose2, Result, Scan, ScanPair};
+use crate::{Association, Error, InvalidParameter, Pose2, Result, Scan, ScanPair};
 use pgm_core::exact::PairPattern;
 use pgm_core::hybrid::chain::FeatureSink;
 use serde::{Deserialize, Serialize};
@@ -364,6 +364,65 @@ impl AssociationProblem {
         }
     }
 
+    /// The ground truth of `pair`'s nodes, for learning: its ego-motion (ground truth,
+    /// else the odometry prior), and per node its object label, its object's true
+    /// motion and its true partner (see [`NodeTruth`]). `pair` must be the pair the
+    /// problem was built from.
+    ///
+    /// # Errors
+    /// [`Error::BadPair`] naming the pair when it has no ground truth, no true
+    /// associations, or neither a true ego-motion nor odometry ("no ground-truth …
+    /// to learn from").
+    pub fn node_truth(&self, pair: &ScanPair) -> Result<NodeTruth> {
+        let missing = |what: &str| Error::BadPair {
+            pair: pair.name.clone(),
+            problem: format!("no ground-truth {what} to learn from"),
+        };
+        let truth = pair.truth.as_ref().ok_or_else(|| missing("at all"))?;
+        let associations = truth
+            .associations
+            .as_ref()
+            .ok_or_else(|| missing("associations"))?;
+        let ego = truth
+            .ego_motion
+            .or(pair.odometry)
+            .ok_or_else(|| missing("ego-motion"))?;
+        let beams = &self.current.beams;
+        let labels: Vec<u32> = beams
+            .iter()
+            .map(|&b| {
+                truth
+                    .labels
+                    .as_ref()
+                    .and_then(|l| l.get(b).copied().flatten())
+                    .unwrap_or(0)
+            })
+            .collect();
+        let object_motions = labels
+            .iter()
+            .map(|&l| {
+                truth
+                    .motions
+                    .iter()
+                    .find(|m| m.label == l && l != 0)
+                    .map(|m| m.motion)
+            })
+            .collect();
+        let partners = beams
+            .iter()
+            .map(|&b| match associations.get(b).copied().flatten() {
+                Some(Association::Point(r)) => self.reference_index.get(r).copied().flatten(),
+                _ => None,
+            })
+            .collect();
+        Ok(NodeTruth {
+            ego,
+            labels,
+            object_motions,
+            partners,
+        })
+    }
+
     /// The outlier booster's margin of node `i` under `motion`.
     pub fn outlier_score(&self, i: usize, motion: &Pose2) -> f64 {
         let mut f = [0.0; OUTLIER_FEATURES];
@@ -450,6 +509,54 @@ struct LocalCache {
     distance: Vec<f64>,
     /// The motion-dependent part of the data booster's margin per candidate.
     score: Vec<f64>,
+}
+
+/// The ground truth of a labelled pair's nodes ([`AssociationProblem::node_truth`]),
+/// one entry per node (valid current return, beam order) in the per-node vectors.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NodeTruth {
+    /// The pair's true ego-motion (the ground truth's, else the odometry prior).
+    pub ego: Pose2,
+    /// Each node's object label (0: the background, or no label).
+    pub labels: Vec<u32>,
+    /// Each node's object's true motion; `None` for the background and for a label
+    /// the ground truth gives no motion.
+    pub object_motions: Vec<Option<Pose2>>,
+    /// Each node's true partner as a reference index (into the problem's reference
+    /// returns); `None` for a true outlier (or a partner beam without a return).
+    pub partners: Vec<Option<usize>>,
+}
+
+impl NodeTruth {
+    /// Each node's true motion: its object's, else the ego-motion.
+    pub fn motions(&self) -> Vec<Pose2> {
+        self.object_motions
+            .iter()
+            .map(|m| m.unwrap_or(self.ego))
+            .collect()
+    }
+
+    /// Inserts every node's true partner into its `candidates` (sorted reference
+    /// indices, kept sorted) and returns each node's true state: the partner's
+    /// position among the candidates, or the outlier state (the number of candidates)
+    /// for a true outlier.
+    ///
+    /// # Panics
+    /// If `candidates` does not have one entry per node.
+    pub fn true_states(&self, candidates: &mut [Vec<usize>]) -> Vec<usize> {
+        assert_eq!(candidates.len(), self.partners.len(), "candidates per node");
+        candidates
+            .iter_mut()
+            .zip(&self.partners)
+            .map(|(c, partner)| match partner {
+                Some(j) => c.binary_search(j).unwrap_or_else(|at| {
+                    c.insert(at, *j);
+                    at
+                }),
+                None => c.len(),
+            })
+            .collect()
+    }
 }
 
 /// One listed entry of the full state space's pairwise pattern.
@@ -883,4 +990,32 @@ pub fn check_association_weights(weights: &[f64]) -> Result<()> {
         )));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A true partner missing from a node's candidates is inserted in order; a true
+    /// outlier's state is its number of candidates; true motions fall back to the
+    /// ego-motion.
+    #[test]
+    fn true_states_insert_partners_and_name_the_outlier_state() {
+        let ego = Pose2::new(1.0, 0.0, 0.0);
+        let object = Pose2::new(0.0, 2.0, 0.1);
+        let truth = NodeTruth {
+            ego,
+            labels: vec![0, 3, 3],
+            object_motions: vec![None, Some(object), Some(object)],
+            partners: vec![Some(5), Some(2), None],
+        };
+        let mut candidates = vec![vec![1, 4, 7], vec![1, 2, 3], vec![8, 9]];
+        let states = truth.true_states(&mut candidates);
+        assert_eq!(
+            candidates,
+            vec![vec![1, 4, 5, 7], vec![1, 2, 3], vec![8, 9]]
+        );
+        assert_eq!(states, vec![2, 1, 2]);
+        assert_eq!(truth.motions(), vec![ego, object, object]);
+    }
 }

@@ -20,7 +20,7 @@
 
 use crate::model::MatchingModel;
 use crate::weights::{feature_set, MatchingWeights, WEIGHTS};
-use crate::{Error, Result};
+use crate::Result;
 use pgm_core::hybrid::chain::chain_instance;
 use pgm_core::learning::{LabelledInstance, LearnerParams, LearningObserver, LearningResult};
 use pgm_core::param::InvalidParameter;
@@ -28,7 +28,7 @@ use pgm_core::ParamGuard;
 use pgm_features::association_chain::{AssociationBoosters, AssociationProblem, StateSpace};
 use pgm_features::boosting::{Booster, BoosterParams, TrainingSet};
 use pgm_features::matching::{ASSOCIATION_FEATURES, OUTLIER_FEATURES};
-use pgm_features::{Association, Pose2, ScanPair};
+use pgm_features::{Pose2, ScanPair};
 use rayon::prelude::*;
 
 /// Options of [`train`].
@@ -74,65 +74,6 @@ pub struct TrainingReport {
     pub learning: LearningResult,
 }
 
-/// The ground truth of a pair's valid current returns.
-struct PairTruth {
-    /// Each return's true motion.
-    motions: Vec<Pose2>,
-    /// Each return's true association.
-    associations: Vec<Option<Association>>,
-    /// Each return's label (0: background).
-    labels: Vec<u32>,
-}
-
-/// The true motion of every valid current return of `pair` (its label's motion,
-/// else the ground-truth ego-motion, else the odometry prior) and its ground-truth
-/// association, or an error naming the pair when it lacks ground truth.
-fn truth_of(pair: &ScanPair) -> Result<PairTruth> {
-    let missing = |what: &str| Error::BadPair {
-        pair: pair.name.clone(),
-        problem: format!("no ground-truth {what} to learn from"),
-    };
-    let truth = pair.truth.as_ref().ok_or_else(|| missing("at all"))?;
-    let associations = truth
-        .associations
-        .as_ref()
-        .ok_or_else(|| missing("associations"))?;
-    let ego = truth
-        .ego_motion
-        .or(pair.odometry)
-        .ok_or_else(|| missing("ego-motion"))?;
-    let (_, beams) = pair.current.points();
-    let labels: Vec<u32> = beams
-        .iter()
-        .map(|&b| {
-            truth
-                .labels
-                .as_ref()
-                .and_then(|l| l.get(b).copied().flatten())
-                .unwrap_or(0)
-        })
-        .collect();
-    let motions = labels
-        .iter()
-        .map(|&l| {
-            truth
-                .motions
-                .iter()
-                .find(|m| m.label == l && l != 0)
-                .map_or(ego, |m| m.motion)
-        })
-        .collect();
-    let per_point = beams
-        .iter()
-        .map(|&b| associations.get(b).copied().flatten())
-        .collect();
-    Ok(PairTruth {
-        motions,
-        associations: per_point,
-        labels,
-    })
-}
-
 /// A pair's nodes under their true motions: candidates, the true state of each node,
 /// its motion group and the groups' motions.
 struct TrueStates {
@@ -172,12 +113,9 @@ fn true_candidates(
     pair: &ScanPair,
     options: &TrainingOptions,
 ) -> Result<TrueStates> {
-    let PairTruth {
-        motions,
-        associations: truth,
-        labels,
-    } = truth_of(pair)?;
-    let (group_of, group_motions) = groups(&labels, &motions);
+    let truth = problem.node_truth(pair)?;
+    let motions = truth.motions();
+    let (group_of, group_motions) = groups(&truth.labels, &motions);
     let ego = vec![group_motions[0]; problem.len()];
     let mut candidates = problem.candidates(
         StateSpace::Pruned(options.candidates),
@@ -185,31 +123,7 @@ fn true_candidates(
         &ego,
         options.candidate_gate,
     );
-    let mut states = Vec::with_capacity(problem.len());
-    for (i, c) in candidates.iter_mut().enumerate() {
-        let partner = match truth[i] {
-            Some(Association::Point(b)) => problem.reference_index.get(b).copied().flatten(),
-            _ => None,
-        };
-        match partner {
-            Some(j) => {
-                let at = match c.binary_search(&j) {
-                    Ok(at) => at,
-                    Err(at) => {
-                        c.insert(at, j);
-                        at
-                    }
-                };
-                states.push(at);
-            }
-            None => states.push(usize::MAX),
-        }
-    }
-    for (i, s) in states.iter_mut().enumerate() {
-        if *s == usize::MAX {
-            *s = candidates[i].len();
-        }
-    }
+    let states = truth.true_states(&mut candidates);
     Ok(TrueStates {
         candidates,
         states,

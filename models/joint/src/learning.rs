@@ -21,7 +21,7 @@
 
 use crate::model::{node_motions, JointModel};
 use crate::weights::{feature_set, AssociationPart, JointWeights, ASSOCIATION_BASE, WEIGHTS};
-use crate::{Error, Result};
+use crate::Result;
 use pgm_core::hybrid::chain::{chain_instance, HybridChainModel};
 use pgm_core::learning::{LabelledInstance, LearnerParams, LearningObserver, LearningResult};
 use pgm_core::param::InvalidParameter;
@@ -31,7 +31,7 @@ use pgm_features::association_chain::{
 };
 use pgm_features::boosting::{BoosterParams, TrainingSet};
 use pgm_features::matching::{ASSOCIATION_FEATURES, OUTLIER_FEATURES};
-use pgm_features::{Association, Pose2, ScanPair};
+use pgm_features::{Pose2, ScanPair};
 use rayon::prelude::*;
 
 /// Options of [`train`].
@@ -126,83 +126,49 @@ fn truth_of(
     pair: &ScanPair,
     options: &TrainingOptions,
 ) -> Result<Truth> {
-    let missing = |what: &str| Error::BadPair {
-        pair: pair.name.clone(),
-        problem: format!("no ground-truth {what} to learn from"),
-    };
-    let truth = pair.truth.as_ref().ok_or_else(|| missing("at all"))?;
-    let associations = truth
-        .associations
-        .as_ref()
-        .ok_or_else(|| missing("associations"))?;
-    let ego = truth
-        .ego_motion
-        .or(pair.odometry)
-        .ok_or_else(|| missing("ego-motion"))?;
-    let beams = &problem.current.beams;
+    let truth = problem.node_truth(pair)?;
+    // Motion clusters by first appearance: 0 the background (and labels without a
+    // true motion), then one per moving object.
     let mut ids: Vec<u32> = vec![0];
-    let mut motions = vec![ego];
-    let mut object = Vec::with_capacity(beams.len());
-    for &b in beams {
-        let label = truth
-            .labels
-            .as_ref()
-            .and_then(|l| l.get(b).copied().flatten())
-            .unwrap_or(0);
-        let motion = truth
-            .motions
-            .iter()
-            .find(|m| m.label == label && label != 0)
-            .map(|m| m.motion);
-        let c = match (label, motion) {
-            (0, _) | (_, None) => 0,
-            (l, Some(m)) => match ids.iter().position(|&x| x == l) {
+    let mut motions = vec![truth.ego];
+    let object: Vec<usize> = truth
+        .labels
+        .iter()
+        .zip(&truth.object_motions)
+        .map(|(&l, motion)| match motion {
+            None => 0,
+            Some(m) => match ids.iter().position(|&x| x == l) {
                 Some(c) => c,
                 None => {
                     ids.push(l);
-                    motions.push(m);
+                    motions.push(*m);
                     ids.len() - 1
                 }
             },
-        };
-        object.push(c);
-    }
-    let n = beams.len();
+        })
+        .collect();
+    let n = object.len();
     let own: Vec<Pose2> = object.iter().map(|&c| motions[c]).collect();
     let mut candidates = problem.candidates(
         StateSpace::Pruned(options.candidates),
         &own,
-        &vec![ego; n],
+        &vec![truth.ego; n],
         options.candidate_gate,
     );
+    let association = truth.true_states(&mut candidates);
     let outlier_cluster = motions.len();
-    let mut association = Vec::with_capacity(n);
-    let mut cluster = Vec::with_capacity(n);
-    for (i, c) in candidates.iter_mut().enumerate() {
-        let partner = match associations.get(beams[i]).copied().flatten() {
-            Some(Association::Point(b)) => problem.reference_index.get(b).copied().flatten(),
-            _ => None,
-        };
-        match partner {
-            Some(j) => {
-                let at = c.binary_search(&j).unwrap_or_else(|at| {
-                    c.insert(at, j);
-                    at
-                });
-                association.push(at);
-                cluster.push(object[i]);
+    let cluster = truth
+        .partners
+        .iter()
+        .zip(&object)
+        .map(|(partner, &c)| {
+            if partner.is_some() {
+                c
+            } else {
+                outlier_cluster
             }
-            None => {
-                association.push(usize::MAX);
-                cluster.push(outlier_cluster);
-            }
-        }
-    }
-    for (i, a) in association.iter_mut().enumerate() {
-        if *a == usize::MAX {
-            *a = candidates[i].len();
-        }
-    }
+        })
+        .collect();
     Ok(Truth {
         candidates,
         association,
