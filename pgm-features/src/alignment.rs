@@ -284,9 +284,14 @@ impl RigidAlignment {
     /// a + κ cos θ₀)`, and `T = ḡ − R s̄` as without the prior. The rotation of a set
     /// whose spread hardly observes it (a few returns of a person's legs) stays near
     /// `theta0`; a long surface is hardly moved by it. `residual` is the data term at
-    /// the result. `None` as [`RigidAlignment::solve`]; never `degenerate` with a
+    /// the result. `None` as [`RigidAlignment::solve`], and when `theta0` or
+    /// `precision` is not finite or `precision` is negative (no silent NaN motion);
+    /// a precision of 0 is [`RigidAlignment::solve`]. Never `degenerate` with a
     /// positive precision.
     pub fn solve_with_rotation_prior(&self, theta0: f64, precision: f64) -> Option<Alignment> {
+        if !(theta0.is_finite() && precision.is_finite() && precision >= 0.0) {
+            return None;
+        }
         self.solve_with_prior(Some((theta0, precision)))
     }
 
@@ -454,6 +459,9 @@ mod tests {
         );
         let pinned = stats.solve_with_rotation_prior(theta0, 1e12).unwrap();
         assert!((pinned.motion.theta() - theta0).abs() < 1e-9);
+        for (theta, kappa) in [(f64::NAN, 1.0), (0.0, f64::NAN), (0.0, -1.0), (f64::INFINITY, 1.0)] {
+            assert!(stats.solve_with_rotation_prior(theta, kappa).is_none());
+        }
         let mut one = RigidAlignment::new();
         one.add(&Point2::new(1.0, 1.0), &Point2::new(2.0, 1.0), 1.0);
         let a = one.solve_with_rotation_prior(0.1, 100.0).unwrap();
