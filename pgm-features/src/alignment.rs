@@ -459,7 +459,12 @@ mod tests {
         );
         let pinned = stats.solve_with_rotation_prior(theta0, 1e12).unwrap();
         assert!((pinned.motion.theta() - theta0).abs() < 1e-9);
-        for (theta, kappa) in [(f64::NAN, 1.0), (0.0, f64::NAN), (0.0, -1.0), (f64::INFINITY, 1.0)] {
+        for (theta, kappa) in [
+            (f64::NAN, 1.0),
+            (0.0, f64::NAN),
+            (0.0, -1.0),
+            (f64::INFINITY, 1.0),
+        ] {
             assert!(stats.solve_with_rotation_prior(theta, kappa).is_none());
         }
         let mut one = RigidAlignment::new();
