@@ -54,7 +54,7 @@ impl TrainingOptions {
     /// would reserve that many states per return).
     ///
     /// # Errors
-    /// [`Error::InvalidParameter`] naming the option: candidates outside 1..=64, a
+    /// [`crate::Error::InvalidParameter`] naming the option: candidates outside 1..=64, a
     /// negative or non-finite gate or prior variance (the variance must be positive),
     /// no stumps.
     pub fn check(&self) -> Result<()> {
