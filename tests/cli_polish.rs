@@ -577,3 +577,23 @@ fn damaged_bag_records_name_the_topic_and_message() {
     assert!(!err.contains("rosbag::Error"), "{err}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// `pgm eval matching`: a time subset holding every pair (simulated pairs are all
+/// less than 1.5 s apart) is named in one line, not printed as a copy of the `all`
+/// row; the JSON keeps the subset.
+#[test]
+fn eval_matching_does_not_repeat_a_subset_that_holds_every_pair() {
+    let dir = temp_dir("near-subset");
+    let (ds, _) = simulated(&dir, "ds", 9, 3);
+    let (text, _) = ok(&["eval", "matching", "--method", "icp", "--pairs", &ds]);
+    assert!(
+        text.contains("(every pair is near (< 1.5 s apart))"),
+        "{text}"
+    );
+    assert!(!text.contains("\nnear ("), "{text}");
+    let (out, _) = ok(&[
+        "eval", "matching", "--method", "icp", "--pairs", &ds, "--json",
+    ]);
+    let report = json(&out);
+    assert_eq!(report["subsets"]["near"]["pairs"], report["pairs"]);
+}

@@ -237,7 +237,12 @@ fn run_matching(args: MatchingArgs) -> CliResult {
             "far" => format!("far (>= {} s apart)", args.near_seconds),
             other => other.to_string(),
         };
-        print(label, s);
+        // A subset holding every pair repeats the row above: say so instead.
+        if s.pairs == report.all.pairs {
+            println!("(every pair is {label})");
+        } else {
+            print(label, s);
+        }
     }
     Ok(ExitCode::SUCCESS)
 }
