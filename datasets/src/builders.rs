@@ -677,30 +677,54 @@ fn leigh_pair(
             }
         }
     }
+    Ok(labelled_pair(
+        reference,
+        current,
+        prior,
+        [&centres_i, &centres_j],
+        motions,
+        options,
+        sector,
+    ))
+}
+
+/// The pair of `reference` and `current` with the odometry `prior`, every return of
+/// both scans labelled by the nearest person centre of its scan within the person
+/// radius (`centres[0]` the reference's, `centres[1]` the current's; 0 elsewhere,
+/// unlabelled outside the annotated `sector`), and the people's `motions`.
+fn labelled_pair(
+    reference: &IndexedScan,
+    current: &IndexedScan,
+    prior: Option<Pose2>,
+    centres: [&[(u32, Point2<f64>)]; 2],
+    motions: Vec<ClusterMotion>,
+    options: &LeighPairOptions,
+    sector: Option<[f64; 2]>,
+) -> ScanPair {
     let truth = GroundTruth {
         ego_motion: None,
         labels: Some(label_returns(
             &current.scan,
-            &centres_j,
+            centres[1],
             options.person_radius,
             sector,
         )),
         reference_labels: Some(label_returns(
             &reference.scan,
-            &centres_i,
+            centres[0],
             options.person_radius,
             sector,
         )),
         associations: None,
         motions,
     };
-    Ok(ScanPair {
+    ScanPair {
         name: format!("{}:{}-{}", options.name, reference.index, current.index),
         reference: reference.scan.clone(),
         current: current.scan.clone(),
         odometry: prior,
         truth: Some(truth),
-    })
+    }
 }
 
 /// What the track rule needs: every annotation in the odometry frame, the scan period
@@ -833,30 +857,15 @@ fn track_pair(
             kind: format!("person {person}"),
         });
     }
-    let truth = GroundTruth {
-        ego_motion: None,
-        labels: Some(label_returns(
-            &current.scan,
-            &centres_j,
-            options.person_radius,
-            sector,
-        )),
-        reference_labels: Some(label_returns(
-            &reference.scan,
-            &centres_i,
-            options.person_radius,
-            sector,
-        )),
-        associations: None,
+    Ok(labelled_pair(
+        reference,
+        current,
+        Some(prior),
+        [&centres_i, &centres_j],
         motions,
-    };
-    Ok(ScanPair {
-        name: format!("{}:{}-{}", options.name, i, j),
-        reference: reference.scan.clone(),
-        current: current.scan.clone(),
-        odometry: Some(prior),
-        truth: Some(truth),
-    })
+        options,
+        sector,
+    ))
 }
 
 /// One annotated person's whole track in the odometry frame

@@ -253,17 +253,7 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
             ""
         }
     );
-    let pair_sets: Vec<String> = pairs
-        .iter()
-        .map(|p| {
-            p.name
-                .rsplit_once(':')
-                .map_or(p.name.as_str(), |(set, _)| set)
-                .to_string()
-        })
-        .collect::<std::collections::BTreeSet<_>>()
-        .into_iter()
-        .collect();
+    let pair_sets = super::joint::pair_sets(&pairs);
     if args.json {
         let json = Report {
             method: &args.method,

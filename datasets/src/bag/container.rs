@@ -127,6 +127,24 @@ pub struct ContainerSummary {
     pub format: Option<BagFormat>,
 }
 
+impl ContainerSummary {
+    /// The summary of a `format` file from its message counts by topic (type name
+    /// and count).
+    fn from_counts(counts: BTreeMap<String, (String, usize)>, format: BagFormat) -> Self {
+        Self {
+            topics: counts
+                .into_iter()
+                .map(|(topic, (type_name, messages))| TopicInfo {
+                    topic,
+                    type_name,
+                    messages,
+                })
+                .collect(),
+            format: Some(format),
+        }
+    }
+}
+
 /// Reads the bag at `path` (a ROS 1 bag, an MCAP file, a ROS 2 bag directory or a
 /// `.zip` holding one of the files), calling `callback` for each message of the
 /// topics in `wanted`. A callback error stops the read and is returned as it is
@@ -581,17 +599,7 @@ fn read_ros1<E>(
             }
         }
     }
-    Ok(ContainerSummary {
-        topics: counts
-            .into_iter()
-            .map(|(topic, (type_name, messages))| TopicInfo {
-                topic,
-                type_name,
-                messages,
-            })
-            .collect(),
-        format: Some(BagFormat::Ros1),
-    })
+    Ok(ContainerSummary::from_counts(counts, BagFormat::Ros1))
 }
 
 // ---------------------------------------------------------------------------------
@@ -810,17 +818,7 @@ pub fn read_mcap<E>(
             _ => {}
         }
     }
-    Ok(ContainerSummary {
-        topics: counts
-            .into_iter()
-            .map(|(topic, (type_name, messages))| TopicInfo {
-                topic,
-                type_name,
-                messages,
-            })
-            .collect(),
-        format: Some(BagFormat::Mcap),
-    })
+    Ok(ContainerSummary::from_counts(counts, BagFormat::Mcap))
 }
 
 /// Checks the layout of a ROS 1 bag held in memory the way [`read_container`] does

@@ -349,7 +349,7 @@ impl Joint {
             let ego = vec![motions[background]; n];
             let candidates = problem.candidates(p.state_space, &own, &ego, p.candidate_gate);
             let mut model = match previous.take() {
-                Some(last) => last.next_round(candidates, motions.clone(), &clusters),
+                Some(last) => last.next_round(candidates, motions.clone(), &own),
                 None => JointModel::new(
                     &problem,
                     candidates,

@@ -118,24 +118,25 @@ impl<'a> JointModel<'a> {
         }
     }
 
-    /// The model of the next round (new `candidates`, `motions` and starting
-    /// `clusters`; the same problem, background, weights and band): the same model
-    /// [`JointModel::new`] builds, with the data scores of the candidates both rounds
-    /// share taken from this one ([`AssociationTables::next_round`]).
+    /// The model of the next round (new `candidates` and `motions`; the same problem,
+    /// background, weights and band): the same model [`JointModel::new`] builds for
+    /// the starting clusters whose [`node_motions`] are `per_node` (the caller has
+    /// them already: it chose the candidates under them), with the data scores of the
+    /// candidates both rounds share taken from this one
+    /// ([`AssociationTables::next_round`]).
     ///
     /// # Panics
-    /// As [`JointModel::new`].
+    /// As [`JointModel::new`], or if `per_node` does not have one motion per node.
     pub fn next_round(
         self,
         candidates: Vec<Vec<usize>>,
         motions: Vec<Pose2>,
-        clusters: &[usize],
+        per_node: &[Pose2],
     ) -> Self {
         assert!(motions.len() <= clustering_chain::MAX_MOTION_CLUSTERS);
         let n = self.cluster.len();
-        let per_node = node_motions(self.tables.problem(), clusters, &motions, self.background);
         Self {
-            tables: self.tables.next_round(candidates, &per_node),
+            tables: self.tables.next_round(candidates, per_node),
             weights: self.weights,
             motions,
             background: self.background,
