@@ -59,6 +59,7 @@ pub mod pair;
 pub mod pose;
 pub mod registration;
 pub mod scan;
+pub mod tracking;
 
 pub use alignment::{Alignment, RigidAlignment};
 pub use association::{AssociationSource, PointAssociations};

@@ -1,0 +1,1009 @@
+//! Tracking moving objects over a sequence of scans: a pair-wise detector (any
+//! [`MotionClusterer`]) on consecutive scans, constant-velocity tracks across them, and
+//! each requested pair answered from the tracks, so that an object keeps being
+//! reported while a single pair cannot show that it moves, and a detection that the
+//! next scan does not confirm is dropped.
+//!
+//! **Why.** Two scans alone cannot separate every mover from the background: an object
+//! that keeps pace with the sensor (a car driven right behind or beside the robot, a
+//! person walking just ahead of it) leaves no free space behind and its returns lie
+//! close to where a static surface would be, so pair-wise detectors (CRF-Clustering's
+//! free-space test, segment-wise ICP's static test) label it static; and wrong
+//! associations make static clutter look moving in one pair. Over a sequence the
+//! object was seen moving before, its track predicts where its returns are now, and
+//! the fit there says whether it still moves; clutter does not move on. This is the
+//! tracking half of detection and tracking of moving objects (C.-C. Wang, C. Thorpe
+//! and S. Thrun, "Online simultaneous localization and mapping with detection and
+//! tracking of moving objects", ICRA 2003), with nearest-neighbour data association,
+//! a constant-velocity model smoothed as an alpha-beta filter, and M-of-N
+//! confirmation.
+//!
+//! **The sequence.** The requested pairs are ordered by the time stamp of their
+//! current scan; consecutive current scans at most [`TrackingParams::max_gap`] apart
+//! form the sequence (a pair whose current scan is not later than the previous one, or
+//! further away, starts a new sequence: the pairs of a simulated set are independent
+//! scenes, each tracked alone, and then the output is the detector's).
+//!
+//! **One step** (current scan `j`, previous current scan `j'`, `Δt` seconds apart):
+//! 1. Detection on the consecutive pair `(j', j)` (the requested pair itself at the
+//!    start of a sequence), and the motion `E` of scan `j` in the frame of `j'` (ICP
+//!    from the odometry difference, the identity without odometry).
+//! 2. Each track predicts its returns in scan `j`: its last returns moved by its
+//!    velocity over `Δt`, then into the frame of `j`. The current returns within
+//!    [`TrackingParams::gate`] of a predicted return, not taken by an earlier track,
+//!    are its candidates; a translation-only ICP of the predicted returns onto them
+//!    measures the motion. Found: at least [`TrackingParams::min_inlier_fraction`] of
+//!    the track's returns have a candidate within [`TrackingParams::inlier_distance`].
+//!    A track not found for more than [`TrackingParams::max_coast`] scans ends.
+//! 3. Evidence of motion at this step: the smoothed velocity moves the object at least
+//!    [`TrackingParams::min_speed`], and the measured motion explains the returns
+//!    clearly better (truncated cost `Σ min(d², τ²)`, `τ` the inlier distance, below
+//!    [`TrackingParams::improvement`] times) than both static explanations: the
+//!    track's returns still where they were, and its new returns already there in the
+//!    previous scan. A track that slides along a static surface fits both.
+//! 4. The detector's moving objects continue the track they share at least half their
+//!    returns with (a detection is evidence of motion), or start one.
+//! 5. Tracks found moving that the detector missed become objects too. Every object
+//!    of the requested pair `(i, j)` gets its motion over that pair from its track's
+//!    velocity, refined by ICP on its returns against scan `i` (the detector's own
+//!    motion when the detection pair is the requested pair).
+//!
+//! After the sequence, the objects of a track that could be followed but showed
+//! evidence of motion in fewer than [`TrackingParams::min_evidence`] steps are
+//! dropped from every pair (M-of-N confirmation over the whole sequence, so the first
+//! detection of a confirmed object is kept).
+//!
+//! Errors name the pair. The output follows the input order.
+
+use crate::methods::{MotionClusterer, MotionClustering};
+use crate::pair::{ClusterMotion, ScanPair};
+use crate::registration::{Icp, IcpParams};
+use crate::{Error, Pose2, Result};
+use nalgebra::{Point2, Vector2};
+use pgm_core::{InvalidParameter, ParamGuard};
+use rayon::prelude::*;
+use std::collections::HashMap;
+
+/// Parameters of the [`Tracker`] (checked by [`ParamGuard::check`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TrackingParams {
+    /// Slowest speed (m/s) that counts as moving (0.5: the walking-speed threshold by
+    /// which the leigh-gtm1 and datmo labels call a person or a car moving).
+    pub min_speed: f64,
+    /// Largest distance (m) from a predicted return to a current return that the track
+    /// may take (0.3).
+    pub gate: f64,
+    /// Inlier distance (m) of the measured motion, and truncation of its costs (0.1,
+    /// ICP's final correspondence distance).
+    pub inlier_distance: f64,
+    /// Smallest fraction of a track's returns that must have an inlier for it to be
+    /// found (0.5).
+    pub min_inlier_fraction: f64,
+    /// The measured motion must bring the truncated cost below this fraction of each
+    /// static explanation's cost to count as evidence of motion (0.5, segment-wise
+    /// ICP's `improvement`).
+    pub improvement: f64,
+    /// Fewest returns of a track (3, CRF-Clustering's smallest object).
+    pub min_returns: usize,
+    /// Scans a track survives without being found (3).
+    pub max_coast: usize,
+    /// Longest gap (s) between consecutive current scans of one sequence (1).
+    pub max_gap: f64,
+    /// Steps with evidence of motion (a detection, or the track found moving) that a
+    /// track needs for its objects to be reported, once it could be followed at
+    /// least once (2: an object that no later scan shows moving is dropped from every
+    /// pair; a track that ends with the sequence before it could be followed keeps
+    /// its objects; 1 drops nothing).
+    pub min_evidence: usize,
+    /// Weight of a step's measured motion in the track's velocity (the beta of an
+    /// alpha-beta filter; 1 keeps the last measurement only) (0.5).
+    pub smoothing: f64,
+    /// ICP between consecutive current scans, and of each requested pair for its
+    /// ego-motion when the detection ran on the consecutive pair.
+    pub ego: IcpParams,
+}
+
+impl Default for TrackingParams {
+    fn default() -> Self {
+        Self {
+            min_speed: 0.5,
+            gate: 0.3,
+            inlier_distance: 0.1,
+            min_inlier_fraction: 0.5,
+            improvement: 0.5,
+            min_returns: 3,
+            max_coast: 3,
+            max_gap: 1.0,
+            min_evidence: 2,
+            smoothing: 0.5,
+            ego: IcpParams::default(),
+        }
+    }
+}
+
+impl ParamGuard for TrackingParams {
+    type Checked = Tracker;
+    type Error = Error;
+
+    fn check_ref(&self) -> Result<()> {
+        InvalidParameter::non_negative("min_speed", self.min_speed, "a speed in m/s >= 0")?;
+        InvalidParameter::positive("gate", self.gate, "a distance in metres > 0")?;
+        InvalidParameter::positive(
+            "inlier_distance",
+            self.inlier_distance,
+            "a distance in metres > 0",
+        )?;
+        InvalidParameter::fraction("min_inlier_fraction", self.min_inlier_fraction)?;
+        if !(self.improvement > 0.0 && self.improvement <= 1.0) {
+            return Err(InvalidParameter::new(
+                "improvement",
+                self.improvement,
+                "a factor in (0, 1]",
+            )
+            .into());
+        }
+        if self.min_returns < 2 {
+            return Err(InvalidParameter::new(
+                "min_returns",
+                self.min_returns,
+                "at least 2 (a rigid fit needs two points)",
+            )
+            .into());
+        }
+        InvalidParameter::positive("max_gap", self.max_gap, "a time in seconds > 0")?;
+        if self.min_evidence == 0 {
+            return Err(InvalidParameter::new("min_evidence", 0, "at least 1").into());
+        }
+        if !(self.smoothing > 0.0 && self.smoothing <= 1.0) {
+            return Err(
+                InvalidParameter::new("smoothing", self.smoothing, "a weight in (0, 1]").into(),
+            );
+        }
+        self.ego.check_ref()
+    }
+
+    fn check(self) -> Result<Tracker> {
+        self.check_ref()?;
+        Ok(Tracker { params: self })
+    }
+}
+
+/// Multi-scan tracking with checked parameters (see the module docs).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Tracker {
+    params: TrackingParams,
+}
+
+/// What tracking changed in the detector's output, summed over the pairs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct TrackingCounts {
+    /// Sequences (runs of consecutive current scans).
+    pub sequences: usize,
+    /// Tracks started (one per detected object that no track continues).
+    pub tracks: usize,
+    /// Objects reported from a track where the detector reported none.
+    pub tracked_objects: usize,
+    /// Detected objects dropped: their track was followed but showed motion in fewer
+    /// than [`TrackingParams::min_evidence`] steps.
+    pub dropped: usize,
+}
+
+/// The tracker's output: one clustering per requested pair (input order) and its
+/// counts.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Tracked {
+    /// One clustering per pair, in the order the pairs were given.
+    pub clusterings: Vec<MotionClustering>,
+    /// What tracking changed.
+    pub counts: TrackingCounts,
+}
+
+/// One object followed over the current scans.
+#[derive(Clone, Debug)]
+struct Track {
+    /// Index into the evidence of every track of the run.
+    id: usize,
+    /// Its returns in the frame of the last current scan.
+    points: Vec<Point2<f64>>,
+    /// Its motion over `step` seconds, in that frame (maps its returns at the earlier
+    /// time onto where they are at the later).
+    velocity: Pose2,
+    /// Seconds `velocity` spans.
+    step: f64,
+    /// Scans since it was last found.
+    coast: usize,
+}
+
+/// What the run learned about a track, kept after it ends.
+#[derive(Clone, Copy, Debug, Default)]
+struct Evidence {
+    /// Steps with evidence of motion.
+    steps: usize,
+    /// Times it was looked for in a later scan.
+    followed: usize,
+}
+
+/// A track found in one scan.
+struct Found {
+    /// Position in the list of live tracks.
+    track: usize,
+    /// Beams of the current scan it takes.
+    beams: Vec<usize>,
+    /// Whether this step shows it moving.
+    moving: bool,
+}
+
+/// A requested pair's clustering, and the label and track id of each of its moving
+/// objects.
+type Reported = (MotionClustering, Vec<(u32, usize)>);
+
+/// One requested pair's place in the run.
+struct Step {
+    /// The requested pair (index into the input).
+    pair: usize,
+    /// The previous current scan's pair and the seconds since it, when the sequence
+    /// goes on.
+    previous: Option<(usize, f64)>,
+}
+
+impl Tracker {
+    /// The parameters.
+    pub fn params(&self) -> &TrackingParams {
+        &self.params
+    }
+
+    /// Tracks the moving objects that `detector` finds on consecutive current scans of
+    /// `pairs` and answers every pair from the tracks (see the module docs).
+    ///
+    /// # Errors
+    /// The detector's errors, and ICP's, naming the pair.
+    pub fn track(&self, pairs: &[ScanPair], detector: &dyn MotionClusterer) -> Result<Tracked> {
+        let p = &self.params;
+        let mut order: Vec<usize> = (0..pairs.len()).collect();
+        order.sort_by(|&a, &b| {
+            pairs[a]
+                .current
+                .timestamp
+                .total_cmp(&pairs[b].current.timestamp)
+        });
+        let steps: Vec<Step> = order
+            .iter()
+            .enumerate()
+            .map(|(n, &i)| Step {
+                pair: i,
+                previous: n.checked_sub(1).map(|m| order[m]).and_then(|j| {
+                    let dt = pairs[i].current.timestamp - pairs[j].current.timestamp;
+                    let later = pairs[i].reference.timestamp > pairs[j].reference.timestamp;
+                    (later && dt > 0.0 && dt <= p.max_gap).then_some((j, dt))
+                }),
+            })
+            .collect();
+        // Detection on every requested pair, and the consecutive pairs, in parallel.
+        let prepared: Vec<(Option<ScanPair>, MotionClustering)> = steps
+            .par_iter()
+            .map(|s| {
+                let pair = &pairs[s.pair];
+                let consecutive = s.previous.map(|(j, _)| consecutive_pair(&pairs[j], pair));
+                Ok((consecutive, detector.cluster(pair)?))
+            })
+            .collect::<Result<_>>()?;
+        for ((_, detection), s) in prepared.iter().zip(&steps) {
+            let beams = pairs[s.pair].current.len();
+            if detection.labels.len() != beams {
+                return Err(Error::BadPair {
+                    pair: pairs[s.pair].name.clone(),
+                    problem: format!(
+                        "the detector gave {} labels for the {beams} beams of the current scan",
+                        detection.labels.len()
+                    ),
+                });
+            }
+        }
+        let mut out: Vec<Option<Reported>> = vec![None; pairs.len()];
+        let mut tracks: Vec<Track> = Vec::new();
+        let mut evidence: Vec<Evidence> = Vec::new();
+        let mut counts = TrackingCounts::default();
+        for (s, (consecutive, detection)) in steps.iter().zip(prepared) {
+            let pair = &pairs[s.pair];
+            let found = match (s.previous, &consecutive) {
+                (Some((_, dt)), Some(c)) => {
+                    let ego = c.odometry.unwrap_or_default();
+                    for t in &tracks {
+                        evidence[t.id].followed += 1;
+                    }
+                    self.follow(&mut tracks, c, ego, dt)
+                }
+                _ => {
+                    counts.sequences += 1;
+                    tracks.clear();
+                    Vec::new()
+                }
+            };
+            out[s.pair] = Some(self.report(
+                pair,
+                consecutive.as_ref(),
+                detection,
+                &mut tracks,
+                &mut evidence,
+                found,
+                &mut counts,
+            ));
+        }
+        // Objects of tracks that were followed but showed too little motion.
+        let clusterings = out
+            .into_iter()
+            .map(|o| {
+                let (mut clustering, objects) = o.expect("every pair");
+                for (label, id) in objects {
+                    let e = evidence[id];
+                    if e.followed > 0 && e.steps < p.min_evidence {
+                        for l in clustering.labels.iter_mut() {
+                            if *l == Some(label) {
+                                *l = Some(0);
+                            }
+                        }
+                        clustering.motions.retain(|m| m.label != label);
+                        counts.dropped += 1;
+                    }
+                }
+                clustering
+            })
+            .collect();
+        Ok(Tracked {
+            clusterings,
+            counts,
+        })
+    }
+
+    /// Steps 2 and 3 of the module docs on the consecutive pair `step` (previous
+    /// current scan as reference; `ego` the motion of its current scan in the frame of
+    /// its reference, `dt` seconds later). Moves every track into the current frame,
+    /// ends the lost ones and returns the found ones.
+    fn follow(&self, tracks: &mut Vec<Track>, step: &ScanPair, ego: Pose2, dt: f64) -> Vec<Found> {
+        let p = &self.params;
+        let (points, beams) = step.current.points();
+        let (Ok(now), Ok(earlier)) = (
+            Icp::new(&step.current, p.ego),
+            Icp::new(&step.reference, p.ego),
+        ) else {
+            tracks.clear();
+            return Vec::new();
+        };
+        let back = ego.inverse();
+        let tau = p.inlier_distance;
+        // Truncated cost of points against the returns of one of the two scans.
+        let cost = |icp: &Icp, moved: &[Point2<f64>]| -> f64 {
+            moved
+                .iter()
+                .map(|q| {
+                    icp.nearest_reference(q, tau)
+                        .map_or(tau * tau, |(_, d2)| d2)
+                })
+                .sum()
+        };
+        let mut taken = vec![false; points.len()];
+        let mut found = Vec::new();
+        let mut keep = vec![true; tracks.len()];
+        for (t, track) in tracks.iter_mut().enumerate() {
+            // The velocity over `dt` in this frame, and the returns where it puts them.
+            let velocity = scale(
+                &back.compose(&track.velocity).compose(&ego),
+                dt / track.step,
+            );
+            let before: Vec<Point2<f64>> = track
+                .points
+                .iter()
+                .map(|q| back.transform_point(q))
+                .collect();
+            let predicted: Vec<Point2<f64>> =
+                before.iter().map(|q| velocity.transform_point(q)).collect();
+            let candidates: Vec<usize> = (0..points.len())
+                .filter(|&k| {
+                    !taken[k]
+                        && predicted
+                            .iter()
+                            .any(|q| (q - points[k]).norm_squared() <= p.gate * p.gate)
+                })
+                .collect();
+            let shift = refine(&predicted, &points, &candidates, p.gate, tau);
+            let shifted: Vec<Point2<f64>> = predicted.iter().map(|q| q + shift).collect();
+            let inliers: Vec<usize> = candidates
+                .iter()
+                .copied()
+                .filter(|&k| shifted.iter().any(|q| (q - points[k]).norm() <= tau))
+                .collect();
+            let supported = shifted
+                .iter()
+                .filter(|q| inliers.iter().any(|&k| (*q - points[k]).norm() <= tau))
+                .count();
+            track.step = dt;
+
+            if inliers.len() < p.min_returns
+                || (supported as f64) < p.min_inlier_fraction * predicted.len() as f64
+            {
+                track.coast += 1;
+                if track.coast > p.max_coast {
+                    keep[t] = false;
+                } else {
+                    // Carried along unseen, as predicted.
+                    track.points = predicted;
+                    track.velocity = velocity;
+                }
+                continue;
+            }
+            // The measured motion (the prediction shifted), blended into the velocity;
+            // the speed at the object's centre.
+            let b = p.smoothing;
+            let smoothed = Pose2::new(
+                velocity.x() + b * shift.x,
+                velocity.y() + b * shift.y,
+                velocity.theta(),
+            );
+            let centre = centroid(&before);
+            let speed = (smoothed.transform_point(&centre) - centre).norm() / dt;
+            let measured = cost(&now, &shifted);
+            let still_there = cost(&now, &before);
+            let arrived: Vec<Point2<f64>> = inliers
+                .iter()
+                .map(|&k| ego.transform_point(&points[k]))
+                .collect();
+            let already_there =
+                cost(&earlier, &arrived) * shifted.len() as f64 / arrived.len() as f64;
+            let moving = speed >= p.min_speed
+                && measured < p.improvement * still_there
+                && measured < p.improvement * already_there;
+
+            for &k in &inliers {
+                taken[k] = true;
+            }
+            track.points = inliers.iter().map(|&k| points[k]).collect();
+            track.velocity = smoothed;
+            track.coast = 0;
+            found.push(Found {
+                track: t,
+                beams: inliers.iter().map(|&k| beams[k]).collect(),
+                moving,
+            });
+        }
+        // Drop the lost tracks, renumbering the found ones.
+        let mut new_index = vec![usize::MAX; tracks.len()];
+        let mut n = 0;
+        for (t, &k) in keep.iter().enumerate() {
+            if k {
+                new_index[t] = n;
+                n += 1;
+            }
+        }
+        let mut t = 0;
+        tracks.retain(|_| {
+            t += 1;
+            keep[t - 1]
+        });
+        for f in &mut found {
+            f.track = new_index[f.track];
+        }
+        found
+    }
+
+    /// Steps 4 and 5 of the module docs: the requested pair's clustering, and the
+    /// object label and track id of each moving object in it. `consecutive` is the
+    /// pair of the previous current scan and this one, when the sequence goes on.
+    #[allow(clippy::too_many_arguments)]
+    fn report(
+        &self,
+        pair: &ScanPair,
+        consecutive: Option<&ScanPair>,
+        mut detection: MotionClustering,
+        tracks: &mut Vec<Track>,
+        evidence: &mut Vec<Evidence>,
+        found: Vec<Found>,
+        counts: &mut TrackingCounts,
+    ) -> Reported {
+        let p = &self.params;
+        let mut track_of_beam = vec![usize::MAX; pair.current.len()];
+        for f in &found {
+            for &b in &f.beams {
+                track_of_beam[b] = f.track;
+            }
+        }
+        let gap = pair.current.timestamp - pair.reference.timestamp;
+        let ego_pair = detection.ego_motion.or(pair.odometry).unwrap_or_default();
+        let mut labels_seen: Vec<u32> = detection
+            .labels
+            .iter()
+            .flatten()
+            .copied()
+            .filter(|&l| l > 0)
+            .collect();
+        labels_seen.sort_unstable();
+        labels_seen.dedup();
+        // Detected objects: continue the track they share most returns with (at least
+        // half of theirs), or start one.
+        let mut objects: Vec<(u32, usize)> = Vec::new();
+        let mut detected = vec![false; tracks.len()];
+        for &label in &labels_seen {
+            let members: Vec<usize> = (0..detection.labels.len())
+                .filter(|&b| detection.labels[b] == Some(label))
+                .collect();
+            let mut votes: HashMap<usize, usize> = HashMap::new();
+            for &b in &members {
+                if track_of_beam[b] != usize::MAX {
+                    *votes.entry(track_of_beam[b]).or_insert(0) += 1;
+                }
+            }
+            let continued = votes
+                .into_iter()
+                .max_by_key(|&(t, c)| (c, std::cmp::Reverse(t)))
+                .filter(|&(_, c)| 2 * c >= members.len())
+                .map(|(t, _)| t);
+            if let Some(t) = continued {
+                if !detected[t] {
+                    detected[t] = true;
+                    evidence[tracks[t].id].steps += 1;
+                }
+                objects.push((label, tracks[t].id));
+                continue;
+            }
+            let motion = detection
+                .motions
+                .iter()
+                .find(|m| m.label == label)
+                .map(|m| m.motion);
+            if let (Some(object), true) = (motion, members.len() >= p.min_returns && gap > 0.0) {
+                let points: Vec<Point2<f64>> = members
+                    .iter()
+                    .map(|&b| pair.current.beam_point(b))
+                    .collect();
+                // Its motion over the pair, forward in time, in the current frame; or,
+                // better, over the last step, measured against the previous scan.
+                let over_pair = object.inverse().compose(&ego_pair);
+                let (velocity, step) = consecutive
+                    .and_then(|c| self.velocity_from_previous(c, &points, &over_pair, gap))
+                    .unwrap_or((over_pair, gap));
+                let id = evidence.len();
+                evidence.push(Evidence {
+                    steps: 1,
+                    followed: 0,
+                });
+                tracks.push(Track {
+                    id,
+                    points,
+                    velocity,
+                    step,
+                    coast: 0,
+                });
+                detected.push(true);
+                objects.push((label, id));
+                counts.tracks += 1;
+            }
+        }
+        // Tracks found moving where the detector reported nothing: one more object
+        // each, on the returns no detected object holds, with the motion over the
+        // pair that its velocity gives, refined by ICP against the reference scan.
+        let mut next = labels_seen.last().copied().unwrap_or(0) + 1;
+        for f in &found {
+            if detected[f.track] || !f.moving || gap <= 0.0 {
+                continue;
+            }
+            let free: Vec<usize> = f
+                .beams
+                .iter()
+                .copied()
+                .filter(|&b| matches!(detection.labels[b], None | Some(0)))
+                .collect();
+            if free.len() < p.min_returns {
+                continue;
+            }
+            let track = &tracks[f.track];
+            evidence[track.id].steps += 1;
+            for &b in &free {
+                detection.labels[b] = Some(next);
+            }
+            let motion = self.pair_motion(pair, &detection.labels, next, track, ego_pair);
+            detection.motions.push(ClusterMotion {
+                label: next,
+                motion,
+                kind: "tracked".into(),
+            });
+            objects.push((next, track.id));
+            next += 1;
+            counts.tracked_objects += 1;
+        }
+        (detection, objects)
+    }
+
+    /// A new object's velocity measured against the previous current scan (the
+    /// reference of `consecutive`, `E` its odometry): its returns `points` (current
+    /// frame) moved back as if static and as `over_pair` (its motion over the
+    /// requested pair, `gap` seconds) says, each refined by a translation-only fit onto
+    /// the previous scan's returns; the better supported gives the motion over the
+    /// step. `None` when neither finds the object there.
+    fn velocity_from_previous(
+        &self,
+        consecutive: &ScanPair,
+        points: &[Point2<f64>],
+        over_pair: &Pose2,
+        gap: f64,
+    ) -> Option<(Pose2, f64)> {
+        let p = &self.params;
+        let dt = consecutive.current.timestamp - consecutive.reference.timestamp;
+        let ego = consecutive.odometry.unwrap_or_default();
+        let (previous, _) = consecutive.reference.points();
+        let all: Vec<usize> = (0..previous.len()).collect();
+        let tau = p.inlier_distance;
+        let mut best: Option<(f64, Vector2<f64>)> = None;
+        for forward in [Pose2::identity(), scale(over_pair, dt / gap)] {
+            // Where the returns were one step earlier, in the previous frame.
+            let back_in_time = forward.inverse();
+            let earlier: Vec<Point2<f64>> = points
+                .iter()
+                .map(|q| ego.transform_point(&back_in_time.transform_point(q)))
+                .collect();
+            let candidates: Vec<usize> = all
+                .iter()
+                .copied()
+                .filter(|&k| {
+                    earlier
+                        .iter()
+                        .any(|q| (q - previous[k]).norm_squared() <= p.gate * p.gate)
+                })
+                .collect();
+            let shift = refine(&earlier, &previous, &candidates, p.gate, tau);
+            // Squared distance of each moved return to its nearest candidate.
+            let d2: Vec<f64> = earlier
+                .iter()
+                .map(|q| {
+                    candidates
+                        .iter()
+                        .map(|&k| (*q + shift - previous[k]).norm_squared())
+                        .fold(f64::INFINITY, f64::min)
+                })
+                .collect();
+            let supported = d2.iter().filter(|&&d| d <= tau * tau).count();
+            let cost: f64 = d2.iter().map(|&d| d.min(tau * tau)).sum();
+            if (supported as f64) >= p.min_inlier_fraction * points.len() as f64
+                && best.is_none_or(|(c, _)| cost < c)
+            {
+                // The object's displacement over the step, in the current frame.
+                let now: Vector2<f64> = centroid(points).coords;
+                let was = ego
+                    .inverse()
+                    .transform_point(&(centroid(&earlier) + shift))
+                    .coords;
+                best = Some((cost, now - was));
+            }
+        }
+        best.map(|(_, d)| (Pose2::new(d.x, d.y, 0.0), dt))
+    }
+
+    /// The motion over `pair` of the object labelled `label`: back in time over the
+    /// pair with `track`'s velocity, into the reference frame by `ego_pair`, refined by
+    /// ICP on the object's returns against the reference scan (kept when ICP does not
+    /// converge).
+    fn pair_motion(
+        &self,
+        pair: &ScanPair,
+        labels: &[Option<u32>],
+        label: u32,
+        track: &Track,
+        ego_pair: Pose2,
+    ) -> Pose2 {
+        let p = &self.params;
+        let gap = pair.current.timestamp - pair.reference.timestamp;
+        let start = ego_pair.compose(&scale(&track.velocity, gap / track.step).inverse());
+        let mut object = pair.current.clone();
+        for (valid, l) in object.valid.iter_mut().zip(labels) {
+            *valid = *valid && *l == Some(label);
+        }
+        Icp::new(
+            &pair.reference,
+            IcpParams {
+                initial_max_distance: p.gate,
+                final_max_distance: p.inlier_distance,
+                min_correspondences: p.min_returns,
+                ..p.ego
+            },
+        )
+        .and_then(|icp| icp.align(&object, start))
+        .ok()
+        .filter(|r| r.converged)
+        .map_or(start, |r| r.motion)
+    }
+}
+
+/// The pair of two consecutive current scans (`before`'s as reference), with the
+/// motion of the later in the frame of the earlier as its odometry: ICP from their
+/// odometry difference (the identity without odometry).
+fn consecutive_pair(before: &ScanPair, now: &ScanPair) -> ScanPair {
+    let prior = match (
+        before.current.laser_odometry(),
+        now.current.laser_odometry(),
+    ) {
+        (Some(a), Some(b)) => a.between(&b),
+        _ => Pose2::identity(),
+    };
+    let motion = Icp::new(&before.current, IcpParams::default())
+        .and_then(|icp| icp.align(&now.current, prior))
+        .map_or(prior, |r| r.motion);
+    ScanPair {
+        name: format!("{} (after {})", now.name, before.name),
+        reference: before.current.clone(),
+        current: now.current.clone(),
+        odometry: Some(motion),
+        truth: None,
+    }
+}
+
+/// A rigid motion scaled by `factor` (translation and angle; exact for pure
+/// translations, first order in the angle otherwise).
+fn scale(motion: &Pose2, factor: f64) -> Pose2 {
+    Pose2::new(
+        motion.x() * factor,
+        motion.y() * factor,
+        motion.theta() * factor,
+    )
+}
+
+fn centroid(points: &[Point2<f64>]) -> Point2<f64> {
+    let sum = points.iter().fold(Vector2::zeros(), |a, p| a + p.coords);
+    Point2::from(sum / points.len().max(1) as f64)
+}
+
+/// Translation-only ICP of `predicted` onto the returns `candidates` (indices into
+/// `points`): the shift that brings the predicted returns onto them (a small object's
+/// rotation over one scan is not observable from its few returns; the velocity keeps
+/// the rotation it was born with). The correspondence distance shrinks from `gate` to
+/// `inlier`.
+fn refine(
+    predicted: &[Point2<f64>],
+    points: &[Point2<f64>],
+    candidates: &[usize],
+    gate: f64,
+    inlier: f64,
+) -> Vector2<f64> {
+    let mut shift = Vector2::zeros();
+    let mut distance = gate;
+    for _ in 0..30 {
+        let mut sum = Vector2::zeros();
+        let mut pairs = 0;
+        for q in predicted {
+            let q = q + shift;
+            let nearest = candidates
+                .iter()
+                .map(|&k| points[k] - q)
+                .min_by(|a, b| a.norm_squared().total_cmp(&b.norm_squared()));
+            if let Some(d) = nearest.filter(|d| d.norm() <= distance) {
+                sum += d;
+                pairs += 1;
+            }
+        }
+        if pairs == 0 {
+            break;
+        }
+        let delta = sum / pairs as f64;
+        shift += delta;
+        if delta.norm() < 1e-4 && distance <= inlier {
+            break;
+        }
+        distance = (distance * 0.7).max(inlier);
+    }
+    shift
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Scan;
+
+    /// A scan at time `t` of 181 beams over ±90° seeing the segments `walls` (end
+    /// points in the sensor frame), 20 m maximum range.
+    fn scan(t: f64, walls: &[(Point2<f64>, Point2<f64>)]) -> Scan {
+        let angles: Vec<f64> = (0..181).map(|k| (k as f64 - 90.0).to_radians()).collect();
+        let ranges = angles
+            .iter()
+            .map(|&a| {
+                let d = Vector2::new(a.cos(), a.sin());
+                walls
+                    .iter()
+                    .filter_map(|(p, q)| {
+                        // Ray r·d against the segment p + u (q − p).
+                        let e = q - p;
+                        let den = d.x * e.y - d.y * e.x;
+                        if den.abs() < 1e-12 {
+                            return None;
+                        }
+                        let r = (p.x * e.y - p.y * e.x) / den;
+                        let u = (p.x * d.y - p.y * d.x) / den;
+                        (r > 0.0 && (0.0..=1.0).contains(&u)).then_some(r)
+                    })
+                    .fold(f64::INFINITY, f64::min)
+            })
+            .collect();
+        let mut s = Scan::from_ranges(angles, ranges, 20.0);
+        s.timestamp = t;
+        s
+    }
+
+    /// The walls of the scene at time `t`: a static wall 6 m ahead and a 0.6 m wide
+    /// box front starting 3 m ahead at y = −1, moving towards the sensor and to the
+    /// left at `speed` m/s (0.6 and 0.8 of it). (An object that slides along its only
+    /// visible side shows its motion at its two ends alone; the evidence test of
+    /// [`Tracker`] weighs all its returns and may not see it.)
+    fn scene(t: f64, speed: f64) -> Vec<(Point2<f64>, Point2<f64>)> {
+        let (x, y) = (3.0 - 0.6 * speed * t, -1.0 + 0.8 * speed * t);
+        vec![
+            (Point2::new(6.0, -8.0), Point2::new(6.0, 8.0)),
+            (Point2::new(x, y - 0.3), Point2::new(x, y + 0.3)),
+        ]
+    }
+
+    /// Pairs `(n − 1, n)` of a sequence of scans 0.1 s apart (static sensor).
+    fn sequence(n: usize, speed: f64) -> Vec<ScanPair> {
+        (1..=n)
+            .map(|j| {
+                let (a, b) = ((j - 1) as f64 * 0.1, j as f64 * 0.1);
+                ScanPair {
+                    name: format!("s:{}-{j}", j - 1),
+                    reference: scan(a, &scene(a, speed)),
+                    current: scan(b, &scene(b, speed)),
+                    odometry: Some(Pose2::identity()),
+                    truth: None,
+                }
+            })
+            .collect()
+    }
+
+    /// Beams of `pair`'s current scan on the box (3 m ahead).
+    fn box_beams(pair: &ScanPair) -> Vec<usize> {
+        (0..pair.current.len())
+            .filter(|&k| pair.current.valid[k] && pair.current.ranges[k] < 4.0)
+            .collect()
+    }
+
+    /// A detector that reports the given objects (beams and motion) on the named pairs
+    /// and the background elsewhere.
+    struct Scripted(HashMap<String, (Vec<usize>, Pose2)>);
+
+    impl MotionClusterer for Scripted {
+        fn name(&self) -> String {
+            "scripted".into()
+        }
+
+        fn cluster(&self, pair: &ScanPair) -> Result<MotionClustering> {
+            let mut labels: Vec<Option<u32>> =
+                pair.current.valid.iter().map(|&v| v.then_some(0)).collect();
+            let mut motions = vec![ClusterMotion {
+                label: 0,
+                motion: Pose2::identity(),
+                kind: "background".into(),
+            }];
+            if let Some((beams, motion)) = self.0.get(&pair.name) {
+                for &b in beams {
+                    labels[b] = Some(1);
+                }
+                motions.push(ClusterMotion {
+                    label: 1,
+                    motion: *motion,
+                    kind: "moving".into(),
+                });
+            }
+            Ok(MotionClustering {
+                labels,
+                motions,
+                ego_motion: Some(Pose2::identity()),
+                iterations: 0,
+                converged: true,
+            })
+        }
+    }
+
+    #[test]
+    fn an_object_detected_once_is_followed_while_it_moves() {
+        let pairs = sequence(8, 1.0);
+        // Detected in the second pair only, with its true motion over the pair (maps
+        // current returns back 6 cm away and 8 cm to the right).
+        let second = &pairs[1];
+        let detector = Scripted(HashMap::from([(
+            second.name.clone(),
+            (box_beams(second), Pose2::new(0.06, -0.08, 0.0)),
+        )]));
+        let tracked = Tracker::default().track(&pairs, &detector).unwrap();
+        assert_eq!(tracked.counts.tracks, 1);
+        assert_eq!(tracked.counts.dropped, 0);
+        for (j, (pair, c)) in pairs.iter().zip(&tracked.clusterings).enumerate().skip(1) {
+            let on_box = box_beams(pair);
+            let object = c.labels[on_box[0]].expect("a return");
+            assert!(object > 0, "pair {j}: the box is not reported moving");
+            assert!(
+                on_box.iter().all(|&b| c.labels[b] == Some(object)),
+                "pair {j}"
+            );
+            let motion = c.motions.iter().find(|m| m.label == object).unwrap().motion;
+            assert!(
+                motion.translation_error(&Pose2::new(0.06, -0.08, 0.0)) < 0.03,
+                "pair {j}: {motion:?}"
+            );
+            // The wall stays background.
+            assert!((0..pair.current.len())
+                .filter(|&k| pair.current.valid[k] && pair.current.ranges[k] > 5.0)
+                .all(|k| c.labels[k] == Some(0)));
+        }
+        assert!(tracked.counts.tracked_objects >= 6);
+    }
+
+    #[test]
+    fn a_detection_that_does_not_move_on_is_dropped() {
+        // The box stands still; the detector calls it moving in one pair.
+        let pairs = sequence(6, 0.0);
+        let third = &pairs[2];
+        let detector = Scripted(HashMap::from([(
+            third.name.clone(),
+            (box_beams(third), Pose2::new(0.0, -0.1, 0.0)),
+        )]));
+        let tracked = Tracker::default().track(&pairs, &detector).unwrap();
+        assert_eq!(tracked.counts.dropped, 1);
+        assert_eq!(tracked.counts.tracked_objects, 0);
+        for c in &tracked.clusterings {
+            assert!(c.labels.iter().flatten().all(|&l| l == 0));
+        }
+        // Reported when the evidence needed is one step (the detection).
+        let once = TrackingParams {
+            min_evidence: 1,
+            ..TrackingParams::default()
+        }
+        .check()
+        .unwrap()
+        .track(&pairs, &detector)
+        .unwrap();
+        assert_eq!(once.counts.dropped, 0);
+        assert!(once.clusterings[2].labels.iter().flatten().any(|&l| l > 0));
+    }
+
+    #[test]
+    fn independent_pairs_get_the_detector_output() {
+        // Every pair starts at time 0 (a simulated data set): no sequence.
+        let mut pairs = sequence(4, 1.0);
+        for p in &mut pairs {
+            p.reference.timestamp = 0.0;
+        }
+        let detector = Scripted(
+            pairs
+                .iter()
+                .map(|p| (p.name.clone(), (box_beams(p), Pose2::new(0.0, -0.1, 0.0))))
+                .collect(),
+        );
+        let tracked = Tracker::default().track(&pairs, &detector).unwrap();
+        assert_eq!(tracked.counts.sequences, 4);
+        for (p, c) in pairs.iter().zip(&tracked.clusterings) {
+            assert_eq!(c, &detector.cluster(p).unwrap());
+        }
+    }
+
+    #[test]
+    fn bad_parameters_are_refused() {
+        for bad in [
+            TrackingParams {
+                min_speed: f64::NAN,
+                ..TrackingParams::default()
+            },
+            TrackingParams {
+                gate: 0.0,
+                ..TrackingParams::default()
+            },
+            TrackingParams {
+                min_evidence: 0,
+                ..TrackingParams::default()
+            },
+            TrackingParams {
+                smoothing: 1.5,
+                ..TrackingParams::default()
+            },
+            TrackingParams {
+                min_returns: 1,
+                ..TrackingParams::default()
+            },
+        ] {
+            assert!(bad.check().is_err(), "{bad:?}");
+        }
+    }
+}
