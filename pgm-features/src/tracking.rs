@@ -198,6 +198,61 @@ pub struct Tracked {
     pub counts: TrackingCounts,
 }
 
+impl Tracked {
+    /// The clusterings as a [`MotionClusterer`] named `name` that answers each of
+    /// `pairs` (the pairs they were tracked on, same order) by its name, for the
+    /// evaluations that run a method pair by pair.
+    ///
+    /// # Errors
+    /// [`Error::BadPair`] when the counts differ or two pairs share a name.
+    pub fn into_clusterer(self, pairs: &[ScanPair], name: String) -> Result<TrackedClusterer> {
+        if pairs.len() != self.clusterings.len() {
+            return Err(Error::BadPair {
+                pair: pairs.first().map_or_else(String::new, |p| p.name.clone()),
+                problem: format!(
+                    "{} clusterings for {} pairs",
+                    self.clusterings.len(),
+                    pairs.len()
+                ),
+            });
+        }
+        let mut by_name = HashMap::with_capacity(pairs.len());
+        for (p, c) in pairs.iter().zip(self.clusterings) {
+            if by_name.insert(p.name.clone(), c).is_some() {
+                return Err(Error::BadPair {
+                    pair: p.name.clone(),
+                    problem: "two pairs have this name; tracking answers pairs by name".into(),
+                });
+            }
+        }
+        Ok(TrackedClusterer { name, by_name })
+    }
+}
+
+/// Clusterings made by [`Tracker::track`], answered pair by pair by name
+/// ([`Tracked::into_clusterer`]).
+#[derive(Clone, Debug)]
+pub struct TrackedClusterer {
+    name: String,
+    by_name: HashMap<String, MotionClustering>,
+}
+
+impl MotionClusterer for TrackedClusterer {
+    fn name(&self) -> String {
+        self.name.clone()
+    }
+
+    fn cluster(&self, pair: &ScanPair) -> Result<MotionClustering> {
+        self.by_name
+            .get(&pair.name)
+            .cloned()
+            .ok_or_else(|| Error::BadPair {
+                pair: pair.name.clone(),
+                problem: "not among the pairs that were tracked".into(),
+            })
+    }
+}
+
 /// One object followed over the current scans.
 #[derive(Clone, Debug)]
 struct Track {

@@ -25,8 +25,12 @@
 //! "min_object_returns", "objects_counted", "objects_detected", "object_recall",
 //! "false_alarms_per_pair", "pairs_without_mover", "false_alarm_pair_share",
 //! "moving_precision", "moving_recall", "object_translation_error_median",
-//! "object_rotation_error_median", "mover_pairs", "v_measure_mover_pairs"}` (`null`
-//! where a figure has nothing to be computed from). Without
+//! "object_rotation_error_median", "mover_pairs", "v_measure_mover_pairs",
+//! "tracking"}` (`null` where a figure has nothing to be computed from). `--track`
+//! tracks the method's moving objects over the sequence of current scans
+//! ([`pgm_features::tracking`]; `--track-min-evidence N`, `--track-min-speed V`) and
+//! scores the tracked output; `tracking` is then `{"min_evidence", "min_speed",
+//! "sequences", "tracks", "tracked_objects", "dropped"}`. Without
 //! odometry the ego-motion comes from the model itself (the largest cluster) or from
 //! ICP (CBD, associations). `--no-prior` hides the pairs' odometry prior from the
 //! methods while the labels still use it (leigh-gtm1 needs odometry to decide who
@@ -43,6 +47,9 @@ use pgm::methods::{
 use pgm_datasets::evaluation::{
     evaluate_clustering_with, scorable_for_clustering, DetectionOptions, DetectionSummary,
 };
+use pgm_features::methods::MotionClusterer;
+use pgm_features::tracking::{TrackingCounts, TrackingParams};
+use pgm_features::ParamGuard;
 use serde::Serialize;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -99,6 +106,18 @@ pub struct ClusteringEvalArgs {
     /// of the object recall.
     #[arg(long, default_value_t = DetectionOptions::default().min_object_returns)]
     pub min_object_returns: usize,
+    /// Track the method's moving objects over the sequence of current scans
+    /// (pgm_features::tracking): pairs of one log or bag in time order; each pair of a
+    /// simulated data set is a scene of its own and gets the method's output.
+    #[arg(long)]
+    pub track: bool,
+    /// Tracking: steps with evidence of motion a track needs for its objects to be
+    /// reported (1 keeps every detection).
+    #[arg(long, requires = "track", default_value_t = TrackingParams::default().min_evidence)]
+    pub track_min_evidence: usize,
+    /// Tracking: slowest speed (m/s) that counts as moving.
+    #[arg(long, requires = "track", default_value_t = TrackingParams::default().min_speed)]
+    pub track_min_speed: f64,
     /// Print one JSON object.
     #[arg(long)]
     pub json: bool,
@@ -125,6 +144,17 @@ struct Report<'a> {
     rotation_error_median: Option<f64>,
     #[serde(flatten)]
     detection: DetectionFields,
+    /// `--track`: the tracking parameters and what tracking changed; `null` without.
+    tracking: Option<TrackingFields>,
+}
+
+/// The `tracking` object of the `--json` output.
+#[derive(Serialize)]
+struct TrackingFields {
+    min_evidence: usize,
+    min_speed: f64,
+    #[serde(flatten)]
+    counts: TrackingCounts,
 }
 
 /// The detection metrics of the `--json` object (`v_measure_mean` is the summary's).
@@ -214,6 +244,37 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
         .unwrap_or_else(|| default_association(&pairs));
     let associations = association_source(which, &options).map_err(CliError::from_display)?;
     let method = clusterer(&args.method, associations, &options).map_err(CliError::from_display)?;
+    let tracking = if args.track {
+        let tracker = TrackingParams {
+            min_evidence: args.track_min_evidence,
+            min_speed: args.track_min_speed,
+            ..TrackingParams::default()
+        }
+        .check()
+        .map_err(|e| CliError(format!("--track: {e}")))?;
+        let tracked = tracker
+            .track(&pairs, method.as_ref())
+            .map_err(|e| CliError(format!("{source}: {e}")))?;
+        let counts = tracked.counts;
+        let name = format!("{} + tracking", method.name());
+        let method: Box<dyn MotionClusterer> = Box::new(
+            tracked
+                .into_clusterer(&pairs, name)
+                .map_err(|e| CliError(format!("{source}: {e}")))?,
+        );
+        Some((method, counts))
+    } else {
+        None
+    };
+    let tracking_fields = tracking.as_ref().map(|(_, counts)| TrackingFields {
+        min_evidence: args.track_min_evidence,
+        min_speed: args.track_min_speed,
+        counts: *counts,
+    });
+    let method = match tracking {
+        Some((tracked, _)) => tracked,
+        None => method,
+    };
     let detection = DetectionOptions {
         min_object_returns: args.min_object_returns,
     };
@@ -267,6 +328,7 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
             objects_total: found.total,
             centroid_error_median: found.centroid_error_median,
             rotation_error_median: found.rotation_error_median,
+            tracking: tracking_fields,
         };
         println!(
             "{}",
@@ -286,6 +348,18 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
     );
     if clusterer_needs_associations(&args.method) || args.method == "joint" {
         println!("weights {weights}");
+    }
+    if let Some(t) = &tracking_fields {
+        println!(
+            "tracking (min evidence {}, min speed {} m/s): {} sequences, {} tracks, {} objects \
+             added from tracks, {} detections dropped as unconfirmed",
+            t.min_evidence,
+            t.min_speed,
+            t.counts.sequences,
+            t.counts.tracks,
+            t.counts.tracked_objects,
+            t.counts.dropped
+        );
     }
     println!(
         "homogeneity   {:.3} ± {:.3}",
