@@ -590,8 +590,33 @@ impl Tracker {
                 .into_iter()
                 .max_by_key(|&(t, c)| (c, std::cmp::Reverse(t)))
                 .filter(|&(_, c)| 2 * c >= members.len())
-                .map(|(t, _)| t);
+                .map(|(t, _)| t)
+                .or_else(|| {
+                    // A track lost in this scan (carried along as predicted) whose
+                    // predicted centre lies within the gate of the object's: the
+                    // detector found it again where the point-wise search did not (a
+                    // walker's legs move unlike one rigid body).
+                    let centre = centroid(
+                        &members
+                            .iter()
+                            .map(|&b| pair.current.beam_point(b))
+                            .collect::<Vec<_>>(),
+                    );
+                    (0..tracks.len())
+                        .filter(|&t| !detected[t] && tracks[t].coast > 0)
+                        .map(|t| (t, (centroid(&tracks[t].points) - centre).norm()))
+                        .filter(|&(_, d)| d <= p.gate)
+                        .min_by(|a, b| a.1.total_cmp(&b.1))
+                        .map(|(t, _)| t)
+                });
             if let Some(t) = continued {
+                if tracks[t].coast > 0 {
+                    tracks[t].points = members
+                        .iter()
+                        .map(|&b| pair.current.beam_point(b))
+                        .collect();
+                    tracks[t].coast = 0;
+                }
                 if !detected[t] {
                     detected[t] = true;
                     evidence[tracks[t].id].steps += 1;
@@ -604,17 +629,21 @@ impl Tracker {
                 .iter()
                 .find(|m| m.label == label)
                 .map(|m| m.motion);
-            if let (Some(object), true) = (motion, members.len() >= p.min_returns && gap > 0.0) {
+            if members.len() >= p.min_returns && gap > 0.0 {
                 let points: Vec<Point2<f64>> = members
                     .iter()
                     .map(|&b| pair.current.beam_point(b))
                     .collect();
-                // Its motion over the pair, forward in time, in the current frame; or,
-                // better, over the last step, measured against the previous scan.
-                let over_pair = object.inverse().compose(&ego_pair);
-                let (velocity, step) = consecutive
-                    .and_then(|c| self.velocity_from_previous(c, &points, &over_pair, gap))
-                    .unwrap_or((over_pair, gap));
+                // Its motion over the pair, forward in time, in the current frame (none
+                // from a detector without motions, such as CBD); better, over the last
+                // step, measured against the previous scan.
+                let over_pair = motion.map(|object| object.inverse().compose(&ego_pair));
+                let measured = consecutive.and_then(|c| {
+                    self.velocity_from_previous(c, &points, &over_pair.unwrap_or_default(), gap)
+                });
+                let Some((velocity, step)) = measured.or(over_pair.map(|v| (v, gap))) else {
+                    continue;
+                };
                 let id = evidence.len();
                 evidence.push(Evidence {
                     steps: 1,
@@ -634,7 +663,7 @@ impl Tracker {
         }
         // Tracks found moving where the detector reported nothing: one more object
         // each, on the returns no detected object holds, with the motion over the
-        // pair that its velocity gives, refined by ICP against the reference scan.
+        // pair that its velocity gives, shifted onto the reference scan.
         let mut next = labels_seen.last().copied().unwrap_or(0) + 1;
         for f in &found {
             if detected[f.track] || !f.moving || gap <= 0.0 {
@@ -732,9 +761,9 @@ impl Tracker {
     }
 
     /// The motion over `pair` of the object labelled `label`: back in time over the
-    /// pair with `track`'s velocity, into the reference frame by `ego_pair`, refined by
-    /// ICP on the object's returns against the reference scan (kept when ICP does not
-    /// converge).
+    /// pair with `track`'s velocity, into the reference frame by `ego_pair`, then
+    /// shifted onto the reference scan's returns (a translation-only fit, as when the
+    /// track is followed: the few returns of a walker do not fix a rotation).
     fn pair_motion(
         &self,
         pair: &ScanPair,
@@ -746,23 +775,20 @@ impl Tracker {
         let p = &self.params;
         let gap = pair.current.timestamp - pair.reference.timestamp;
         let start = ego_pair.compose(&scale(&track.velocity, gap / track.step).inverse());
-        let mut object = pair.current.clone();
-        for (valid, l) in object.valid.iter_mut().zip(labels) {
-            *valid = *valid && *l == Some(label);
-        }
-        Icp::new(
-            &pair.reference,
-            IcpParams {
-                initial_max_distance: p.gate,
-                final_max_distance: p.inlier_distance,
-                min_correspondences: p.min_returns,
-                ..p.ego
-            },
-        )
-        .and_then(|icp| icp.align(&object, start))
-        .ok()
-        .filter(|r| r.converged)
-        .map_or(start, |r| r.motion)
+        let moved: Vec<Point2<f64>> = (0..pair.current.len())
+            .filter(|&b| pair.current.valid[b] && labels[b] == Some(label))
+            .map(|b| start.transform_point(&pair.current.beam_point(b)))
+            .collect();
+        let (reference, _) = pair.reference.points();
+        let candidates: Vec<usize> = (0..reference.len())
+            .filter(|&k| {
+                moved
+                    .iter()
+                    .any(|q| (q - reference[k]).norm_squared() <= p.gate * p.gate)
+            })
+            .collect();
+        let shift = refine(&moved, &reference, &candidates, p.gate, p.inlier_distance);
+        Pose2::new(shift.x, shift.y, 0.0).compose(&start)
     }
 }
 
