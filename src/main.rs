@@ -34,6 +34,8 @@ enum Command {
     Match(cli::matching::MatchArgs),
     /// The joint model on one scan pair: JSON associations, clusters and motions, optional SVG.
     Joint(cli::joint::JointArgs),
+    /// Moving objects tracked over a whole log or bag (`pgm track --method crf --bag FILE --scan-topic T`): JSON per scan, no ground truth needed.
+    Track(cli::track::TrackArgs),
     /// Learn model weights from labelled pairs (`pgm train clustering …`).
     Train(cli::train::TrainArgs),
     /// CRF-Clustering, the joint model and the joint paper's methods on the built-in
@@ -54,6 +56,7 @@ fn main() -> ExitCode {
         Command::Cluster(args) => cli::cluster::run(args),
         Command::Match(args) => cli::matching::run_match(args),
         Command::Joint(args) => cli::joint::run_joint(args),
+        Command::Track(args) => cli::track::run(args),
         Command::Train(args) => cli::train::run(args),
         Command::Demo(args) => cli::demo::run(args),
     };

@@ -139,3 +139,101 @@ fn datmo_overtake_ego_tracking_finds_the_car_in_more_pairs() {
     // The motions of the tracked car stay accurate (measured 0.012 m at the centroid).
     assert!(tracked["object_translation_error_median"].as_f64().unwrap() <= 0.03);
 }
+
+#[test]
+fn track_refuses_bad_options_and_writes_its_output_whole() {
+    let dir = temp_dir("track-cli");
+    let (pairs, _) = simulated(&dir, "sim", 7, 3);
+    refused(
+        &[
+            "track",
+            "--method",
+            "crf",
+            "--pairs",
+            &pairs,
+            "--min-evidence",
+            "0",
+        ],
+        &["min_evidence"],
+    );
+    refused(
+        &[
+            "track",
+            "--method",
+            "crf",
+            "--pairs",
+            &pairs,
+            "--min-speed=-1",
+        ],
+        &["min_speed"],
+    );
+    refused(
+        &[
+            "track",
+            "--method",
+            "crf",
+            "--pairs",
+            &pairs,
+            "--out",
+            dir.to_str().unwrap(),
+        ],
+        &["is a directory"],
+    );
+    let out = dir.join("tracks.json");
+    let (stdout, stderr) = ok(&[
+        "track",
+        "--method",
+        "crf",
+        "--pairs",
+        &pairs,
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(stdout.is_empty());
+    assert!(stderr.contains("written to"), "{stderr}");
+    let written = json(&std::fs::read_to_string(&out).unwrap());
+    // Three independent simulated scenes: three sequences, one entry per pair.
+    assert_eq!(written["tracking"]["sequences"], 3);
+    assert_eq!(written["scans"].as_array().unwrap().len(), 3);
+}
+
+#[test]
+fn datmo_overtake_ego_track_follows_the_car_as_one_track() {
+    let Some(data) = testdata::shared_data_dir() else {
+        return;
+    };
+    let bag = data.join("datmo").join("overtake_ego.bag");
+    let (out, _) = ok(&[
+        "track",
+        "--method",
+        "crf",
+        "--associations",
+        "crf-matching",
+        "--bag",
+        bag.to_str().unwrap(),
+        "--scan-topic",
+        "/scan",
+        "--laser-mount=-0.164,0.027,0.005",
+        "--k",
+        "3",
+    ]);
+    let out = json(&out);
+    let scans = out["scans"].as_array().unwrap();
+    assert_eq!(scans.len(), 132);
+    // Reports per track, and the car's speeds (it drives at 0.7-1.1 m/s).
+    let mut per_track = std::collections::HashMap::<u64, usize>::new();
+    let mut speeds = Vec::new();
+    for s in scans {
+        for o in s["objects"].as_array().unwrap() {
+            *per_track.entry(o["track"].as_u64().unwrap()).or_default() += 1;
+            let v = o["velocity"].as_array().unwrap();
+            speeds.push(v[0].as_f64().unwrap().hypot(v[1].as_f64().unwrap()));
+        }
+    }
+    // Measured 2026-11-30: 54 reports, all on one track.
+    let longest = per_track.values().copied().max().unwrap_or(0);
+    assert!(longest >= 45, "{per_track:?}");
+    speeds.sort_by(f64::total_cmp);
+    let median = speeds[speeds.len() / 2];
+    assert!((0.6..=1.2).contains(&median), "median speed {median} m/s");
+}

@@ -188,12 +188,33 @@ pub struct TrackingCounts {
     pub dropped: usize,
 }
 
+/// A moving object reported in one pair, with its track.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct TrackedObject {
+    /// Its label in the pair's clustering.
+    pub label: u32,
+    /// The track it belongs to (numbered from 0 in the order tracks start; the same
+    /// number in two pairs is the same object).
+    pub track: usize,
+    /// Whether the detector reported it in this pair (else the track did).
+    pub detected: bool,
+    /// Its returns in the current scan.
+    pub returns: usize,
+    /// The centre of its returns in the current sensor frame (m).
+    pub centre: [f64; 2],
+    /// Its velocity in the current sensor frame (m/s), over the ground: the track's
+    /// (smoothed) motion over its last step.
+    pub velocity: [f64; 2],
+}
+
 /// The tracker's output: one clustering per requested pair (input order) and its
 /// counts.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Tracked {
     /// One clustering per pair, in the order the pairs were given.
     pub clusterings: Vec<MotionClustering>,
+    /// The moving objects of each pair, with their tracks (same order).
+    pub objects: Vec<Vec<TrackedObject>>,
     /// What tracking changed.
     pub counts: TrackingCounts,
 }
@@ -290,7 +311,7 @@ struct Found {
 
 /// A requested pair's clustering, and the label and track id of each of its moving
 /// objects.
-type Reported = (MotionClustering, Vec<(u32, usize)>);
+type Reported = (MotionClustering, Vec<TrackedObject>);
 
 /// One requested pair's place in the run.
 struct Step {
@@ -385,27 +406,30 @@ impl Tracker {
             ));
         }
         // Objects of tracks that were followed but showed too little motion.
-        let clusterings = out
+        let (clusterings, objects) = out
             .into_iter()
             .map(|o| {
-                let (mut clustering, objects) = o.expect("every pair");
-                for (label, id) in objects {
-                    let e = evidence[id];
-                    if e.followed > 0 && e.steps < p.min_evidence {
+                let (mut clustering, mut objects) = o.expect("every pair");
+                objects.retain(|object| {
+                    let e = evidence[object.track];
+                    let confirmed = e.followed == 0 || e.steps >= p.min_evidence;
+                    if !confirmed {
                         for l in clustering.labels.iter_mut() {
-                            if *l == Some(label) {
+                            if *l == Some(object.label) {
                                 *l = Some(0);
                             }
                         }
-                        clustering.motions.retain(|m| m.label != label);
+                        clustering.motions.retain(|m| m.label != object.label);
                         counts.dropped += 1;
                     }
-                }
-                clustering
+                    confirmed
+                });
+                (clustering, objects)
             })
-            .collect();
+            .unzip();
         Ok(Tracked {
             clusterings,
+            objects,
             counts,
         })
     }
@@ -574,7 +598,7 @@ impl Tracker {
         labels_seen.dedup();
         // Detected objects: continue the track they share most returns with (at least
         // half of theirs), or start one.
-        let mut objects: Vec<(u32, usize)> = Vec::new();
+        let mut objects: Vec<TrackedObject> = Vec::new();
         let mut detected = vec![false; tracks.len()];
         for &label in &labels_seen {
             let members: Vec<usize> = (0..detection.labels.len())
@@ -621,7 +645,13 @@ impl Tracker {
                     detected[t] = true;
                     evidence[tracks[t].id].steps += 1;
                 }
-                objects.push((label, tracks[t].id));
+                objects.push(tracked_object(
+                    pair,
+                    &detection.labels,
+                    label,
+                    &tracks[t],
+                    true,
+                ));
                 continue;
             }
             let motion = detection
@@ -657,7 +687,13 @@ impl Tracker {
                     coast: 0,
                 });
                 detected.push(true);
-                objects.push((label, id));
+                objects.push(tracked_object(
+                    pair,
+                    &detection.labels,
+                    label,
+                    tracks.last().expect("just pushed"),
+                    true,
+                ));
                 counts.tracks += 1;
             }
         }
@@ -689,7 +725,7 @@ impl Tracker {
                 motion,
                 kind: "tracked".into(),
             });
-            objects.push((next, track.id));
+            objects.push(tracked_object(pair, &detection.labels, next, track, false));
             next += 1;
             counts.tracked_objects += 1;
         }
@@ -789,6 +825,30 @@ impl Tracker {
             .collect();
         let shift = refine(&moved, &reference, &candidates, p.gate, p.inlier_distance);
         Pose2::new(shift.x, shift.y, 0.0).compose(&start)
+    }
+}
+
+/// The report of the object labelled `label` in `pair`, followed by `track`.
+fn tracked_object(
+    pair: &ScanPair,
+    labels: &[Option<u32>],
+    label: u32,
+    track: &Track,
+    detected: bool,
+) -> TrackedObject {
+    let returns: Vec<Point2<f64>> = (0..pair.current.len())
+        .filter(|&b| pair.current.valid[b] && labels[b] == Some(label))
+        .map(|b| pair.current.beam_point(b))
+        .collect();
+    let centre = centroid(&returns);
+    let velocity = (track.velocity.transform_point(&centre) - centre) / track.step;
+    TrackedObject {
+        label,
+        track: track.id,
+        detected,
+        returns: returns.len(),
+        centre: [centre.x, centre.y],
+        velocity: [velocity.x, velocity.y],
     }
 }
 

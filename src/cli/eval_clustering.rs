@@ -42,7 +42,8 @@ use super::{CliError, CliResult};
 use clap::builder::{PossibleValue, PossibleValuesParser};
 use clap::Args;
 use pgm::methods::{
-    association_source, clusterer, clusterer_needs_associations, default_association, CLUSTERERS,
+    association_source, clusterer, clusterer_needs_associations, default_association,
+    MethodOptions, CLUSTERERS,
 };
 use pgm_datasets::evaluation::{
     evaluate_clustering_with, scorable_for_clustering, DetectionOptions, DetectionSummary,
@@ -63,24 +64,12 @@ pub fn clusterer_names() -> PossibleValuesParser {
     )
 }
 
-/// `pgm eval clustering`.
+/// A motion clustering method and its options (`pgm eval clustering`, `pgm track`).
 #[derive(Args, Debug)]
-pub struct ClusteringEvalArgs {
-    /// The method to evaluate.
+pub struct MethodArgs {
+    /// The method.
     #[arg(long, value_parser = clusterer_names())]
     pub method: String,
-    /// A stored scan-pair data set with ground-truth labels.
-    #[arg(long, conflicts_with_all = ["carmen", "log", "scans", "bag"])]
-    pub pairs: Option<PathBuf>,
-    /// Input logs (leigh-gtm1 style: --scans, --people, optional --odometry).
-    #[command(flatten)]
-    pub source: SourceArgs,
-    /// leigh-gtm1 options (moving threshold, person radius).
-    #[command(flatten)]
-    pub leigh: LeighArgs,
-    /// leigh-gtm1: scan distance of the pairs.
-    #[arg(long, default_value_t = 5)]
-    pub k: usize,
     /// Point associations for crf and kmeans (default: true when every pair has them,
     /// else icp).
     #[arg(long, value_parser = association_names())]
@@ -98,6 +87,93 @@ pub struct ClusteringEvalArgs {
     /// train joint` (default: the shipped ones).
     #[arg(long)]
     pub joint_weights: Option<PathBuf>,
+}
+
+/// A method built from [`MethodArgs`] for a set of pairs.
+pub struct BuiltMethod {
+    /// The method.
+    pub method: Box<dyn MotionClusterer>,
+    /// The association source it runs on, as typed (or the default), for the methods
+    /// that take one.
+    pub associations: Option<String>,
+    /// Which weights it uses.
+    pub weights: String,
+}
+
+impl MethodArgs {
+    /// The options of every method, checked (before any data is read: an option
+    /// that means nothing is refused whichever method would read it).
+    pub fn options(&self) -> Result<MethodOptions, CliError> {
+        let mut options = self.crf.options()?;
+        if let Some(path) = &self.joint_weights {
+            options = options
+                .with_joint_weights(path)
+                .map_err(CliError::from_display)?;
+        }
+        options.kmeans.k = self.kmeans_k;
+        options.cbd.margin = self.cbd_margin;
+        options.check().map_err(CliError::from_display)?;
+        Ok(options)
+    }
+
+    /// The method with `options` ([`MethodArgs::options`]) for `pairs` (whose ground
+    /// truth decides the default association source).
+    pub fn build(
+        &self,
+        options: &MethodOptions,
+        pairs: &[pgm_features::ScanPair],
+    ) -> Result<BuiltMethod, CliError> {
+        let which = self
+            .associations
+            .as_deref()
+            .unwrap_or_else(|| default_association(pairs));
+        let source = association_source(which, options).map_err(CliError::from_display)?;
+        let method = clusterer(&self.method, source, options).map_err(CliError::from_display)?;
+        let weights = if self.method == "joint" {
+            self.joint_weights
+                .as_ref()
+                .map_or(super::joint::SHIPPED_JOINT_WEIGHTS.into(), |p| {
+                    p.display().to_string()
+                })
+        } else {
+            match &self.crf.weights {
+                Some(path) => path.display().to_string(),
+                None => "shipped (trained on simulated pairs, seed 1000)".into(),
+            }
+        };
+        Ok(BuiltMethod {
+            method,
+            // Names as typed on the command line: the method, and its association
+            // source apart (the library's `crf (icp)` joins them).
+            associations: clusterer_needs_associations(&self.method).then(|| which.to_string()),
+            weights,
+        })
+    }
+
+    /// Whether the method has weights to name (crf, kmeans, joint).
+    pub fn has_weights(&self) -> bool {
+        clusterer_needs_associations(&self.method) || self.method == "joint"
+    }
+}
+
+/// `pgm eval clustering`.
+#[derive(Args, Debug)]
+pub struct ClusteringEvalArgs {
+    /// The method to evaluate and its options.
+    #[command(flatten)]
+    pub method: MethodArgs,
+    /// A stored scan-pair data set with ground-truth labels.
+    #[arg(long, conflicts_with_all = ["carmen", "log", "scans", "bag"])]
+    pub pairs: Option<PathBuf>,
+    /// Input logs (leigh-gtm1 style: --scans, --people, optional --odometry).
+    #[command(flatten)]
+    pub source: SourceArgs,
+    /// leigh-gtm1 options (moving threshold, person radius).
+    #[command(flatten)]
+    pub leigh: LeighArgs,
+    /// leigh-gtm1: scan distance of the pairs.
+    #[arg(long, default_value_t = 5)]
+    pub k: usize,
     /// Hide the pairs' odometry prior from the methods (the labels still use it): the
     /// methods run as on a log without odometry.
     #[arg(long)]
@@ -202,15 +278,19 @@ fn show(x: Option<f64>, digits: usize) -> String {
 /// Runs `pgm eval clustering`.
 pub fn run(args: ClusteringEvalArgs) -> CliResult {
     let source = pair_source(args.pairs.as_deref(), &args.source, &args.leigh, args.k)?;
-    let mut options = args.crf.options()?;
-    if let Some(path) = &args.joint_weights {
-        options = options
-            .with_joint_weights(path)
-            .map_err(CliError::from_display)?;
-    }
-    options.kmeans.k = args.kmeans_k;
-    options.cbd.margin = args.cbd_margin;
-    options.check().map_err(CliError::from_display)?;
+    let options = args.method.options()?;
+    let tracker = args
+        .track
+        .then(|| {
+            TrackingParams {
+                min_evidence: args.track_min_evidence,
+                min_speed: args.track_min_speed,
+                ..TrackingParams::default()
+            }
+            .check()
+        })
+        .transpose()
+        .map_err(|e| CliError(format!("--track: {e}")))?;
     if args.min_object_returns == 0 {
         return Err(CliError(
             "--min-object-returns 0: an object without a return in the current scan cannot \
@@ -238,20 +318,9 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
             total - pairs.len()
         );
     }
-    let which = args
-        .associations
-        .as_deref()
-        .unwrap_or_else(|| default_association(&pairs));
-    let associations = association_source(which, &options).map_err(CliError::from_display)?;
-    let method = clusterer(&args.method, associations, &options).map_err(CliError::from_display)?;
-    let tracking = if args.track {
-        let tracker = TrackingParams {
-            min_evidence: args.track_min_evidence,
-            min_speed: args.track_min_speed,
-            ..TrackingParams::default()
-        }
-        .check()
-        .map_err(|e| CliError(format!("--track: {e}")))?;
+    let built = args.method.build(&options, &pairs)?;
+    let method = built.method;
+    let tracking = if let Some(tracker) = tracker {
         let tracked = tracker
             .track(&pairs, method.as_ref())
             .map_err(|e| CliError(format!("{source}: {e}")))?;
@@ -278,9 +347,7 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
     let detection = DetectionOptions {
         min_object_returns: args.min_object_returns,
     };
-    // Names as typed on the command line: the method, and its association source
-    // apart (the library's `crf (icp)` joins them).
-    let associations = clusterer_needs_associations(&args.method).then_some(which);
+    let associations = built.associations.as_deref();
     let report = evaluate_clustering_with(&pairs, method.as_ref(), &detection)
         .map_err(|e| CliError(format!("{source}: {e}")))?;
     let unconverged = report.outcomes.iter().filter(|o| !o.converged).count();
@@ -288,24 +355,13 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
         eprintln!(
             "note: {} did not converge on {unconverged} of {} pairs (their labels are scored \
              as they stand)",
-            args.method,
+            args.method.method,
             report.outcomes.len()
         );
     }
     let summary = report.summary;
     let found = report.found_objects;
-    let weights = if args.method == "joint" {
-        args.joint_weights
-            .as_ref()
-            .map_or(super::joint::SHIPPED_JOINT_WEIGHTS.into(), |p| {
-                p.display().to_string()
-            })
-    } else {
-        match &args.crf.weights {
-            Some(path) => path.display().to_string(),
-            None => "shipped (trained on simulated pairs, seed 1000)".into(),
-        }
-    };
+    let weights = built.weights;
     let data = format!(
         "{source}{}; every pair scored, none trained on",
         if args.no_prior {
@@ -317,7 +373,7 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
     let pair_sets = super::joint::pair_sets(&pairs);
     if args.json {
         let json = Report {
-            method: &args.method,
+            method: &args.method.method,
             associations,
             data,
             pair_sets,
@@ -338,7 +394,7 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
     }
     println!(
         "method {}{}: {} pairs of {data}",
-        args.method,
+        args.method.method,
         associations.map_or(String::new(), |a| format!(" (associations {a})")),
         summary.pairs
     );
@@ -346,7 +402,7 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
         "pair sets (names before the last `:`): {}",
         pair_sets.join(", ")
     );
-    if clusterer_needs_associations(&args.method) || args.method == "joint" {
+    if args.method.has_weights() {
         println!("weights {weights}");
     }
     if let Some(t) = &tracking_fields {
@@ -408,7 +464,7 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
         show(d.object_translation_error_median, 3),
         show(d.object_rotation_error_median, 4)
     );
-    if clusterer_needs_associations(&args.method) || args.method == "joint" {
+    if args.method.has_weights() {
         println!(
             "motion errors (every true mover with a known motion, any number of returns): \
              {} of {} found; median error {} m at the centroid, {} rad",

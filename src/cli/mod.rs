@@ -11,6 +11,7 @@ pub mod joint;
 pub mod matching;
 pub mod plot;
 pub mod sim;
+pub mod track;
 pub mod train;
 
 use std::fmt;

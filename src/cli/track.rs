@@ -1,0 +1,176 @@
+//! `pgm track`: moving objects tracked over a whole log or bag, no ground truth
+//! needed.
+//!
+//! `pgm track --method NAME [--associations SRC] (--bag FILE --scan-topic T
+//! [--odom-topic T] | --scans FILE --people FILE [--odometry FILE] | --log FILE |
+//! --pairs DIR) [--k K] [--min-evidence N] [--min-speed V] [--out FILE]` runs the
+//! clustering method on every pair of scans `k` apart and tracks its moving objects
+//! over the current scans ([`pgm_features::tracking`]). It prints (or writes to
+//! `--out`, atomically) one JSON object `{"method", "associations", "data",
+//! "weights", "tracking": {"min_evidence", "min_speed", "sequences", "tracks",
+//! "tracked_objects", "dropped"}, "scans": [{"pair", "time", "ego_motion", "objects":
+//! [{"label", "track", "detected", "returns", "centre", "velocity", "motion"}]}]}`: per
+//! pair (in time order of the current scan) every moving object with its track number
+//! (the same number in two pairs is the same object), whether the detector reported it
+//! or the track did, its returns, the centre of its returns and its velocity over the
+//! ground in the current sensor frame (m, m/s), and its motion over the pair (maps its
+//! returns onto the reference scan). A summary goes to stderr.
+
+use super::data::{load_pairs, pair_source, LeighArgs, SourceArgs};
+use super::eval_clustering::MethodArgs;
+use super::{check_output_file, CliError, CliResult};
+use clap::Args;
+use pgm_features::tracking::{TrackedObject, TrackingCounts, TrackingParams};
+use pgm_features::{ParamGuard, Pose2};
+use serde::Serialize;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+/// `pgm track`.
+#[derive(Args, Debug)]
+pub struct TrackArgs {
+    /// The detector and its options.
+    #[command(flatten)]
+    pub method: MethodArgs,
+    /// A stored scan-pair data set (pairs of one log in time order).
+    #[arg(long, conflicts_with_all = ["carmen", "log", "scans", "bag"])]
+    pub pairs: Option<PathBuf>,
+    /// The log or bag.
+    #[command(flatten)]
+    pub source: SourceArgs,
+    /// leigh-gtm1 options (used for its labels only).
+    #[command(flatten)]
+    pub leigh: LeighArgs,
+    /// Scan distance of the pairs the detector runs on (bags and leigh-gtm1 logs).
+    #[arg(long, default_value_t = 1)]
+    pub k: usize,
+    /// Steps with evidence of motion a track needs for its objects to be reported (1
+    /// keeps every detection).
+    #[arg(long, default_value_t = TrackingParams::default().min_evidence)]
+    pub min_evidence: usize,
+    /// Slowest speed (m/s) that counts as moving.
+    #[arg(long, default_value_t = TrackingParams::default().min_speed)]
+    pub min_speed: f64,
+    /// Write the JSON here (atomically) instead of printing it.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+#[derive(Serialize)]
+struct Output<'a> {
+    method: &'a str,
+    associations: Option<&'a str>,
+    data: String,
+    weights: &'a str,
+    tracking: Tracking,
+    scans: Vec<ScanObjects>,
+}
+
+#[derive(Serialize)]
+struct Tracking {
+    min_evidence: usize,
+    min_speed: f64,
+    #[serde(flatten)]
+    counts: TrackingCounts,
+}
+
+#[derive(Serialize)]
+struct ScanObjects {
+    pair: String,
+    time: f64,
+    ego_motion: Option<Pose2>,
+    objects: Vec<Object>,
+}
+
+#[derive(Serialize)]
+struct Object {
+    #[serde(flatten)]
+    object: TrackedObject,
+    motion: Option<Pose2>,
+}
+
+/// Runs `pgm track`.
+pub fn run(args: TrackArgs) -> CliResult {
+    let source = pair_source(args.pairs.as_deref(), &args.source, &args.leigh, args.k)?;
+    let options = args.method.options()?;
+    let tracker = TrackingParams {
+        min_evidence: args.min_evidence,
+        min_speed: args.min_speed,
+        ..TrackingParams::default()
+    }
+    .check()
+    .map_err(CliError::from_display)?;
+    if let Some(out) = &args.out {
+        check_output_file(out)?;
+    }
+    let pairs = load_pairs(&source)?.pairs;
+    if pairs.is_empty() {
+        return Err(CliError(format!("{source}: no pair to track")));
+    }
+    let built = args.method.build(&options, &pairs)?;
+    let tracked = tracker
+        .track(&pairs, built.method.as_ref())
+        .map_err(|e| CliError(format!("{source}: {e}")))?;
+    let mut order: Vec<usize> = (0..pairs.len()).collect();
+    order.sort_by(|&a, &b| {
+        pairs[a]
+            .current
+            .timestamp
+            .total_cmp(&pairs[b].current.timestamp)
+    });
+    let scans: Vec<ScanObjects> = order
+        .iter()
+        .map(|&i| {
+            let clustering = &tracked.clusterings[i];
+            ScanObjects {
+                pair: pairs[i].name.clone(),
+                time: pairs[i].current.timestamp,
+                ego_motion: clustering.ego_motion,
+                objects: tracked.objects[i]
+                    .iter()
+                    .map(|&object| Object {
+                        object,
+                        motion: clustering
+                            .motions
+                            .iter()
+                            .find(|m| m.label == object.label)
+                            .map(|m| m.motion),
+                    })
+                    .collect(),
+            }
+        })
+        .collect();
+    let counts = tracked.counts;
+    let reported: usize = scans.iter().map(|s| s.objects.len()).sum();
+    let output = Output {
+        method: &args.method.method,
+        associations: built.associations.as_deref(),
+        data: source.to_string(),
+        weights: &built.weights,
+        tracking: Tracking {
+            min_evidence: args.min_evidence,
+            min_speed: args.min_speed,
+            counts,
+        },
+        scans,
+    };
+    let json = serde_json::to_string(&output).map_err(CliError::from_display)?;
+    match &args.out {
+        Some(path) => pgm_datasets::format::write_atomically(path, format!("{json}\n").as_bytes())
+            .map_err(CliError::from_display)?,
+        None => println!("{json}"),
+    }
+    eprintln!(
+        "pgm: {} pairs of {source}: {reported} moving objects reported on {} tracks \
+         ({} sequences; {} objects added from tracks, {} detections dropped as unconfirmed){}",
+        pairs.len(),
+        counts.tracks,
+        counts.sequences,
+        counts.tracked_objects,
+        counts.dropped,
+        args.out
+            .as_ref()
+            .map_or(String::new(), |p| format!("; written to {}", p.display()))
+    );
+    Ok(ExitCode::SUCCESS)
+}
