@@ -645,6 +645,17 @@ impl Tracker {
                     detected[t] = true;
                     evidence[tracks[t].id].steps += 1;
                 }
+                // Its motion over the pair from the track (the velocity smoothed over
+                // the scans it was followed in) rather than from this pair alone.
+                let motion = self.pair_motion(pair, &detection.labels, label, &tracks[t], ego_pair);
+                match detection.motions.iter_mut().find(|m| m.label == label) {
+                    Some(m) => m.motion = motion,
+                    None => detection.motions.push(ClusterMotion {
+                        label,
+                        motion,
+                        kind: "moving".into(),
+                    }),
+                }
                 objects.push(tracked_object(
                     pair,
                     &detection.labels,
