@@ -400,6 +400,174 @@ impl<'a> PairPicture<'a> {
     }
 }
 
+/// One scan of a [`TrackPicture`]: its returns, where it was, and its moving objects.
+#[derive(Clone, Debug)]
+pub struct TrackedScan<'a> {
+    /// The scan.
+    pub scan: &'a pgm_features::Scan,
+    /// Its sensor frame in the picture's frame (maps its points there).
+    pub pose: Pose2,
+    /// Its moving objects: track number and centre (m, its own sensor frame).
+    pub objects: Vec<(usize, Point2<f64>)>,
+}
+
+/// A picture of one tracked sequence (`pgm track --svg`): the returns of every scan
+/// in the frame of the first (grey, static and moving alike), the sensor's path
+/// (black) and each track's path through its objects' centres (coloured, numbered at
+/// its last position).
+#[derive(Clone, Debug)]
+pub struct TrackPicture<'a> {
+    /// The scans in time order.
+    pub scans: Vec<TrackedScan<'a>>,
+    /// Title above the picture.
+    pub title: String,
+    /// Width of the picture in pixels (the height follows from the region, 1:1).
+    pub width: u32,
+}
+
+impl TrackPicture<'_> {
+    /// Draws the picture and returns the SVG text.
+    pub fn to_svg_string(&self) -> Result<String, PlotError> {
+        // At most about 200 scans' returns: a long log would bury its tracks.
+        let stride = self.scans.len().div_ceil(200).max(1);
+        let returns: Vec<Point2<f64>> = self
+            .scans
+            .iter()
+            .step_by(stride)
+            .flat_map(|s| {
+                let (points, _) = s.scan.points();
+                points.into_iter().map(move |p| s.pose.transform_point(&p))
+            })
+            .collect();
+        let path: Vec<Point2<f64>> = self
+            .scans
+            .iter()
+            .map(|s| Point2::from(s.pose.translation()))
+            .collect();
+        let mut tracks: BTreeMap<usize, Vec<Point2<f64>>> = BTreeMap::new();
+        for s in &self.scans {
+            for (track, centre) in &s.objects {
+                tracks
+                    .entry(*track)
+                    .or_default()
+                    .push(s.pose.transform_point(centre));
+            }
+        }
+        // The region: the sensor's path and the tracks, with the returns within 30 m.
+        let mut b = [
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+        ];
+        let near_path = |p: &Point2<f64>| path.iter().any(|q| (p - q).norm() <= 30.0);
+        for p in path
+            .iter()
+            .chain(tracks.values().flatten())
+            .chain(returns.iter().filter(|p| near_path(p)))
+        {
+            b[0] = b[0].min(p.x);
+            b[1] = b[1].max(p.x);
+            b[2] = b[2].min(p.y);
+            b[3] = b[3].max(p.y);
+        }
+        if !b.iter().all(|v| v.is_finite()) {
+            b = [-1.0, 1.0, -1.0, 1.0];
+        }
+        let [x0, x1, y0, y1] = [b[0] - 1.0, b[1] + 1.0, b[2] - 1.0, b[3] + 1.0];
+        let (u0, u1, v0, v1) = (-y1, -y0, x0, x1);
+        const TITLE: u32 = 28;
+        const MARGIN: u32 = 12;
+        const X_LABELS: u32 = 36;
+        const Y_LABELS: u32 = 44;
+        let plot_width = self.width.saturating_sub(2 * MARGIN + Y_LABELS).max(100);
+        let plot_height = ((v1 - v0) / (u1 - u0) * plot_width as f64)
+            .round()
+            .clamp(50.0, 4.0 * self.width as f64) as u32;
+        let height = plot_height + TITLE + 2 * MARGIN + X_LABELS;
+        let mut svg = String::new();
+        {
+            let root = SVGBackend::with_string(&mut svg, (self.width, height)).into_drawing_area();
+            root.fill(&WHITE).map_err(drawing)?;
+            let (top, body) = root.split_vertically(TITLE);
+            top.draw(&Text::new(
+                self.title.clone(),
+                (MARGIN as i32, 6),
+                ("sans-serif", 16).into_font(),
+            ))
+            .map_err(drawing)?;
+            let mut chart = ChartBuilder::on(&body)
+                .margin(MARGIN)
+                .x_label_area_size(X_LABELS)
+                .y_label_area_size(Y_LABELS)
+                .build_cartesian_2d(u0..u1, v0..v1)
+                .map_err(drawing)?;
+            chart
+                .configure_mesh()
+                .x_desc("← left   lateral (m), first scan's frame")
+                .y_desc("forward (m)")
+                .x_label_formatter(&|u| format!("{:.0}", -u))
+                .light_line_style(RGBColor(240, 240, 240))
+                .bold_line_style(RGBColor(225, 225, 225))
+                .draw()
+                .map_err(drawing)?;
+            let screen = |p: &Point2<f64>| (-p.y, p.x);
+            let inside = |p: &Point2<f64>| p.x >= x0 && p.x <= x1 && p.y >= y0 && p.y <= y1;
+            chart
+                .draw_series(
+                    returns
+                        .iter()
+                        .filter(|p| inside(p))
+                        .map(|p| Circle::new(screen(p), 1, REFERENCE_COLOUR.filled())),
+                )
+                .map_err(drawing)?;
+            chart
+                .draw_series(std::iter::once(PathElement::new(
+                    path.iter().map(screen).collect::<Vec<_>>(),
+                    BLACK.stroke_width(2),
+                )))
+                .map_err(drawing)?;
+            for (track, centres) in &tracks {
+                let colour = cluster_colour(*track as u32 + 1);
+                chart
+                    .draw_series(std::iter::once(PathElement::new(
+                        centres.iter().map(screen).collect::<Vec<_>>(),
+                        colour.stroke_width(2),
+                    )))
+                    .map_err(drawing)?;
+                chart
+                    .draw_series(
+                        centres
+                            .iter()
+                            .map(|c| Circle::new(screen(c), 3, colour.filled())),
+                    )
+                    .map_err(drawing)?;
+                if let Some(last) = centres.last() {
+                    chart
+                        .draw_series(std::iter::once(Text::new(
+                            format!("track {track}"),
+                            screen(last),
+                            ("sans-serif", 12).into_font().color(&colour),
+                        )))
+                        .map_err(drawing)?;
+                }
+            }
+            root.present().map_err(drawing)?;
+        }
+        Ok(svg)
+    }
+
+    /// Draws the picture into `path` (written beside it and renamed into place).
+    pub fn write_svg(&self, path: impl AsRef<Path>) -> Result<(), PlotError> {
+        let path = path.as_ref();
+        let svg = self.to_svg_string()?;
+        pgm_datasets::format::write_atomically(path, svg.as_bytes()).map_err(|e| PlotError::Io {
+            path: path.to_path_buf(),
+            source: std::io::Error::other(e.to_string()),
+        })
+    }
+}
+
 fn drawing(e: impl std::fmt::Display) -> PlotError {
     PlotError::Drawing(e.to_string())
 }

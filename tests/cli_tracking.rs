@@ -192,6 +192,18 @@ fn track_refuses_bad_options_and_writes_its_output_whole() {
     assert!(stdout.is_empty());
     assert!(stderr.contains("written to"), "{stderr}");
     let written = json(&std::fs::read_to_string(&out).unwrap());
+    let svg = dir.join("tracks.svg");
+    ok(&[
+        "track",
+        "--method",
+        "crf",
+        "--pairs",
+        &pairs,
+        "--svg",
+        svg.to_str().unwrap(),
+    ]);
+    let picture = std::fs::read_to_string(&svg).unwrap();
+    assert!(picture.starts_with("<svg") && picture.contains("first scan&apos;s frame"));
     // Three independent simulated scenes: three sequences, one entry per pair.
     assert_eq!(written["tracking"]["sequences"], 3);
     assert_eq!(written["scans"].as_array().unwrap().len(), 3);

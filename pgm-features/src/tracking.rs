@@ -215,6 +215,12 @@ pub struct Tracked {
     pub clusterings: Vec<MotionClustering>,
     /// The moving objects of each pair, with their tracks (same order).
     pub objects: Vec<Vec<TrackedObject>>,
+    /// The sequence of each pair (numbered from 0 in time order; see the module docs).
+    pub sequences: Vec<usize>,
+    /// The pose of each pair's current sensor frame in the frame of the first current
+    /// scan of its sequence (maps its points there; the scan-to-scan ICP motions
+    /// composed).
+    pub poses: Vec<Pose2>,
     /// What tracking changed.
     pub counts: TrackingCounts,
 }
@@ -379,11 +385,15 @@ impl Tracker {
         let mut tracks: Vec<Track> = Vec::new();
         let mut evidence: Vec<Evidence> = Vec::new();
         let mut counts = TrackingCounts::default();
+        let mut sequences = vec![0; pairs.len()];
+        let mut poses = vec![Pose2::identity(); pairs.len()];
+        let mut pose = Pose2::identity();
         for (s, (consecutive, detection)) in steps.iter().zip(prepared) {
             let pair = &pairs[s.pair];
             let found = match (s.previous, &consecutive) {
                 (Some((_, dt)), Some(c)) => {
                     let ego = c.odometry.unwrap_or_default();
+                    pose = pose.compose(&ego);
                     for t in &tracks {
                         evidence[t.id].followed += 1;
                     }
@@ -391,10 +401,13 @@ impl Tracker {
                 }
                 _ => {
                     counts.sequences += 1;
+                    pose = Pose2::identity();
                     tracks.clear();
                     Vec::new()
                 }
             };
+            sequences[s.pair] = counts.sequences - 1;
+            poses[s.pair] = pose;
             out[s.pair] = Some(self.report(
                 pair,
                 consecutive.as_ref(),
@@ -430,6 +443,8 @@ impl Tracker {
         Ok(Tracked {
             clusterings,
             objects,
+            sequences,
+            poses,
             counts,
         })
     }

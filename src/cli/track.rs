@@ -14,12 +14,15 @@
 //! (the same number in two pairs is the same object), whether the detector reported it
 //! or the track did, its returns, the centre of its returns and its velocity over the
 //! ground in the current sensor frame (m, m/s), and its motion over the pair (maps its
-//! returns onto the reference scan). A summary goes to stderr.
+//! returns onto the reference scan). A summary goes to stderr. `--svg FILE` draws the
+//! longest sequence ([`pgm::plot::TrackPicture`]).
 
 use super::data::{load_pairs, pair_source, LeighArgs, SourceArgs};
 use super::eval_clustering::MethodArgs;
 use super::{check_output_file, CliError, CliResult};
 use clap::Args;
+use nalgebra::Point2;
+use pgm::plot::{TrackPicture, TrackedScan};
 use pgm_features::tracking::{TrackedObject, TrackingCounts, TrackingParams};
 use pgm_features::{ParamGuard, Pose2};
 use serde::Serialize;
@@ -54,6 +57,10 @@ pub struct TrackArgs {
     /// Write the JSON here (atomically) instead of printing it.
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Draw the longest sequence into this SVG file: every scan's returns in the
+    /// first scan's frame, the sensor's path and each track's path.
+    #[arg(long)]
+    pub svg: Option<PathBuf>,
 }
 
 #[derive(Serialize)]
@@ -100,7 +107,7 @@ pub fn run(args: TrackArgs) -> CliResult {
     }
     .check()
     .map_err(CliError::from_display)?;
-    if let Some(out) = &args.out {
+    for out in [&args.out, &args.svg].into_iter().flatten() {
         check_output_file(out)?;
     }
     let pairs = load_pairs(&source)?.pairs;
@@ -140,6 +147,48 @@ pub fn run(args: TrackArgs) -> CliResult {
             }
         })
         .collect();
+    if let Some(path) = &args.svg {
+        // The longest sequence, scans in time order.
+        let mut length = vec![0usize; tracked.counts.sequences];
+        for &q in &tracked.sequences {
+            length[q] += 1;
+        }
+        let longest = (0..length.len()).max_by_key(|&q| (length[q], std::cmp::Reverse(q)));
+        let scans = order
+            .iter()
+            .filter(|&&i| Some(tracked.sequences[i]) == longest)
+            .map(|&i| TrackedScan {
+                scan: &pairs[i].current,
+                pose: tracked.poses[i],
+                objects: tracked.objects[i]
+                    .iter()
+                    .map(|o| (o.track, Point2::new(o.centre[0], o.centre[1])))
+                    .collect(),
+            })
+            .collect::<Vec<_>>();
+        let title = format!(
+            "{}: {} scans, tracks shown: {} ({}{})",
+            super::joint::pair_sets(&pairs).join(", "),
+            scans.len(),
+            scans
+                .iter()
+                .flat_map(|s| s.objects.iter().map(|o| o.0))
+                .collect::<std::collections::BTreeSet<_>>()
+                .len(),
+            args.method.method,
+            built
+                .associations
+                .as_deref()
+                .map_or(String::new(), |a| format!(", {a} associations")),
+        );
+        TrackPicture {
+            scans,
+            title,
+            width: 900,
+        }
+        .write_svg(path)
+        .map_err(CliError::from_display)?;
+    }
     let counts = tracked.counts;
     let reported: usize = scans.iter().map(|s| s.objects.len()).sum();
     let output = Output {
