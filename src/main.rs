@@ -71,7 +71,9 @@ fn main() -> ExitCode {
 
 /// Rust ignores SIGPIPE, so printing to a closed pipe (`pgm … | head`) panics with
 /// "failed printing to stdout: Broken pipe". The reader has what it wanted: end
-/// quietly (status 0), as Unix filters do, and keep every other panic's report.
+/// quietly (status 0), as Unix filters do. Any other failure to print the result (a
+/// full disk, `> /dev/full`) is an error like every other: a message on stderr and
+/// status 2, not a panic. Every other panic keeps its report.
 fn quiet_on_closed_stdout() {
     let report = std::panic::take_hook();
     std::panic::set_hook(Box::new(move |info| {
@@ -81,8 +83,12 @@ fn quiet_on_closed_stdout() {
             .map(String::as_str)
             .or_else(|| payload.downcast_ref::<&str>().copied())
             .unwrap_or("");
-        if message.starts_with("failed printing to stdout") && message.contains("Broken pipe") {
-            std::process::exit(0);
+        if message.starts_with("failed printing to stdout") {
+            if message.contains("Broken pipe") {
+                std::process::exit(0);
+            }
+            eprintln!("pgm: error: cannot write the result to standard output: {message}");
+            std::process::exit(2);
         }
         report(info);
     }));

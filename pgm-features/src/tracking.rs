@@ -89,6 +89,11 @@ pub struct TrackingParams {
     pub max_coast: usize,
     /// Longest gap (s) between consecutive current scans of one sequence (1).
     pub max_gap: f64,
+    /// Shortest gap (s) between consecutive current scans of one sequence (0.01: two
+    /// sweeps of a 2D laser are at least 13 ms apart even at 75 Hz, so closer stamps
+    /// are a log's artefact, over which no speed can be measured; such a scan starts a
+    /// new sequence).
+    pub min_step: f64,
     /// Steps with evidence of motion (a detection, or the track found moving) that a
     /// track needs for its objects to be reported, once it could be followed at
     /// least once (2: an object that no later scan shows moving is dropped from every
@@ -114,6 +119,7 @@ impl Default for TrackingParams {
             min_returns: 3,
             max_coast: 3,
             max_gap: 1.0,
+            min_step: 0.01,
             min_evidence: 2,
             smoothing: 0.5,
             ego: IcpParams::default(),
@@ -126,7 +132,14 @@ impl ParamGuard for TrackingParams {
     type Error = Error;
 
     fn check_ref(&self) -> Result<()> {
-        InvalidParameter::non_negative("min_speed", self.min_speed, "a speed in m/s >= 0")?;
+        if !(self.min_speed >= 0.0 && self.min_speed.is_finite()) {
+            return Err(InvalidParameter::new(
+                "min_speed",
+                self.min_speed,
+                "a finite speed in m/s >= 0",
+            )
+            .into());
+        }
         InvalidParameter::positive("gate", self.gate, "a distance in metres > 0")?;
         InvalidParameter::positive(
             "inlier_distance",
@@ -151,6 +164,14 @@ impl ParamGuard for TrackingParams {
             .into());
         }
         InvalidParameter::positive("max_gap", self.max_gap, "a time in seconds > 0")?;
+        if !(self.min_step >= 0.0 && self.min_step < self.max_gap) {
+            return Err(InvalidParameter::new(
+                "min_step",
+                self.min_step,
+                "a time in seconds >= 0 and below max_gap",
+            )
+            .into());
+        }
         if self.min_evidence == 0 {
             return Err(InvalidParameter::new("min_evidence", 0, "at least 1").into());
         }
@@ -189,7 +210,7 @@ pub struct TrackingCounts {
 }
 
 /// A moving object reported in one pair, with its track.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct TrackedObject {
     /// Its label in the pair's clustering.
     pub label: u32,
@@ -198,8 +219,10 @@ pub struct TrackedObject {
     pub track: usize,
     /// Whether the detector reported it in this pair (else the track did).
     pub detected: bool,
-    /// Its returns in the current scan.
+    /// The number of its returns in the current scan.
     pub returns: usize,
+    /// The beams of its returns in the current scan (indices from 0).
+    pub beams: Vec<usize>,
     /// The centre of its returns in the current sensor frame (m).
     pub centre: [f64; 2],
     /// Its velocity in the current sensor frame (m/s), over the ground: the track's
@@ -294,6 +317,10 @@ struct Track {
     step: f64,
     /// Scans since it was last found.
     coast: usize,
+    /// Where it started (centre of its returns, in the frame of the first scan of the
+    /// sequence) and when (s).
+    origin: Point2<f64>,
+    born: f64,
 }
 
 /// What the run learned about a track, kept after it ends.
@@ -341,6 +368,13 @@ impl Tracker {
     /// The detector's errors, and ICP's, naming the pair.
     pub fn track(&self, pairs: &[ScanPair], detector: &dyn MotionClusterer) -> Result<Tracked> {
         let p = &self.params;
+        let mut names = std::collections::HashSet::with_capacity(pairs.len());
+        if let Some(twice) = pairs.iter().find(|q| !names.insert(q.name.as_str())) {
+            return Err(Error::BadPair {
+                pair: twice.name.clone(),
+                problem: "two pairs have this name: a sequence holds each pair once".into(),
+            });
+        }
         let mut order: Vec<usize> = (0..pairs.len()).collect();
         order.sort_by(|&a, &b| {
             pairs[a]
@@ -356,7 +390,7 @@ impl Tracker {
                 previous: n.checked_sub(1).map(|m| order[m]).and_then(|j| {
                     let dt = pairs[i].current.timestamp - pairs[j].current.timestamp;
                     let later = pairs[i].reference.timestamp > pairs[j].reference.timestamp;
-                    (later && dt > 0.0 && dt <= p.max_gap).then_some((j, dt))
+                    (later && dt > 0.0 && dt >= p.min_step && dt <= p.max_gap).then_some((j, dt))
                 }),
             })
             .collect();
@@ -388,8 +422,24 @@ impl Tracker {
         let mut sequences = vec![0; pairs.len()];
         let mut poses = vec![Pose2::identity(); pairs.len()];
         let mut pose = Pose2::identity();
-        for (s, (consecutive, detection)) in steps.iter().zip(prepared) {
+        for (s, (mut consecutive, detection)) in steps.iter().zip(prepared) {
             let pair = &pairs[s.pair];
+            if let (Some((j, _)), Some(c)) = (s.previous, consecutive.as_mut()) {
+                // The motion between the two scans, by ICP without the returns of the
+                // objects reported moving in the previous scan and detected in this
+                // one (a car beside the robot would pull it along).
+                let moving_before = out[j].as_ref().map(|(c, _)| c.labels.as_slice());
+                let reference = without_moving(&c.reference, moving_before);
+                let current = without_moving(&c.current, Some(&detection.labels));
+                let prior = c.odometry.unwrap_or_default();
+                c.odometry = Some(
+                    Icp::new(&reference, p.ego)
+                        .and_then(|icp| icp.align(&current, prior))
+                        .ok()
+                        .filter(|r| r.converged)
+                        .map_or(prior, |r| r.motion),
+                );
+            }
             let found = match (s.previous, &consecutive) {
                 (Some((_, dt)), Some(c)) => {
                     let ego = c.odometry.unwrap_or_default();
@@ -397,7 +447,7 @@ impl Tracker {
                     for t in &tracks {
                         evidence[t.id].followed += 1;
                     }
-                    self.follow(&mut tracks, c, ego, dt)
+                    self.follow(&mut tracks, c, ego, dt, pose)
                 }
                 _ => {
                     counts.sequences += 1;
@@ -411,6 +461,7 @@ impl Tracker {
             out[s.pair] = Some(self.report(
                 pair,
                 consecutive.as_ref(),
+                pose,
                 detection,
                 &mut tracks,
                 &mut evidence,
@@ -425,7 +476,10 @@ impl Tracker {
                 let (mut clustering, mut objects) = o.expect("every pair");
                 objects.retain(|object| {
                     let e = evidence[object.track];
-                    let confirmed = e.followed == 0 || e.steps >= p.min_evidence;
+                    // Unconfirmed: followed without showing motion often enough, or
+                    // never moving at the speed that counts (even if it could not
+                    // be followed).
+                    let confirmed = e.steps >= p.min_evidence || (e.followed == 0 && e.steps > 0);
                     if !confirmed {
                         for l in clustering.labels.iter_mut() {
                             if *l == Some(object.label) {
@@ -453,7 +507,14 @@ impl Tracker {
     /// current scan as reference; `ego` the motion of its current scan in the frame of
     /// its reference, `dt` seconds later). Moves every track into the current frame,
     /// ends the lost ones and returns the found ones.
-    fn follow(&self, tracks: &mut Vec<Track>, step: &ScanPair, ego: Pose2, dt: f64) -> Vec<Found> {
+    fn follow(
+        &self,
+        tracks: &mut Vec<Track>,
+        step: &ScanPair,
+        ego: Pose2,
+        dt: f64,
+        pose: Pose2,
+    ) -> Vec<Found> {
         let p = &self.params;
         let (points, beams) = step.current.points();
         let (Ok(now), Ok(earlier)) = (
@@ -543,7 +604,15 @@ impl Tracker {
                 .collect();
             let already_there =
                 cost(&earlier, &arrived) * shifted.len() as f64 / arrived.len() as f64;
+            // Over the whole track, not just this step: an unstable surface (mixed
+            // returns at a corner) jitters back and forth and goes nowhere.
+            let net = (pose.transform_point(&centroid(
+                &inliers.iter().map(|&k| points[k]).collect::<Vec<_>>(),
+            )) - track.origin)
+                .norm()
+                / (step.current.timestamp - track.born).max(dt);
             let moving = speed >= p.min_speed
+                && net >= p.min_speed
                 && measured < p.improvement * still_there
                 && measured < p.improvement * already_there;
 
@@ -587,6 +656,7 @@ impl Tracker {
         &self,
         pair: &ScanPair,
         consecutive: Option<&ScanPair>,
+        pose: Pose2,
         mut detection: MotionClustering,
         tracks: &mut Vec<Track>,
         evidence: &mut Vec<Evidence>,
@@ -701,12 +771,19 @@ impl Tracker {
                     continue;
                 };
                 let id = evidence.len();
+                // A detection slower than the speed that counts as moving is no
+                // evidence of motion (over pairs far apart in time a detector's
+                // displacement threshold lets slow objects through).
+                let centre = centroid(&points);
+                let speed = (velocity.transform_point(&centre) - centre).norm() / step;
                 evidence.push(Evidence {
-                    steps: 1,
+                    steps: usize::from(speed >= p.min_speed),
                     followed: 0,
                 });
                 tracks.push(Track {
                     id,
+                    origin: pose.transform_point(&centre),
+                    born: pair.current.timestamp,
                     points,
                     velocity,
                     step,
@@ -862,10 +939,10 @@ fn tracked_object(
     track: &Track,
     detected: bool,
 ) -> TrackedObject {
-    let returns: Vec<Point2<f64>> = (0..pair.current.len())
+    let beams: Vec<usize> = (0..pair.current.len())
         .filter(|&b| pair.current.valid[b] && labels[b] == Some(label))
-        .map(|b| pair.current.beam_point(b))
         .collect();
+    let returns: Vec<Point2<f64>> = beams.iter().map(|&b| pair.current.beam_point(b)).collect();
     let centre = centroid(&returns);
     let velocity = (track.velocity.transform_point(&centre) - centre) / track.step;
     TrackedObject {
@@ -873,14 +950,15 @@ fn tracked_object(
         track: track.id,
         detected,
         returns: returns.len(),
+        beams,
         centre: [centre.x, centre.y],
         velocity: [velocity.x, velocity.y],
     }
 }
 
-/// The pair of two consecutive current scans (`before`'s as reference), with the
-/// motion of the later in the frame of the earlier as its odometry: ICP from their
-/// odometry difference (the identity without odometry).
+/// The pair of two consecutive current scans (`before`'s as reference), with their
+/// odometry difference (the identity without odometry) as its prior; the tracker
+/// replaces it by ICP without the moving objects' returns.
 fn consecutive_pair(before: &ScanPair, now: &ScanPair) -> ScanPair {
     let prior = match (
         before.current.laser_odometry(),
@@ -889,16 +967,27 @@ fn consecutive_pair(before: &ScanPair, now: &ScanPair) -> ScanPair {
         (Some(a), Some(b)) => a.between(&b),
         _ => Pose2::identity(),
     };
-    let motion = Icp::new(&before.current, IcpParams::default())
-        .and_then(|icp| icp.align(&now.current, prior))
-        .map_or(prior, |r| r.motion);
     ScanPair {
         name: format!("{} (after {})", now.name, before.name),
         reference: before.current.clone(),
         current: now.current.clone(),
-        odometry: Some(motion),
+        odometry: Some(prior),
         truth: None,
     }
+}
+
+/// `scan` without the returns labelled moving (label above 0) in `labels` (one per
+/// beam), when given.
+fn without_moving(scan: &crate::Scan, labels: Option<&[Option<u32>]>) -> crate::Scan {
+    let mut kept = scan.clone();
+    if let Some(labels) = labels {
+        for (valid, label) in kept.valid.iter_mut().zip(labels) {
+            if label.is_some_and(|l| l > 0) {
+                *valid = false;
+            }
+        }
+    }
+    kept
 }
 
 /// A rigid motion scaled by `factor` (translation and angle; exact for pure
@@ -1113,9 +1202,21 @@ mod tests {
         for c in &tracked.clusterings {
             assert!(c.labels.iter().flatten().all(|&l| l == 0));
         }
-        // Reported when the evidence needed is one step (the detection).
+        // Also dropped when one step of evidence would do: measured against the
+        // previous scan the box does not move. Kept when nothing is dropped (one step,
+        // any speed).
         let once = TrackingParams {
             min_evidence: 1,
+            ..TrackingParams::default()
+        }
+        .check()
+        .unwrap()
+        .track(&pairs, &detector)
+        .unwrap();
+        assert_eq!(once.counts.dropped, 1);
+        let once = TrackingParams {
+            min_evidence: 1,
+            min_speed: 0.0,
             ..TrackingParams::default()
         }
         .check()
@@ -1133,10 +1234,18 @@ mod tests {
         for p in &mut pairs {
             p.reference.timestamp = 0.0;
         }
+        // The box's motion over each pair, at its speed (1 m/s, 0.6 and 0.8 of it along
+        // x and y) over the pair's time gap.
         let detector = Scripted(
             pairs
                 .iter()
-                .map(|p| (p.name.clone(), (box_beams(p), Pose2::new(0.0, -0.1, 0.0))))
+                .map(|p| {
+                    let gap = p.current.timestamp - p.reference.timestamp;
+                    (
+                        p.name.clone(),
+                        (box_beams(p), Pose2::new(0.6 * gap, -0.8 * gap, 0.0)),
+                    )
+                })
                 .collect(),
         );
         let tracked = Tracker::default().track(&pairs, &detector).unwrap();

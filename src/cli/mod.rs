@@ -38,13 +38,23 @@ impl CliError {
 
 /// Checks before a long run that a file can be written at `path`: its directory
 /// exists and `path` is not a directory, so that a run does not print its results and
-/// then fail on the output file. Commands that can stage their output beside its
-/// destination before printing (`pgm cluster --svg`, `pgm sim --svg`) do that instead.
+/// then fail on the output file; and that writing it (beside it, then renamed into
+/// place) cannot destroy something that is not a plain file: a device, a pipe, a
+/// socket or a symbolic link at `path` is refused. Commands that can stage their
+/// output beside its destination before printing (`pgm cluster --svg`, `pgm sim
+/// --svg`) do that instead.
 pub fn check_output_file(path: &std::path::Path) -> Result<(), CliError> {
     let dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => std::path::Path::new("."),
     };
+    if !dir.exists() {
+        return Err(CliError(format!(
+            "{}: cannot write here: the directory {} does not exist",
+            path.display(),
+            dir.display()
+        )));
+    }
     if !dir.is_dir() {
         return Err(CliError(format!(
             "{}: cannot write here: {} is not a directory",
@@ -57,6 +67,54 @@ pub fn check_output_file(path: &std::path::Path) -> Result<(), CliError> {
             "{}: is a directory, not a file to write",
             path.display()
         )));
+    }
+    if let Ok(meta) = std::fs::symlink_metadata(path) {
+        let kind = meta.file_type();
+        if kind.is_symlink() {
+            return Err(CliError(format!(
+                "{}: is a symbolic link; writing would replace the link by a file (name the \
+                 file it points to)",
+                path.display()
+            )));
+        }
+        if !kind.is_file() {
+            return Err(CliError(format!(
+                "{}: exists and is not a plain file (a device, pipe or socket); refusing to \
+                 replace it",
+                path.display()
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Refuses an output file `path` that is one of the `inputs` (files or data set
+/// directories) or lies inside an input directory: writing it would replace the data
+/// being read (a data set's `index.json`, a log).
+pub fn check_not_an_input(
+    path: &std::path::Path,
+    inputs: &[&std::path::Path],
+) -> Result<(), CliError> {
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => std::path::Path::new("."),
+    };
+    let (Ok(dir), Some(name)) = (dir.canonicalize(), path.file_name()) else {
+        return Ok(());
+    };
+    let target = dir.join(name);
+    for input in inputs {
+        let Ok(input) = input.canonicalize() else {
+            continue;
+        };
+        if target == input || (input.is_dir() && target.starts_with(&input)) {
+            return Err(CliError(format!(
+                "{}: is (or lies inside) the input {}; refusing to write over the data \
+                 being read",
+                path.display(),
+                input.display()
+            )));
+        }
     }
     Ok(())
 }

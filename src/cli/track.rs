@@ -135,13 +135,13 @@ pub fn run(args: TrackArgs) -> CliResult {
                 ego_motion: clustering.ego_motion,
                 objects: tracked.objects[i]
                     .iter()
-                    .map(|&object| Object {
-                        object,
+                    .map(|object| Object {
                         motion: clustering
                             .motions
                             .iter()
                             .find(|m| m.label == object.label)
                             .map(|m| m.motion),
+                        object: object.clone(),
                     })
                     .collect(),
             }
