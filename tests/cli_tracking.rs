@@ -179,6 +179,43 @@ fn track_refuses_bad_options_and_writes_its_output_whole() {
         ],
         &["is a directory"],
     );
+    // Options that mean nothing here, and outputs that would destroy the input.
+    refused(
+        &["track", "--method", "crf", "--pairs", &pairs, "--k", "3"],
+        &["--k 3", "stored data set"],
+    );
+    refused(
+        &[
+            "track",
+            "--method",
+            "crf",
+            "--pairs",
+            &pairs,
+            "--annotated-sector",
+        ],
+        &["--annotated-sector", "ground-truth"],
+    );
+    let index = format!("{pairs}/index.json");
+    refused(
+        &[
+            "track", "--method", "crf", "--pairs", &pairs, "--out", &index,
+        ],
+        &["refusing to write over the data being read"],
+    );
+    assert!(std::path::Path::new(&index).is_file());
+    let missing = dir.join("missing").join("x.json");
+    refused(
+        &[
+            "track",
+            "--method",
+            "crf",
+            "--pairs",
+            &pairs,
+            "--out",
+            missing.to_str().unwrap(),
+        ],
+        &["does not exist"],
+    );
     let out = dir.join("tracks.json");
     let (stdout, stderr) = ok(&[
         "track",

@@ -755,7 +755,9 @@ impl Tracker {
                 .iter()
                 .find(|m| m.label == label)
                 .map(|m| m.motion);
-            if members.len() >= p.min_returns && gap > 0.0 {
+            // A pair closer in time than a laser's sweep (a log's artefact) gives no
+            // velocity to start a track with.
+            if members.len() >= p.min_returns && gap >= p.min_step.max(f64::MIN_POSITIVE) {
                 let points: Vec<Point2<f64>> = members
                     .iter()
                     .map(|&b| pair.current.beam_point(b))
@@ -767,17 +769,21 @@ impl Tracker {
                 let measured = consecutive.and_then(|c| {
                     self.velocity_from_previous(c, &points, &over_pair.unwrap_or_default(), gap)
                 });
+                let slow = measured.is_some_and(|(v, step)| {
+                    let centre = centroid(&points);
+                    (v.transform_point(&centre) - centre).norm() / step < p.min_speed
+                });
                 let Some((velocity, step)) = measured.or(over_pair.map(|v| (v, gap))) else {
                     continue;
                 };
                 let id = evidence.len();
-                // A detection slower than the speed that counts as moving is no
-                // evidence of motion (over pairs far apart in time a detector's
-                // displacement threshold lets slow objects through).
+                // A detection that the previous scan shows slower than the speed that
+                // counts as moving is no evidence of motion (a detector's displacement
+                // threshold over a pair lets slow objects and jitter through). Without a
+                // previous scan the detection stands as the detector made it.
                 let centre = centroid(&points);
-                let speed = (velocity.transform_point(&centre) - centre).norm() / step;
                 evidence.push(Evidence {
-                    steps: usize::from(speed >= p.min_speed),
+                    steps: usize::from(!slow),
                     followed: 0,
                 });
                 tracks.push(Track {

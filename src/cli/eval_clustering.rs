@@ -123,6 +123,15 @@ impl MethodArgs {
         options: &MethodOptions,
         pairs: &[pgm_features::ScanPair],
     ) -> Result<BuiltMethod, CliError> {
+        if let (Some(a), false) = (
+            &self.associations,
+            clusterer_needs_associations(&self.method),
+        ) {
+            eprintln!(
+                "note: --associations {a} is not used: method {} takes no associations",
+                self.method
+            );
+        }
         let which = self
             .associations
             .as_deref()

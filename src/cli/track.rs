@@ -19,7 +19,7 @@
 
 use super::data::{load_pairs, pair_source, LeighArgs, SourceArgs};
 use super::eval_clustering::MethodArgs;
-use super::{check_output_file, CliError, CliResult};
+use super::{check_not_an_input, check_output_file, CliError, CliResult};
 use clap::Args;
 use nalgebra::Point2;
 use pgm::plot::{TrackPicture, TrackedScan};
@@ -44,9 +44,11 @@ pub struct TrackArgs {
     /// leigh-gtm1 options (used for its labels only).
     #[command(flatten)]
     pub leigh: LeighArgs,
-    /// Scan distance of the pairs the detector runs on (bags and leigh-gtm1 logs).
-    #[arg(long, default_value_t = 1)]
-    pub k: usize,
+    /// Scan distance of the pairs the detector runs on (bags and leigh-gtm1 logs;
+    /// default 1). A stored data set has its pairs, a CARMEN `--log` gives consecutive
+    /// scans.
+    #[arg(long)]
+    pub k: Option<usize>,
     /// Steps with evidence of motion a track needs for its objects to be reported (1
     /// keeps every detection).
     #[arg(long, default_value_t = TrackingParams::default().min_evidence)]
@@ -86,6 +88,7 @@ struct ScanObjects {
     pair: String,
     time: f64,
     ego_motion: Option<Pose2>,
+    converged: bool,
     objects: Vec<Object>,
 }
 
@@ -96,9 +99,68 @@ struct Object {
     motion: Option<Pose2>,
 }
 
+/// Options that only decide ground-truth labels, which `pgm track` does not read: a
+/// value other than the default is refused, naming the option.
+fn refuse_labelling_options(args: &TrackArgs) -> Result<(), CliError> {
+    use pgm_datasets::builders::{LabelRule, LeighPairOptions, Unannotated};
+    use pgm_datasets::mocap::MocapOptions;
+    let bag = &args.source.bag;
+    let labels = &args.source.labels;
+    let leigh = &args.leigh;
+    let given = [
+        ("--people-topic", bag.people_topic.is_some()),
+        ("--ego-pose-topic", bag.ego_pose_topic.is_some()),
+        ("--object-pose-topic", bag.object_pose_topic.is_some()),
+        ("--object-footprint", bag.object_footprint.is_some()),
+        (
+            "--label-margin",
+            bag.label_margin != MocapOptions::default().label_margin,
+        ),
+        (
+            "--object-min-speed",
+            bag.object_min_speed != MocapOptions::default().object_min_speed,
+        ),
+        ("--labels", labels.labels != LabelRule::Track),
+        (
+            "--walking-speed",
+            labels.walking_speed != LeighPairOptions::default().walking_speed,
+        ),
+        (
+            "--track-window",
+            labels.track_window != LeighPairOptions::default().track_window,
+        ),
+        ("--moving-threshold", leigh.moving_threshold != 0.2),
+        ("--person-radius", leigh.person_radius != 0.35),
+        ("--unannotated", leigh.unannotated != Unannotated::Moving),
+        ("--annotated-sector", leigh.annotated_sector),
+    ];
+    if let Some((name, _)) = given.iter().find(|(_, g)| *g) {
+        return Err(CliError(format!(
+            "{name}: a ground-truth labelling option; pgm track reads no ground truth (use it \
+             with pgm eval clustering --track)"
+        )));
+    }
+    if let (Some(k), true) = (
+        args.k,
+        args.pairs.is_some() || args.source.log.is_some() || args.source.carmen.is_some(),
+    ) {
+        return Err(CliError(format!(
+            "--k {k}: a stored data set has its pairs and a CARMEN log gives consecutive scans; \
+             --k sets the scan distance of bag and leigh-gtm1 pairs only"
+        )));
+    }
+    Ok(())
+}
+
 /// Runs `pgm track`.
 pub fn run(args: TrackArgs) -> CliResult {
-    let source = pair_source(args.pairs.as_deref(), &args.source, &args.leigh, args.k)?;
+    refuse_labelling_options(&args)?;
+    let source = pair_source(
+        args.pairs.as_deref(),
+        &args.source,
+        &args.leigh,
+        args.k.unwrap_or(1),
+    )?;
     let options = args.method.options()?;
     let tracker = TrackingParams {
         min_evidence: args.min_evidence,
@@ -107,12 +169,42 @@ pub fn run(args: TrackArgs) -> CliResult {
     }
     .check()
     .map_err(CliError::from_display)?;
+    let inputs: Vec<&std::path::Path> = [
+        args.pairs.as_deref(),
+        args.source.bag.bag.as_deref(),
+        args.source.scans.as_deref(),
+        args.source.people.as_deref(),
+        args.source.odometry.as_deref(),
+        args.source.log.as_deref(),
+        args.source.carmen.as_deref(),
+        args.source.relations.as_deref(),
+    ]
+    .into_iter()
+    .flatten()
+    .collect();
     for out in [&args.out, &args.svg].into_iter().flatten() {
         check_output_file(out)?;
+        check_not_an_input(out, &inputs)?;
+    }
+    if let (Some(a), Some(b)) = (&args.out, &args.svg) {
+        if a == b {
+            return Err(CliError(format!(
+                "--out and --svg are the same file {}",
+                a.display()
+            )));
+        }
     }
     let pairs = load_pairs(&source)?.pairs;
     if pairs.is_empty() {
-        return Err(CliError(format!("{source}: no pair to track")));
+        return Err(CliError(format!(
+            "{source}: no pair to track{}",
+            if args.source.log.is_some() {
+                " (--log reads consecutive scans with VERTEX2 poses; a log with laser and \
+                 odometry only: write it as a bag, or pairs with pgm data pairs)"
+            } else {
+                ""
+            }
+        )));
     }
     let built = args.method.build(&options, &pairs)?;
     let tracked = tracker
@@ -133,6 +225,7 @@ pub fn run(args: TrackArgs) -> CliResult {
                 pair: pairs[i].name.clone(),
                 time: pairs[i].current.timestamp,
                 ego_motion: clustering.ego_motion,
+                converged: clustering.converged,
                 objects: tracked.objects[i]
                     .iter()
                     .map(|object| Object {
@@ -191,6 +284,11 @@ pub fn run(args: TrackArgs) -> CliResult {
     }
     let counts = tracked.counts;
     let reported: usize = scans.iter().map(|s| s.objects.len()).sum();
+    let reported_tracks = scans
+        .iter()
+        .flat_map(|s| s.objects.iter().map(|o| o.object.track))
+        .collect::<std::collections::BTreeSet<_>>()
+        .len();
     let output = Output {
         method: &args.method.method,
         associations: built.associations.as_deref(),
@@ -210,8 +308,9 @@ pub fn run(args: TrackArgs) -> CliResult {
         None => println!("{json}"),
     }
     eprintln!(
-        "pgm: {} pairs of {source}: {reported} moving objects reported on {} tracks \
-         ({} sequences; {} objects added from tracks, {} detections dropped as unconfirmed){}",
+        "pgm: {} pairs of {source}: {reported} moving objects reported on {reported_tracks} \
+         tracks (tracks started: {}; sequences: {}; objects added from tracks: {}; detections \
+         dropped as unconfirmed: {}){}",
         pairs.len(),
         counts.tracks,
         counts.sequences,
