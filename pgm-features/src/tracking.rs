@@ -1,8 +1,8 @@
 //! Tracking moving objects over a sequence of scans: a pair-wise detector (any
-//! [`MotionClusterer`]) on consecutive scans, constant-velocity tracks across them, and
-//! each requested pair answered from the tracks, so that an object keeps being
-//! reported while a single pair cannot show that it moves, and a detection that the
-//! next scan does not confirm is dropped.
+//! [`MotionClusterer`]) on every requested pair, constant-velocity tracks across the
+//! pairs' current scans, and each pair answered from the tracks, so that an object
+//! keeps being reported while a single pair cannot show that it moves, and a detection
+//! that no later scan shows moving is dropped.
 //!
 //! **Why.** Two scans alone cannot separate every mover from the background: an object
 //! that keeps pace with the sensor (a car driven right behind or beside the robot, a
@@ -19,41 +19,53 @@
 //! confirmation.
 //!
 //! **The sequence.** The requested pairs are ordered by the time stamp of their
-//! current scan; consecutive current scans at most [`TrackingParams::max_gap`] apart
-//! form the sequence (a pair whose current scan is not later than the previous one, or
-//! further away, starts a new sequence: the pairs of a simulated set are independent
-//! scenes, each tracked alone, and then the output is the detector's).
+//! current scan. A pair continues the sequence of the previous one when both its scans
+//! are later than the previous pair's and its current scan is
+//! [`TrackingParams::min_step`] to [`TrackingParams::max_gap`] seconds after the
+//! previous current scan; otherwise it starts a new sequence (the pairs of a simulated
+//! set all start at time 0: each is a scene of its own, and its output is the
+//! detector's). Two pairs with the same name are refused.
 //!
 //! **One step** (current scan `j`, previous current scan `j'`, `Δt` seconds apart):
-//! 1. Detection on the consecutive pair `(j', j)` (the requested pair itself at the
-//!    start of a sequence), and the motion `E` of scan `j` in the frame of `j'` (ICP
-//!    from the odometry difference, the identity without odometry).
+//! 1. The motion `E` of scan `j` in the frame of `j'`: ICP from their odometry
+//!    difference (the identity without odometry), without the returns reported moving
+//!    in `j'` and detected moving in `j` (a car beside the robot would pull it along).
 //! 2. Each track predicts its returns in scan `j`: its last returns moved by its
 //!    velocity over `Δt`, then into the frame of `j`. The current returns within
 //!    [`TrackingParams::gate`] of a predicted return, not taken by an earlier track,
 //!    are its candidates; a translation-only ICP of the predicted returns onto them
-//!    measures the motion. Found: at least [`TrackingParams::min_inlier_fraction`] of
-//!    the track's returns have a candidate within [`TrackingParams::inlier_distance`].
-//!    A track not found for more than [`TrackingParams::max_coast`] scans ends.
-//! 3. Evidence of motion at this step: the smoothed velocity moves the object at least
-//!    [`TrackingParams::min_speed`], and the measured motion explains the returns
-//!    clearly better (truncated cost `Σ min(d², τ²)`, `τ` the inlier distance, below
-//!    [`TrackingParams::improvement`] times) than both static explanations: the
-//!    track's returns still where they were, and its new returns already there in the
-//!    previous scan. A track that slides along a static surface fits both.
+//!    measures the motion, blended into the velocity with weight
+//!    [`TrackingParams::smoothing`]. Found: at least
+//!    [`TrackingParams::min_inlier_fraction`] of the track's returns have a candidate
+//!    within [`TrackingParams::inlier_distance`]. A track not found for more than
+//!    [`TrackingParams::max_coast`] scans ends.
+//! 3. Evidence of motion at this step: the velocity moves the object at least
+//!    [`TrackingParams::min_speed`]; so does its displacement since the track started,
+//!    averaged over the time since (an unstable surface jitters in place); and the
+//!    measured motion explains the returns clearly better (truncated cost
+//!    `Σ min(d², τ²)`, `τ` the inlier distance, below [`TrackingParams::improvement`]
+//!    times) than both static explanations: the track's returns still where they were,
+//!    and its new returns already there in the previous scan. A track that slides
+//!    along a static surface fits both.
 //! 4. The detector's moving objects continue the track they share at least half their
-//!    returns with (a detection is evidence of motion), or start one.
+//!    returns with, or a lost track whose predicted centre lies within the gate of
+//!    theirs (a detection is evidence of motion), or start one: its velocity measured
+//!    against the previous scan (the better fit of "static" and "as the detector's
+//!    motion over the pair says", refined by a translation-only fit), else the
+//!    detector's motion over the pair. A detection the previous scan shows slower than
+//!    the speed that counts is no evidence.
 //! 5. Tracks found moving that the detector missed become objects too. Every object
-//!    of the requested pair `(i, j)` gets its motion over that pair from its track's
-//!    velocity, refined by ICP on its returns against scan `i` (the detector's own
-//!    motion when the detection pair is the requested pair).
+//!    of the requested pair `(i, j)` continuing a track gets its motion over the pair
+//!    from the track: the velocity scaled to the pair's time gap, shifted onto the
+//!    reference scan's returns (a new track keeps the detector's motion).
 //!
-//! After the sequence, the objects of a track that could be followed but showed
-//! evidence of motion in fewer than [`TrackingParams::min_evidence`] steps are
-//! dropped from every pair (M-of-N confirmation over the whole sequence, so the first
-//! detection of a confirmed object is kept).
+//! After the sequence, the objects of a track with fewer than
+//! [`TrackingParams::min_evidence`] steps of evidence are dropped from every pair when
+//! the track could be followed at least once, or when the previous scan showed its
+//! detection slow (M-of-N confirmation over the whole sequence: the first detection of
+//! a confirmed object is kept).
 //!
-//! Errors name the pair. The output follows the input order.
+//! Errors name the pair. [`Tracked`] follows the input order.
 
 use crate::methods::{MotionClusterer, MotionClustering};
 use crate::pair::{ClusterMotion, ScanPair};
