@@ -286,3 +286,23 @@ fn datmo_overtake_ego_track_follows_the_car_as_one_track() {
     let median = speeds[speeds.len() / 2];
     assert!((0.6..=1.2).contains(&median), "median speed {median} m/s");
 }
+
+#[test]
+fn a_full_stdout_is_an_error_not_a_panic() {
+    // Linux only: writes to /dev/full fail with "no space left on device".
+    let Ok(full) = std::fs::OpenOptions::new().write(true).open("/dev/full") else {
+        return;
+    };
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_pgm"))
+        .args(["sim", "--pairs", "1"])
+        .stdout(full)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("cannot write the result to standard output"),
+        "{err}"
+    );
+    assert!(!err.contains("panicked"), "{err}");
+}
