@@ -73,7 +73,8 @@ fn main() -> ExitCode {
 /// "failed printing to stdout: Broken pipe". The reader has what it wanted: end
 /// quietly (status 0), as Unix filters do. Any other failure to print the result (a
 /// full disk, `> /dev/full`) is an error like every other: a message on stderr and
-/// status 2, not a panic. Every other panic keeps its report.
+/// status 2, not a panic; a failure to print to stderr ends with status 2 too. Every
+/// other panic keeps its report.
 fn quiet_on_closed_stdout() {
     let report = std::panic::take_hook();
     std::panic::set_hook(Box::new(move |info| {
@@ -83,6 +84,10 @@ fn quiet_on_closed_stdout() {
             .map(String::as_str)
             .or_else(|| payload.downcast_ref::<&str>().copied())
             .unwrap_or("");
+        if message.starts_with("failed printing to stderr") {
+            // Nowhere left to say it: the status says it.
+            std::process::exit(2);
+        }
         if message.starts_with("failed printing to stdout") {
             if message.contains("Broken pipe") {
                 std::process::exit(0);

@@ -88,6 +88,17 @@ pub fn check_output_file(path: &std::path::Path) -> Result<(), CliError> {
     Ok(())
 }
 
+/// The file an output path names, whether it exists or not: its directory resolved
+/// (symbolic links, `.`, `..`) and its file name; `None` when the directory does not
+/// exist or the path has no file name.
+pub fn resolved_output(path: &std::path::Path) -> Option<std::path::PathBuf> {
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => std::path::Path::new("."),
+    };
+    Some(dir.canonicalize().ok()?.join(path.file_name()?))
+}
+
 /// Refuses an output file `path` that is one of the `inputs` (files or data set
 /// directories) or lies inside an input directory: writing it would replace the data
 /// being read (a data set's `index.json`, a log).
@@ -95,14 +106,9 @@ pub fn check_not_an_input(
     path: &std::path::Path,
     inputs: &[&std::path::Path],
 ) -> Result<(), CliError> {
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => std::path::Path::new("."),
-    };
-    let (Ok(dir), Some(name)) = (dir.canonicalize(), path.file_name()) else {
+    let Some(target) = resolved_output(path) else {
         return Ok(());
     };
-    let target = dir.join(name);
     for input in inputs {
         let Ok(input) = input.canonicalize() else {
             continue;

@@ -19,7 +19,7 @@
 
 use super::data::{load_pairs, pair_source, LeighArgs, SourceArgs};
 use super::eval_clustering::MethodArgs;
-use super::{check_not_an_input, check_output_file, CliError, CliResult};
+use super::{check_not_an_input, check_output_file, resolved_output, CliError, CliResult};
 use clap::Args;
 use nalgebra::Point2;
 use pgm::plot::{TrackPicture, TrackedScan};
@@ -133,12 +133,32 @@ fn refuse_labelling_options(args: &TrackArgs) -> Result<(), CliError> {
         ("--person-radius", leigh.person_radius != 0.35),
         ("--unannotated", leigh.unannotated != Unannotated::Moving),
         ("--annotated-sector", leigh.annotated_sector),
+        ("--pose-delay", bag.pose_delay != 0.0),
     ];
     if let Some((name, _)) = given.iter().find(|(_, g)| *g) {
         return Err(CliError(format!(
             "{name}: a ground-truth labelling option; pgm track reads no ground truth (use it \
              with pgm eval clustering --track)"
         )));
+    }
+    if args.source.carmen.is_some() {
+        return Err(CliError(
+            "--carmen with --relations: the pairs of a relations file are not a sequence of \
+             scans (loop closures minutes apart); track a CARMEN log with --log"
+                .into(),
+        ));
+    }
+    if bag.bag.is_none() {
+        let bag_only = [
+            ("--scan-topic", bag.scan_topic.is_some()),
+            ("--odom-topic", bag.odom_topic.is_some()),
+            ("--laser-mount", bag.laser_mount.is_some()),
+        ];
+        if let Some((name, _)) = bag_only.iter().find(|(_, g)| *g) {
+            return Err(CliError(format!(
+                "{name}: an option of --bag input, given without --bag"
+            )));
+        }
     }
     if let (Some(k), true) = (
         args.k,
@@ -187,10 +207,11 @@ pub fn run(args: TrackArgs) -> CliResult {
         check_not_an_input(out, &inputs)?;
     }
     if let (Some(a), Some(b)) = (&args.out, &args.svg) {
-        if a == b {
+        if a == b || resolved_output(a).is_some_and(|r| Some(r) == resolved_output(b)) {
             return Err(CliError(format!(
-                "--out and --svg are the same file {}",
-                a.display()
+                "--out {} and --svg {} are the same file",
+                a.display(),
+                b.display()
             )));
         }
     }
@@ -308,17 +329,20 @@ pub fn run(args: TrackArgs) -> CliResult {
         None => println!("{json}"),
     }
     eprintln!(
-        "pgm: {} pairs of {source}: {reported} moving objects reported on {reported_tracks} \
-         tracks (tracks started: {}; sequences: {}; objects added from tracks: {}; detections \
-         dropped as unconfirmed: {}){}",
+        "pgm: pairs: {} of {source}; moving objects reported: {reported}, on tracks: \
+         {reported_tracks} (tracks started: {}; sequences: {}; objects added from tracks: {}; \
+         detections dropped as unconfirmed: {}){}",
         pairs.len(),
         counts.tracks,
         counts.sequences,
         counts.tracked_objects,
         counts.dropped,
-        args.out
-            .as_ref()
-            .map_or(String::new(), |p| format!("; written to {}", p.display()))
+        [("", &args.out), ("picture ", &args.svg)]
+            .iter()
+            .filter_map(|(what, p)| p
+                .as_ref()
+                .map(|p| format!("; {what}written to {}", p.display())))
+            .collect::<String>()
     );
     Ok(ExitCode::SUCCESS)
 }
