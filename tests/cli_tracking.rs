@@ -306,3 +306,54 @@ fn a_full_stdout_is_an_error_not_a_panic() {
     );
     assert!(!err.contains("panicked"), "{err}");
 }
+
+#[test]
+fn simulated_sequences_are_tracked_as_sequences() {
+    let dir = temp_dir("track-seq");
+    let out = dir.join("seq");
+    refused(
+        &[
+            "sim",
+            "--preset",
+            "following",
+            "--pairs",
+            "2",
+            "--sequence",
+            "4",
+            "--k",
+            "4",
+        ],
+        &["--sequence 4 --k 4"],
+    );
+    ok(&[
+        "sim",
+        "--preset",
+        "overtaking",
+        "--seed",
+        "3",
+        "--pairs",
+        "2",
+        "--sequence",
+        "7",
+        "--k",
+        "3",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let (text, _) = ok(&[
+        "eval",
+        "clustering",
+        "--method",
+        "crf",
+        "--associations",
+        "segment-icp",
+        "--pairs",
+        out.to_str().unwrap(),
+        "--track",
+        "--json",
+    ]);
+    let report = json(&text);
+    assert_eq!(report["pairs"], 8);
+    // Two sequences of four pairs each (their stamps are 1000 s apart).
+    assert_eq!(report["tracking"]["sequences"], 2);
+}

@@ -285,3 +285,45 @@ fn the_presets_streams_are_unchanged() {
 /// Measured with the code of fc981f2 (the same streams: `pgm sim --seed 1 --pairs 30`
 /// wrote byte-identical data sets for all six presets before and after).
 const EXPECTED_SUMS: [u64; 3] = [0x87a12edc36614afa, 0x6cd234ac8157f030, 0xfb43cb4d451d55e4];
+
+#[test]
+fn a_sequence_is_one_scene_scanned_at_a_steady_rate() {
+    use pgm_datasets::sim::simulate_sequence;
+    let c = SimConfig {
+        preset: Preset::Overtaking,
+        ..SimConfig::default()
+    }
+    .check()
+    .unwrap();
+    let (scans, k) = (8, 3);
+    let pairs = simulate_sequence(&c, 5, 2, scans, k);
+    assert_eq!(pairs.len(), scans - k);
+    let period = pairs[1].current.timestamp - pairs[0].current.timestamp;
+    assert!(period > 0.0);
+    for (a, p) in pairs.iter().enumerate() {
+        assert_eq!(p.name, format!("sim:overtaking:5:2:{a}-{}", a + k));
+        // Stamps: 1000 s per sequence index, steady steps, pairs k steps long.
+        let t0 = 2000.0 + a as f64 * period;
+        assert!((p.reference.timestamp - t0).abs() < 1e-9, "{}", p.name);
+        assert!((p.current.timestamp - (t0 + k as f64 * period)).abs() < 1e-9);
+        let truth = p.truth.as_ref().expect("ground truth");
+        assert!(truth.labels.is_some() && truth.ego_motion.is_some());
+        // The ego vehicle keeps driving: each pair's ego-motion is about k steps.
+        let ego = truth.ego_motion.unwrap().translation().norm();
+        let first = pairs[0]
+            .truth
+            .as_ref()
+            .unwrap()
+            .ego_motion
+            .unwrap()
+            .translation()
+            .norm();
+        assert!(
+            (ego - first).abs() < 0.05 * first.max(1.0),
+            "{ego} against {first}"
+        );
+    }
+    // The scan shared by two pairs shows the same world: pair a's current scan and pair
+    // a + k's reference scan are the same instant.
+    assert!((pairs[0].current.timestamp - pairs[3].reference.timestamp).abs() < 1e-9);
+}

@@ -584,7 +584,6 @@ impl Tracker {
                 .filter(|q| inliers.iter().any(|&k| (*q - points[k]).norm() <= tau))
                 .count();
             track.step = dt;
-
             if inliers.len() < p.min_returns
                 || (supported as f64) < p.min_inlier_fraction * predicted.len() as f64
             {
@@ -731,13 +730,14 @@ impl Tracker {
                         .map(|(t, _)| t)
                 });
             if let Some(t) = continued {
-                if tracks[t].coast > 0 {
-                    tracks[t].points = members
-                        .iter()
-                        .map(|&b| pair.current.beam_point(b))
-                        .collect();
-                    tracks[t].coast = 0;
-                }
+                // The detection's returns are the object as seen now: the track takes
+                // them (a passing car shows other parts of itself scan after scan; the
+                // returns the track found near its prediction alone would shrink).
+                tracks[t].points = members
+                    .iter()
+                    .map(|&b| pair.current.beam_point(b))
+                    .collect();
+                tracks[t].coast = 0;
                 if !detected[t] {
                     detected[t] = true;
                     evidence[tracks[t].id].steps += 1;

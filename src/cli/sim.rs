@@ -4,7 +4,9 @@
 use super::{CliError, CliResult};
 use clap::Args;
 use pgm::datasets::format::StagedFile;
-use pgm::datasets::sim::{simulate_pairs_report, DatasetStats, Preset, SimConfig, SCENE_ATTEMPTS};
+use pgm::datasets::sim::{
+    simulate_pairs_report, simulate_sequence, DatasetStats, Preset, SimConfig, SCENE_ATTEMPTS,
+};
 use pgm::features::ParamGuard;
 use pgm::plot::PairPicture;
 use std::path::PathBuf;
@@ -64,6 +66,15 @@ pub struct SimArgs {
     /// drawn again; 0 keeps every pair.
     #[arg(long, default_value_t = 3)]
     pub min_object_returns: usize,
+    /// Sequences instead of independent pairs: each of the --pairs draws becomes a
+    /// sequence of this many scans of one scene, written as the pairs --k scans apart
+    /// (for `pgm eval clustering --track` and `pgm track`; no pair selection).
+    #[arg(long)]
+    pub sequence: Option<usize>,
+    /// With --sequence: the scan distance of the pairs (1; each pair spans the
+    /// preset's interval between two scans).
+    #[arg(long, requires = "sequence")]
+    pub k: Option<usize>,
 }
 
 /// Runs `pgm sim`.
@@ -82,30 +93,55 @@ pub fn run(args: SimArgs) -> CliResult {
     }
     .check()
     .map_err(CliError::from_display)?;
-    config
-        .check_pairs(args.pairs)
-        .map_err(CliError::from_display)?;
-    if args.svg.is_some() && args.svg_pair >= args.pairs {
+    let k = args.k.unwrap_or(1);
+    let total = match args.sequence {
+        Some(scans) => {
+            if k == 0 || k >= scans {
+                return Err(CliError(format!(
+                    "--sequence {scans} --k {k}: pairs k scans apart need 1 <= k < the \
+                     number of scans"
+                )));
+            }
+            args.pairs.checked_mul(scans - k).ok_or_else(|| {
+                CliError(format!(
+                    "--pairs {} --sequence {scans}: too many pairs",
+                    args.pairs
+                ))
+            })?
+        }
+        None => args.pairs,
+    };
+    config.check_pairs(total).map_err(CliError::from_display)?;
+    if args.svg.is_some() && args.svg_pair >= total {
         return Err(CliError(format!(
-            "--svg-pair {} is not one of the {} simulated pairs (0..{})",
-            args.svg_pair, args.pairs, args.pairs
+            "--svg-pair {} is not one of the {total} simulated pairs (0..{total})",
+            args.svg_pair
         )));
     }
-    let report = simulate_pairs_report(&config, args.seed, args.pairs);
-    if !report.unmet.is_empty() {
-        let shown: Vec<String> = report.unmet.iter().take(5).map(|u| u.to_string()).collect();
-        eprintln!(
-            "note: {} of {} pairs (preset {preset}, seed {}) do not meet the pair selection \
-             --min-object-returns {} in {SCENE_ATTEMPTS} draws and keep their last draw: {}{}",
-            report.unmet.len(),
-            args.pairs,
-            args.seed,
-            args.min_object_returns,
-            shown.join(", "),
-            if report.unmet.len() > 5 { ", …" } else { "" }
-        );
-    }
-    let pairs = report.pairs;
+    let pairs = match args.sequence {
+        Some(scans) => (0..args.pairs as u64)
+            .flat_map(|index| simulate_sequence(&config, args.seed, index, scans, k))
+            .collect::<Vec<_>>(),
+        None => {
+            let report = simulate_pairs_report(&config, args.seed, args.pairs);
+            if !report.unmet.is_empty() {
+                let shown: Vec<String> =
+                    report.unmet.iter().take(5).map(|u| u.to_string()).collect();
+                eprintln!(
+                    "note: {} of {} pairs (preset {preset}, seed {}) do not meet the pair \
+                     selection --min-object-returns {} in {SCENE_ATTEMPTS} draws and keep \
+                     their last draw: {}{}",
+                    report.unmet.len(),
+                    args.pairs,
+                    args.seed,
+                    args.min_object_returns,
+                    shown.join(", "),
+                    if report.unmet.len() > 5 { ", …" } else { "" }
+                );
+            }
+            report.pairs
+        }
+    };
     // Both outputs or neither: the picture is staged beside its destination, the data
     // set written, then the picture renamed into place.
     let staged = match &args.svg {

@@ -453,6 +453,65 @@ pub fn try_simulate_pairs(config: &ValidSimConfig, seed: u64, n: usize) -> Resul
     }
 }
 
+/// A sequence of scans of one scene, as pairs `k` scans apart: `scans` scans taken
+/// `scene.interval / k` seconds apart (so that each pair spans the preset's interval,
+/// as a pair of [`simulate_pair`] does), and the pairs `(a, a + k)` for every `a` in
+/// `0..scans - k`, each with its complete ground truth. Pairs are named
+/// `sim:PRESET:SEED:INDEX:A-B`; their scans carry time stamps `1000 · INDEX + t` (s), so
+/// that the sequences of one data set never join (`pgm_features::tracking` ends a
+/// sequence at a gap above 1 s). The scene is drawn from stream `index` of `seed` like
+/// [`simulate_pair`]'s, without its pair selection; the noise of each pair is drawn
+/// after it, pair by pair, so one scan is simulated once per pair it belongs to (with
+/// noise of its own each time).
+///
+/// # Panics
+/// If `k` is 0 or not below `scans`.
+pub fn simulate_sequence(
+    config: &ValidSimConfig,
+    seed: u64,
+    index: u64,
+    scans: usize,
+    k: usize,
+) -> Vec<ScanPair> {
+    assert!(
+        k >= 1 && k < scans,
+        "pairs k scans apart need 1 <= k < scans"
+    );
+    let mut rng = pair_rng(seed, index);
+    let preset = config.params().preset;
+    let scene = preset.scene(config, &mut rng);
+    let period = scene.interval / k as f64;
+    let offset = 1000.0 * index as f64;
+    let rebased = |t: Trajectory, at: f64| Trajectory {
+        start: t.pose_at(at),
+        ..t
+    };
+    (0..scans - k)
+        .map(|a| {
+            let b = a + k;
+            let at = a as f64 * period;
+            let shifted = Scene {
+                background: scene.background.clone(),
+                objects: scene
+                    .objects
+                    .iter()
+                    .map(|o| MovingObject {
+                        trajectory: rebased(o.trajectory, at),
+                        ..o.clone()
+                    })
+                    .collect(),
+                ego: rebased(scene.ego, at),
+                interval: k as f64 * period,
+            };
+            let name = format!("sim:{}:{seed}:{index}:{a}-{b}", preset.name());
+            let mut pair = simulate_scene(&shifted, config, &mut rng, name);
+            pair.reference.timestamp = offset + at;
+            pair.current.timestamp = offset + b as f64 * period;
+            pair
+        })
+        .collect()
+}
+
 /// Scans a given scene twice (reference at time 0, current at `scene.interval`) and
 /// builds the pair with its ground truth and odometry prior. The preset in `config`
 /// is ignored; the laser, noise and odometry parameters are used.
