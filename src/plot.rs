@@ -233,43 +233,12 @@ impl<'a> PairPicture<'a> {
             ]
         });
         // Screen axes: u = −y (left is left), v = x (forward is up).
-        let (u0, u1, v0, v1) = (-y1, -y0, x0, x1);
-        const TITLE: u32 = 28;
-        const MARGIN: u32 = 12;
-        const X_LABELS: u32 = 36;
-        const Y_LABELS: u32 = 44;
-        let plot_width = self.width.saturating_sub(2 * MARGIN + Y_LABELS).max(100);
-        let plot_height = ((v1 - v0) / (u1 - u0) * plot_width as f64)
-            .round()
-            .max(50.0) as u32;
-        let height = plot_height + TITLE + 2 * MARGIN + X_LABELS;
-
+        let region = [x0, x1, y0, y1];
+        let height = picture_height(self.width, region, f64::INFINITY);
         let mut svg = String::new();
         {
             let root = SVGBackend::with_string(&mut svg, (self.width, height)).into_drawing_area();
-            root.fill(&WHITE).map_err(drawing)?;
-            let (top, body) = root.split_vertically(TITLE);
-            top.draw(&Text::new(
-                self.title.clone(),
-                (MARGIN as i32, 6),
-                ("sans-serif", 16).into_font(),
-            ))
-            .map_err(drawing)?;
-            let mut chart = ChartBuilder::on(&body)
-                .margin(MARGIN)
-                .x_label_area_size(X_LABELS)
-                .y_label_area_size(Y_LABELS)
-                .build_cartesian_2d(u0..u1, v0..v1)
-                .map_err(drawing)?;
-            chart
-                .configure_mesh()
-                .x_desc("← left   lateral (m)")
-                .y_desc("forward (m)")
-                .x_label_formatter(&|u| format!("{:.0}", -u))
-                .light_line_style(RGBColor(240, 240, 240))
-                .bold_line_style(RGBColor(225, 225, 225))
-                .draw()
-                .map_err(drawing)?;
+            let mut chart = sensor_chart(&root, &self.title, region, "← left   lateral (m)")?;
             let screen = |p: &Point2<f64>| (-p.y, p.x);
             let inside = |p: &Point2<f64>| p.x >= x0 && p.x <= x1 && p.y >= y0 && p.y <= y1;
 
@@ -390,13 +359,7 @@ impl<'a> PairPicture<'a> {
 
     /// Draws the picture into the SVG file `path`.
     pub fn write_svg(&self, path: impl AsRef<Path>) -> Result<(), PlotError> {
-        let path = path.as_ref();
-        let svg = self.to_svg_string()?;
-        // Written beside the target and renamed into place: never half a picture.
-        pgm_datasets::format::write_atomically(path, svg.as_bytes()).map_err(|e| PlotError::Io {
-            path: path.to_path_buf(),
-            source: std::io::Error::other(e.to_string()),
-        })
+        write_svg_file(path.as_ref(), &self.to_svg_string()?)
     }
 }
 
@@ -475,42 +438,17 @@ impl TrackPicture<'_> {
             b = [-1.0, 1.0, -1.0, 1.0];
         }
         let [x0, x1, y0, y1] = [b[0] - 1.0, b[1] + 1.0, b[2] - 1.0, b[3] + 1.0];
-        let (u0, u1, v0, v1) = (-y1, -y0, x0, x1);
-        const TITLE: u32 = 28;
-        const MARGIN: u32 = 12;
-        const X_LABELS: u32 = 36;
-        const Y_LABELS: u32 = 44;
-        let plot_width = self.width.saturating_sub(2 * MARGIN + Y_LABELS).max(100);
-        let plot_height = ((v1 - v0) / (u1 - u0) * plot_width as f64)
-            .round()
-            .clamp(50.0, 4.0 * self.width as f64) as u32;
-        let height = plot_height + TITLE + 2 * MARGIN + X_LABELS;
+        let region = [x0, x1, y0, y1];
+        let height = picture_height(self.width, region, 4.0 * self.width as f64);
         let mut svg = String::new();
         {
             let root = SVGBackend::with_string(&mut svg, (self.width, height)).into_drawing_area();
-            root.fill(&WHITE).map_err(drawing)?;
-            let (top, body) = root.split_vertically(TITLE);
-            top.draw(&Text::new(
-                self.title.clone(),
-                (MARGIN as i32, 6),
-                ("sans-serif", 16).into_font(),
-            ))
-            .map_err(drawing)?;
-            let mut chart = ChartBuilder::on(&body)
-                .margin(MARGIN)
-                .x_label_area_size(X_LABELS)
-                .y_label_area_size(Y_LABELS)
-                .build_cartesian_2d(u0..u1, v0..v1)
-                .map_err(drawing)?;
-            chart
-                .configure_mesh()
-                .x_desc("← left   lateral (m), first scan's frame")
-                .y_desc("forward (m)")
-                .x_label_formatter(&|u| format!("{:.0}", -u))
-                .light_line_style(RGBColor(240, 240, 240))
-                .bold_line_style(RGBColor(225, 225, 225))
-                .draw()
-                .map_err(drawing)?;
+            let mut chart = sensor_chart(
+                &root,
+                &self.title,
+                region,
+                "← left   lateral (m), first scan's frame",
+            )?;
             let screen = |p: &Point2<f64>| (-p.y, p.x);
             let inside = |p: &Point2<f64>| p.x >= x0 && p.x <= x1 && p.y >= y0 && p.y <= y1;
             chart
@@ -557,15 +495,73 @@ impl TrackPicture<'_> {
         Ok(svg)
     }
 
-    /// Draws the picture into `path` (written beside it and renamed into place).
+    /// Draws the picture into the SVG file `path`.
     pub fn write_svg(&self, path: impl AsRef<Path>) -> Result<(), PlotError> {
-        let path = path.as_ref();
-        let svg = self.to_svg_string()?;
-        pgm_datasets::format::write_atomically(path, svg.as_bytes()).map_err(|e| PlotError::Io {
-            path: path.to_path_buf(),
-            source: std::io::Error::other(e.to_string()),
-        })
+        write_svg_file(path.as_ref(), &self.to_svg_string()?)
     }
+}
+
+/// Layout of the pictures (pixels): title band, margin, axis label areas.
+const TITLE: u32 = 28;
+const MARGIN: u32 = 12;
+const X_LABELS: u32 = 36;
+const Y_LABELS: u32 = 44;
+
+/// The height (pixels) of a `width`-pixel picture of the region `[x_min, x_max,
+/// y_min, y_max]` (m) at one scale on both axes, the plot at least 50 and at most
+/// `max_plot` pixels high.
+fn picture_height(width: u32, region: [f64; 4], max_plot: f64) -> u32 {
+    let [x0, x1, y0, y1] = region;
+    let plot_width = width.saturating_sub(2 * MARGIN + Y_LABELS).max(100);
+    let plot_height = ((x1 - x0) / (y1 - y0) * plot_width as f64)
+        .round()
+        .clamp(50.0, max_plot.max(50.0)) as u32;
+    plot_height + TITLE + 2 * MARGIN + X_LABELS
+}
+
+/// A white picture with `title` above a chart of the region `[x_min, x_max, y_min,
+/// y_max]` (m) of a sensor frame, forward pointing up and left pointing left: screen
+/// coordinates `(−y, x)`, the x axis described by `x_desc`.
+fn sensor_chart<'b>(
+    root: &DrawingArea<SVGBackend<'b>, plotters::coord::Shift>,
+    title: &str,
+    region: [f64; 4],
+    x_desc: &str,
+) -> Result<Chart<'b, 'b>, PlotError> {
+    let [x0, x1, y0, y1] = region;
+    root.fill(&WHITE).map_err(drawing)?;
+    let (top, body) = root.split_vertically(TITLE);
+    top.draw(&Text::new(
+        title.to_string(),
+        (MARGIN as i32, 6),
+        ("sans-serif", 16).into_font(),
+    ))
+    .map_err(drawing)?;
+    let mut chart = ChartBuilder::on(&body)
+        .margin(MARGIN)
+        .x_label_area_size(X_LABELS)
+        .y_label_area_size(Y_LABELS)
+        .build_cartesian_2d(-y1..-y0, x0..x1)
+        .map_err(drawing)?;
+    chart
+        .configure_mesh()
+        .x_desc(x_desc)
+        .y_desc("forward (m)")
+        .x_label_formatter(&|u| format!("{:.0}", (-u).round() + 0.0))
+        .light_line_style(RGBColor(240, 240, 240))
+        .bold_line_style(RGBColor(225, 225, 225))
+        .draw()
+        .map_err(drawing)?;
+    Ok(chart)
+}
+
+/// Writes `svg` to `path`, beside it first and then renamed into place: never half a
+/// picture.
+fn write_svg_file(path: &Path, svg: &str) -> Result<(), PlotError> {
+    pgm_datasets::format::write_atomically(path, svg.as_bytes()).map_err(|e| PlotError::Io {
+        path: path.to_path_buf(),
+        source: std::io::Error::other(e.to_string()),
+    })
 }
 
 fn drawing(e: impl std::fmt::Display) -> PlotError {

@@ -387,13 +387,7 @@ impl Tracker {
                 problem: "two pairs have this name: a sequence holds each pair once".into(),
             });
         }
-        let mut order: Vec<usize> = (0..pairs.len()).collect();
-        order.sort_by(|&a, &b| {
-            pairs[a]
-                .current
-                .timestamp
-                .total_cmp(&pairs[b].current.timestamp)
-        });
+        let order = time_order(pairs);
         let steps: Vec<Step> = order
             .iter()
             .enumerate()
@@ -972,6 +966,19 @@ fn tracked_object(
         centre: [centre.x, centre.y],
         velocity: [velocity.x, velocity.y],
     }
+}
+
+/// The indices of `pairs` in the order the tracker takes them: by the time stamp of
+/// their current scan (a stable sort: equal stamps keep their order).
+pub fn time_order(pairs: &[ScanPair]) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..pairs.len()).collect();
+    order.sort_by(|&a, &b| {
+        pairs[a]
+            .current
+            .timestamp
+            .total_cmp(&pairs[b].current.timestamp)
+    });
+    order
 }
 
 /// The pair of two consecutive current scans (`before`'s as reference), with their

@@ -23,7 +23,7 @@ use super::{check_not_an_input, check_output_file, resolved_output, CliError, Cl
 use clap::Args;
 use nalgebra::Point2;
 use pgm::plot::{TrackPicture, TrackedScan};
-use pgm_features::tracking::{TrackedObject, TrackingCounts, TrackingParams};
+use pgm_features::tracking::{time_order, TrackedObject, TrackingCounts, TrackingParams};
 use pgm_features::{ParamGuard, Pose2};
 use serde::Serialize;
 use std::path::PathBuf;
@@ -231,13 +231,7 @@ pub fn run(args: TrackArgs) -> CliResult {
     let tracked = tracker
         .track(&pairs, built.method.as_ref())
         .map_err(|e| CliError(format!("{source}: {e}")))?;
-    let mut order: Vec<usize> = (0..pairs.len()).collect();
-    order.sort_by(|&a, &b| {
-        pairs[a]
-            .current
-            .timestamp
-            .total_cmp(&pairs[b].current.timestamp)
-    });
+    let order = time_order(&pairs);
     let scans: Vec<ScanObjects> = order
         .iter()
         .map(|&i| {
