@@ -400,16 +400,12 @@ impl Tracker {
                 }),
             })
             .collect();
-        // Detection on every requested pair, and the consecutive pairs, in parallel.
-        let prepared: Vec<(Option<ScanPair>, MotionClustering)> = steps
+        // Detection on every requested pair, in parallel.
+        let detections: Vec<MotionClustering> = steps
             .par_iter()
-            .map(|s| {
-                let pair = &pairs[s.pair];
-                let consecutive = s.previous.map(|(j, _)| consecutive_pair(&pairs[j], pair));
-                Ok((consecutive, detector.cluster(pair)?))
-            })
+            .map(|s| detector.cluster(&pairs[s.pair]))
             .collect::<Result<_>>()?;
-        for ((_, detection), s) in prepared.iter().zip(&steps) {
+        for (detection, s) in detections.iter().zip(&steps) {
             let beams = pairs[s.pair].current.len();
             if detection.labels.len() != beams {
                 return Err(Error::BadPair {
@@ -428,24 +424,16 @@ impl Tracker {
         let mut sequences = vec![0; pairs.len()];
         let mut poses = vec![Pose2::identity(); pairs.len()];
         let mut pose = Pose2::identity();
-        for (s, (mut consecutive, detection)) in steps.iter().zip(prepared) {
+        for (s, detection) in steps.iter().zip(detections) {
             let pair = &pairs[s.pair];
-            if let (Some((j, _)), Some(c)) = (s.previous, consecutive.as_mut()) {
-                // The motion between the two scans, by ICP without the returns of the
-                // objects reported moving in the previous scan and detected in this
-                // one (a car beside the robot would pull it along).
+            // The pair of the previous current scan and this one, with the motion
+            // between them by ICP without the returns of the objects reported moving
+            // in the previous scan and detected in this one (a car beside the robot
+            // would pull it along).
+            let consecutive = s.previous.map(|(j, _)| {
                 let moving_before = out[j].as_ref().map(|(c, _)| c.labels.as_slice());
-                let reference = without_moving(&c.reference, moving_before);
-                let current = without_moving(&c.current, Some(&detection.labels));
-                let prior = c.odometry.unwrap_or_default();
-                c.odometry = Some(
-                    Icp::new(&reference, p.ego)
-                        .and_then(|icp| icp.align(&current, prior))
-                        .ok()
-                        .filter(|r| r.converged)
-                        .map_or(prior, |r| r.motion),
-                );
-            }
+                consecutive_pair(&pairs[j], pair, moving_before, &detection.labels, &p.ego)
+            });
             let found = match (s.previous, &consecutive) {
                 (Some((_, dt)), Some(c)) => {
                     let ego = c.odometry.unwrap_or_default();
@@ -981,10 +969,18 @@ pub fn time_order(pairs: &[ScanPair]) -> Vec<usize> {
     order
 }
 
-/// The pair of two consecutive current scans (`before`'s as reference), with their
-/// odometry difference (the identity without odometry) as its prior; the tracker
-/// replaces it by ICP without the moving objects' returns.
-fn consecutive_pair(before: &ScanPair, now: &ScanPair) -> ScanPair {
+/// The pair of two consecutive current scans (`before`'s as reference), with the
+/// motion of the later in the frame of the earlier as its odometry: ICP (`icp`) from
+/// their odometry difference (the identity without odometry), without the returns
+/// labelled moving in `moving_before` (the earlier scan) and `moving_now` (the later);
+/// the prior when ICP does not converge.
+fn consecutive_pair(
+    before: &ScanPair,
+    now: &ScanPair,
+    moving_before: Option<&[Option<u32>]>,
+    moving_now: &[Option<u32>],
+    icp: &IcpParams,
+) -> ScanPair {
     let prior = match (
         before.current.laser_odometry(),
         now.current.laser_odometry(),
@@ -992,11 +988,18 @@ fn consecutive_pair(before: &ScanPair, now: &ScanPair) -> ScanPair {
         (Some(a), Some(b)) => a.between(&b),
         _ => Pose2::identity(),
     };
+    let reference = without_moving(&before.current, moving_before);
+    let current = without_moving(&now.current, Some(moving_now));
+    let motion = Icp::new(&reference, *icp)
+        .and_then(|icp| icp.align(&current, prior))
+        .ok()
+        .filter(|r| r.converged)
+        .map_or(prior, |r| r.motion);
     ScanPair {
         name: format!("{} (after {})", now.name, before.name),
         reference: before.current.clone(),
         current: now.current.clone(),
-        odometry: Some(prior),
+        odometry: Some(motion),
         truth: None,
     }
 }
