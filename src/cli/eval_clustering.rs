@@ -203,6 +203,10 @@ pub struct ClusteringEvalArgs {
     /// Tracking: slowest speed (m/s) that counts as moving.
     #[arg(long, requires = "track", default_value_t = TrackingParams::default().min_speed)]
     pub track_min_speed: f64,
+    /// Tracking: do not follow confirmed tracks backward in time (the scans before an
+    /// object's first detection keep the method's output).
+    #[arg(long, requires = "track")]
+    pub track_forward_only: bool,
     /// Print one JSON object.
     #[arg(long)]
     pub json: bool,
@@ -238,6 +242,7 @@ struct Report<'a> {
 struct TrackingFields {
     min_evidence: usize,
     min_speed: f64,
+    backward: bool,
     #[serde(flatten)]
     counts: TrackingCounts,
 }
@@ -294,6 +299,7 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
             TrackingParams {
                 min_evidence: args.track_min_evidence,
                 min_speed: args.track_min_speed,
+                backward: !args.track_forward_only,
                 ..TrackingParams::default()
             }
             .check()
@@ -347,6 +353,7 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
     let tracking_fields = tracking.as_ref().map(|(_, counts)| TrackingFields {
         min_evidence: args.track_min_evidence,
         min_speed: args.track_min_speed,
+        backward: !args.track_forward_only,
         counts: *counts,
     });
     let method = match tracking {
@@ -416,13 +423,16 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
     }
     if let Some(t) = &tracking_fields {
         println!(
-            "tracking (min evidence {}, min speed {} m/s): {} sequences, {} tracks, {} objects \
-             added from tracks, {} detections dropped as unconfirmed",
+            "tracking (min evidence {}, min speed {} m/s{}): {} sequences, {} tracks, {} objects \
+             added from tracks ({} of them before the first detection), {} detections dropped \
+             as unconfirmed",
             t.min_evidence,
             t.min_speed,
+            if t.backward { "" } else { ", forward only" },
             t.counts.sequences,
             t.counts.tracks,
-            t.counts.tracked_objects,
+            t.counts.tracked_objects + t.counts.backward_objects,
+            t.counts.backward_objects,
             t.counts.dropped
         );
     }

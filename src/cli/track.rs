@@ -56,6 +56,10 @@ pub struct TrackArgs {
     /// Slowest speed (m/s) that counts as moving.
     #[arg(long, default_value_t = TrackingParams::default().min_speed)]
     pub min_speed: f64,
+    /// Do not follow confirmed tracks backward in time (the scans before an object's
+    /// first detection keep the method's output).
+    #[arg(long)]
+    pub forward_only: bool,
     /// Write the JSON here (atomically) instead of printing it.
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -79,6 +83,7 @@ struct Output<'a> {
 struct Tracking {
     min_evidence: usize,
     min_speed: f64,
+    backward: bool,
     #[serde(flatten)]
     counts: TrackingCounts,
 }
@@ -185,6 +190,7 @@ pub fn run(args: TrackArgs) -> CliResult {
     let tracker = TrackingParams {
         min_evidence: args.min_evidence,
         min_speed: args.min_speed,
+        backward: !args.forward_only,
         ..TrackingParams::default()
     }
     .check()
@@ -312,6 +318,7 @@ pub fn run(args: TrackArgs) -> CliResult {
         tracking: Tracking {
             min_evidence: args.min_evidence,
             min_speed: args.min_speed,
+            backward: !args.forward_only,
             counts,
         },
         scans,
@@ -324,12 +331,13 @@ pub fn run(args: TrackArgs) -> CliResult {
     }
     eprintln!(
         "pgm: pairs: {} of {source}; moving objects reported: {reported}, on tracks: \
-         {reported_tracks} (tracks started: {}; sequences: {}; objects added from tracks: {}; \
-         detections dropped as unconfirmed: {}){}",
+         {reported_tracks} (tracks started: {}; sequences: {}; objects added from tracks: {}, \
+         {} of them before the first detection; detections dropped as unconfirmed: {}){}",
         pairs.len(),
         counts.tracks,
         counts.sequences,
-        counts.tracked_objects,
+        counts.tracked_objects + counts.backward_objects,
+        counts.backward_objects,
         counts.dropped,
         [("", &args.out), ("picture ", &args.svg)]
             .iter()
