@@ -1440,8 +1440,13 @@ mod tests {
         // sequence (no step shows the box moving into it).
         assert_eq!(tracked.counts.backward_objects, 4, "{:?}", tracked.counts);
         assert!(!moving_box(&tracked.clusterings[0], &pairs[0]));
-        for j in 1..5 {
-            let (pair, c) = (&pairs[j], &tracked.clusterings[j]);
+        for (j, (pair, c)) in pairs
+            .iter()
+            .zip(&tracked.clusterings)
+            .enumerate()
+            .take(5)
+            .skip(1)
+        {
             assert!(
                 moving_box(c, pair),
                 "pair {j}: the box is not reported moving"
