@@ -30,7 +30,7 @@
 //! tracks the method's moving objects over the sequence of current scans
 //! ([`pgm_features::tracking`]; `--track-min-evidence N`, `--track-min-speed V`) and
 //! scores the tracked output; `tracking` is then `{"min_evidence", "min_speed",
-//! "sequences", "tracks", "tracked_objects", "dropped"}`. Without
+//! "sequences", "tracks", "tracked_objects", "dropped", "backward", "backward_objects"}`. Without
 //! odometry the ego-motion comes from the model itself (the largest cluster) or from
 //! ICP (CBD, associations). `--no-prior` hides the pairs' odometry prior from the
 //! methods while the labels still use it (leigh-gtm1 needs odometry to decide who

@@ -3,12 +3,12 @@
 //!
 //! `pgm track --method NAME [--associations SRC] (--bag FILE --scan-topic T
 //! [--odom-topic T] | --scans FILE --people FILE [--odometry FILE] | --log FILE |
-//! --pairs DIR) [--k K] [--min-evidence N] [--min-speed V] [--out FILE]` runs the
+//! --pairs DIR) [--k K] [--min-evidence N] [--min-speed V] [--forward-only] [--out FILE]` runs the
 //! clustering method on every pair of scans `k` apart and tracks its moving objects
 //! over the current scans ([`pgm_features::tracking`]). It prints (or writes to
 //! `--out`, atomically) one JSON object `{"method", "associations", "data",
 //! "weights", "tracking": {"min_evidence", "min_speed", "sequences", "tracks",
-//! "tracked_objects", "dropped"}, "scans": [{"pair", "time", "ego_motion", "objects":
+//! "tracked_objects", "dropped", "backward", "backward_objects"}, "scans": [{"pair", "time", "ego_motion", "objects":
 //! [{"label", "track", "detected", "returns", "centre", "velocity", "motion"}]}]}`: per
 //! pair (in time order of the current scan) every moving object with its track number
 //! (the same number in two pairs is the same object), whether the detector reported it
