@@ -130,7 +130,8 @@ fn datmo_overtake_ego_tracking_finds_the_car_in_more_pairs() {
     assert_eq!(forward["tracking"]["backward"], false);
     let recall = |r: &serde_json::Value| r["object_recall"].as_f64().unwrap();
     // Measured 2026-11-30: 23 of 76 without tracking, 55 of 76 tracked forward only,
-    // 73 of 76 with the backward pass (the target is 90 %); no false alarm.
+    // 73 of 76 with the backward pass (the target is 90 %); 0.008 false alarms
+    // per pair.
     assert!(recall(&forward) >= 0.6, "{forward}");
     assert!(
         recall(&forward) > recall(&plain) + 0.2,
@@ -146,7 +147,7 @@ fn datmo_overtake_ego_tracking_finds_the_car_in_more_pairs() {
         "{tracked}"
     );
     assert!(tracked["tracking"]["tracked_objects"].as_u64().unwrap() > 0);
-    // The motions of the tracked car stay accurate (measured 0.012 m at the centroid).
+    // The motions of the tracked car stay accurate (measured 0.009 m at the centroid).
     assert!(tracked["object_translation_error_median"].as_f64().unwrap() <= 0.03);
 }
 
@@ -284,12 +285,17 @@ fn datmo_overtake_ego_track_follows_the_car_as_one_track() {
     let mut speeds = Vec::new();
     for s in scans {
         for o in s["objects"].as_array().unwrap() {
-            *per_track.entry(o["track"].as_u64().unwrap()).or_default() += 1;
+            // A detection that starts no track has neither number nor velocity.
+            let Some(track) = o["track"].as_u64() else {
+                assert!(o["velocity"].is_null(), "{o}");
+                continue;
+            };
+            *per_track.entry(track).or_default() += 1;
             let v = o["velocity"].as_array().unwrap();
             speeds.push(v[0].as_f64().unwrap().hypot(v[1].as_f64().unwrap()));
         }
     }
-    // Measured 2026-11-30: 74 reports, all on one track (54 forward only).
+    // Measured 2026-11-30: 74 reports, all on one track (56 forward only).
     let longest = per_track.values().copied().max().unwrap_or(0);
     assert!(longest >= 65, "{per_track:?}");
     speeds.sort_by(f64::total_cmp);

@@ -22,9 +22,10 @@
 //! current scan. A pair continues the sequence of the previous one when both its scans
 //! are later than the previous pair's and its current scan is
 //! [`TrackingParams::min_step`] to [`TrackingParams::max_gap`] seconds after the
-//! previous current scan; otherwise it starts a new sequence (the pairs of a simulated
-//! set all start at time 0: each is a scene of its own, and its output is the
-//! detector's). Two pairs with the same name are refused.
+//! previous current scan; otherwise it starts a new sequence (the pairs of a set of
+//! independent simulated scenes, `pgm sim` without `--sequence`, all start at time 0:
+//! each is a sequence of its own, and its output is the detector's). Two pairs with
+//! the same name are refused.
 //!
 //! **One step** (current scan `j`, previous current scan `j'`, `Δt` seconds apart):
 //! 1. The motion `E` of scan `j` in the frame of `j'`: ICP from their odometry
@@ -129,7 +130,8 @@ pub struct TrackingParams {
     /// track needs for its objects to be reported, once it could be followed at
     /// least once (2: an object that no later scan shows moving is dropped from every
     /// pair; a track that ends with the sequence before it could be followed keeps
-    /// its objects; 1 drops nothing).
+    /// its objects; 1 drops only the detections that the previous scan shows slower
+    /// than [`TrackingParams::min_speed`]).
     pub min_evidence: usize,
     /// Weight of a step's measured motion in the track's velocity (the beta of an
     /// alpha-beta filter; 1 keeps the last measurement only) (0.5).
@@ -254,8 +256,11 @@ pub struct TrackedObject {
     /// Its label in the pair's clustering.
     pub label: u32,
     /// The track it belongs to (numbered from 0 in the order tracks start; the same
-    /// number in two pairs is the same object).
-    pub track: usize,
+    /// number in two pairs is the same object); `None` for a detection that could not
+    /// start a track (fewer than [`TrackingParams::min_returns`] returns, a pair whose
+    /// scans are closer than [`TrackingParams::min_step`] in time, or no motion to
+    /// measure a velocity from), reported as the detector made it.
+    pub track: Option<usize>,
     /// Whether the detector reported it in this pair (else the track did).
     pub detected: bool,
     /// The number of its returns in the current scan.
@@ -265,8 +270,8 @@ pub struct TrackedObject {
     /// The centre of its returns in the current sensor frame (m).
     pub centre: [f64; 2],
     /// Its velocity in the current sensor frame (m/s), over the ground: the track's
-    /// (smoothed) motion over its last step.
-    pub velocity: [f64; 2],
+    /// (smoothed) motion over its last step; `None` without a track.
+    pub velocity: Option<[f64; 2]>,
 }
 
 /// The tracker's output: one clustering per requested pair (input order) and its
@@ -513,7 +518,7 @@ impl Tracker {
                     // Unconfirmed: followed without showing motion often enough, or
                     // never moving at the speed that counts (even if it could not
                     // be followed).
-                    let confirmed = confirmed(&evidence[object.track]);
+                    let confirmed = object.track.is_none_or(|t| confirmed(&evidence[t]));
                     if !confirmed {
                         for l in clustering.labels.iter_mut() {
                             if *l == Some(object.label) {
@@ -643,7 +648,7 @@ impl Tracker {
     }
 
     /// Reports the object of `track` (velocity forward in time) in `pair` on `beams`
-    /// of its current scan, those that no reported object holds; false when at least
+    /// of its current scan, those that no reported object holds; false when more than
     /// half of them are taken (already reported) or fewer than
     /// [`TrackingParams::min_returns`] are left.
     fn report_backward(
@@ -962,6 +967,7 @@ impl Tracker {
                     (v.transform_point(&centre) - centre).norm() / step < p.min_speed
                 });
                 let Some((velocity, step)) = measured.or(over_pair.map(|v| (v, gap))) else {
+                    objects.push(untracked_object(pair, &detection.labels, label));
                     continue;
                 };
                 let id = evidence.len();
@@ -992,6 +998,8 @@ impl Tracker {
                     true,
                 ));
                 counts.tracks += 1;
+            } else {
+                objects.push(untracked_object(pair, &detection.labels, label));
             }
         }
         // Tracks found moving where the detector reported nothing: one more object
@@ -1141,12 +1149,30 @@ fn tracked_object(
     let velocity = (track.velocity.transform_point(&centre) - centre) / track.step;
     TrackedObject {
         label,
-        track: track.id,
+        track: Some(track.id),
         detected,
         returns: returns.len(),
         beams,
         centre: [centre.x, centre.y],
-        velocity: [velocity.x, velocity.y],
+        velocity: Some([velocity.x, velocity.y]),
+    }
+}
+
+/// The report of a detected object labelled `label` in `pair` that starts no track.
+fn untracked_object(pair: &ScanPair, labels: &[Option<u32>], label: u32) -> TrackedObject {
+    let beams: Vec<usize> = (0..pair.current.len())
+        .filter(|&b| pair.current.valid[b] && labels[b] == Some(label))
+        .collect();
+    let returns: Vec<Point2<f64>> = beams.iter().map(|&b| pair.current.beam_point(b)).collect();
+    let centre = centroid(&returns);
+    TrackedObject {
+        label,
+        track: None,
+        detected: true,
+        returns: returns.len(),
+        beams,
+        centre: [centre.x, centre.y],
+        velocity: None,
     }
 }
 
@@ -1462,7 +1488,7 @@ mod tests {
             assert_eq!(reported[0].track, tracked.objects[5][0].track);
             assert!(!reported[0].detected);
             // Its velocity forward in time: 0.6 m/s towards the sensor, 0.8 to the left.
-            let v = Vector2::from(reported[0].velocity);
+            let v = Vector2::from(reported[0].velocity.expect("a track's velocity"));
             assert!(
                 (v - Vector2::new(-0.6, 0.8)).norm() < 0.2,
                 "pair {j}: {v:?}"
@@ -1512,6 +1538,26 @@ mod tests {
         for j in 0..3 {
             assert!(!moving(j), "pair {j}: the standing box is reported moving");
         }
+    }
+
+    #[test]
+    fn a_detection_too_small_for_a_track_is_reported_as_detected() {
+        let pairs = sequence(4, 1.0);
+        let third = &pairs[2];
+        let two = box_beams(third)[..2].to_vec();
+        let detector = Scripted(HashMap::from([(
+            third.name.clone(),
+            (two.clone(), Pose2::new(0.06, -0.08, 0.0)),
+        )]));
+        let tracked = Tracker::default().track(&pairs, &detector).unwrap();
+        assert_eq!(tracked.counts.tracks, 0);
+        assert_eq!(tracked.clusterings[2], detector.cluster(third).unwrap());
+        let reported = &tracked.objects[2];
+        assert_eq!(reported.len(), 1);
+        assert_eq!(reported[0].track, None);
+        assert_eq!(reported[0].velocity, None);
+        assert_eq!(reported[0].beams, two);
+        assert!(reported[0].detected);
     }
 
     #[test]

@@ -192,12 +192,14 @@ pub struct ClusteringEvalArgs {
     #[arg(long, default_value_t = DetectionOptions::default().min_object_returns)]
     pub min_object_returns: usize,
     /// Track the method's moving objects over the sequence of current scans
-    /// (pgm_features::tracking): pairs of one log or bag in time order; each pair of a
-    /// simulated data set is a scene of its own and gets the method's output.
+    /// (pgm_features::tracking): pairs of one log or bag (or of `pgm sim --sequence`) in
+    /// time order; each pair of independent simulated scenes is a sequence of its own
+    /// and gets the method's output.
     #[arg(long)]
     pub track: bool,
     /// Tracking: steps with evidence of motion a track needs for its objects to be
-    /// reported (1 keeps every detection).
+    /// reported (1 drops only the detections that the previous scan shows slower than
+    /// the speed that counts).
     #[arg(long, requires = "track", default_value_t = TrackingParams::default().min_evidence)]
     pub track_min_evidence: usize,
     /// Tracking: slowest speed (m/s) that counts as moving.
@@ -423,15 +425,15 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
     }
     if let Some(t) = &tracking_fields {
         println!(
-            "tracking (min evidence {}, min speed {} m/s{}): {} sequences, {} tracks, {} objects \
-             added from tracks ({} of them before the first detection), {} detections dropped \
-             as unconfirmed",
+            "tracking (min evidence {}, min speed {} m/s{}): sequences {}, tracks {}, objects \
+             added from tracks {} following them and {} before their first detection, \
+             detections dropped as unconfirmed {}",
             t.min_evidence,
             t.min_speed,
             if t.backward { "" } else { ", forward only" },
             t.counts.sequences,
             t.counts.tracks,
-            t.counts.tracked_objects + t.counts.backward_objects,
+            t.counts.tracked_objects,
             t.counts.backward_objects,
             t.counts.dropped
         );

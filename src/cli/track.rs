@@ -7,14 +7,16 @@
 //! clustering method on every pair of scans `k` apart and tracks its moving objects
 //! over the current scans ([`pgm_features::tracking`]). It prints (or writes to
 //! `--out`, atomically) one JSON object `{"method", "associations", "data",
-//! "weights", "tracking": {"min_evidence", "min_speed", "sequences", "tracks",
-//! "tracked_objects", "dropped", "backward", "backward_objects"}, "scans": [{"pair", "time", "ego_motion", "objects":
-//! [{"label", "track", "detected", "returns", "centre", "velocity", "motion"}]}]}`: per
-//! pair (in time order of the current scan) every moving object with its track number
-//! (the same number in two pairs is the same object), whether the detector reported it
-//! or the track did, its returns, the centre of its returns and its velocity over the
-//! ground in the current sensor frame (m, m/s), and its motion over the pair (maps its
-//! returns onto the reference scan). A summary goes to stderr. `--svg FILE` draws the
+//! "weights", "tracking": {"min_evidence", "min_speed", "backward", "sequences",
+//! "tracks", "tracked_objects", "dropped", "backward_objects"}, "scans": [{"pair",
+//! "time", "ego_motion", "converged", "objects": [{"label", "track", "detected",
+//! "returns", "beams", "centre", "velocity", "motion"}]}]}`: per pair (in time order
+//! of the current scan) every moving object with its track number (the same number in
+//! two pairs is the same object; `null` for a detection that starts no track), whether
+//! the detector reported it or the track did, its returns and their beams, the centre
+//! of its returns and its velocity over the ground in the current sensor frame (m,
+//! m/s; `null` without a track), and its motion over the pair (maps its returns onto
+//! the reference scan). A summary goes to stderr. `--svg FILE` draws the
 //! longest sequence ([`pgm::plot::TrackPicture`]).
 
 use super::data::{load_pairs, pair_source, LeighArgs, SourceArgs};
@@ -50,7 +52,8 @@ pub struct TrackArgs {
     #[arg(long)]
     pub k: Option<usize>,
     /// Steps with evidence of motion a track needs for its objects to be reported (1
-    /// keeps every detection).
+    /// drops only the detections that the previous scan shows slower than the speed
+    /// that counts).
     #[arg(long, default_value_t = TrackingParams::default().min_evidence)]
     pub min_evidence: usize,
     /// Slowest speed (m/s) that counts as moving.
@@ -276,7 +279,7 @@ pub fn run(args: TrackArgs) -> CliResult {
                 pose: tracked.poses[i],
                 objects: tracked.objects[i]
                     .iter()
-                    .map(|o| (o.track, Point2::new(o.centre[0], o.centre[1])))
+                    .filter_map(|o| Some((o.track?, Point2::new(o.centre[0], o.centre[1]))))
                     .collect(),
             })
             .collect::<Vec<_>>();
@@ -307,7 +310,7 @@ pub fn run(args: TrackArgs) -> CliResult {
     let reported: usize = scans.iter().map(|s| s.objects.len()).sum();
     let reported_tracks = scans
         .iter()
-        .flat_map(|s| s.objects.iter().map(|o| o.object.track))
+        .flat_map(|s| s.objects.iter().filter_map(|o| o.object.track))
         .collect::<std::collections::BTreeSet<_>>()
         .len();
     let output = Output {
@@ -331,12 +334,13 @@ pub fn run(args: TrackArgs) -> CliResult {
     }
     eprintln!(
         "pgm: pairs: {} of {source}; moving objects reported: {reported}, on tracks: \
-         {reported_tracks} (tracks started: {}; sequences: {}; objects added from tracks: {}, \
-         {} of them before the first detection; detections dropped as unconfirmed: {}){}",
+         {reported_tracks} (tracks started: {}; sequences: {}; objects added from tracks: {} \
+         following them, {} before their first detection; detections dropped as unconfirmed: \
+         {}){}",
         pairs.len(),
         counts.tracks,
         counts.sequences,
-        counts.tracked_objects + counts.backward_objects,
+        counts.tracked_objects,
         counts.backward_objects,
         counts.dropped,
         [("", &args.out), ("picture ", &args.svg)]
