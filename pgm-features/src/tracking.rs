@@ -1141,21 +1141,13 @@ fn tracked_object(
     track: &Track,
     detected: bool,
 ) -> TrackedObject {
-    let beams: Vec<usize> = (0..pair.current.len())
-        .filter(|&b| pair.current.valid[b] && labels[b] == Some(label))
-        .collect();
-    let returns: Vec<Point2<f64>> = beams.iter().map(|&b| pair.current.beam_point(b)).collect();
-    let centre = centroid(&returns);
+    let mut object = untracked_object(pair, labels, label);
+    let centre = Point2::new(object.centre[0], object.centre[1]);
     let velocity = (track.velocity.transform_point(&centre) - centre) / track.step;
-    TrackedObject {
-        label,
-        track: Some(track.id),
-        detected,
-        returns: returns.len(),
-        beams,
-        centre: [centre.x, centre.y],
-        velocity: Some([velocity.x, velocity.y]),
-    }
+    object.track = Some(track.id);
+    object.detected = detected;
+    object.velocity = Some([velocity.x, velocity.y]);
+    object
 }
 
 /// The report of a detected object labelled `label` in `pair` that starts no track.
