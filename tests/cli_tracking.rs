@@ -2,8 +2,9 @@
 //! options are checked, a simulated data set (independent scenes) scores exactly as
 //! without tracking, and on the datmo `overtake_ego` bag (real data, a car driven
 //! right behind and beside the robot) tracking finds the car in more pairs without
-//! false alarms. The real-data test reads `../shared/data` (or `$PGM_SHARED_DATA`);
-//! skipped with a note when it is missing, a failure when `CI=true`.
+//! false alarms; `pgm track` also runs over a plain CARMEN log (mit-csail). The
+//! real-data tests read `../shared/data` (or `$PGM_SHARED_DATA`); skipped with a note
+//! when it is missing, a failure when `CI=true`.
 
 mod common;
 
@@ -372,4 +373,32 @@ fn simulated_sequences_are_tracked_as_sequences() {
     assert_eq!(report["pairs"], 8);
     // Two sequences of four pairs each (their stamps are 1000 s apart).
     assert_eq!(report["tracking"]["sequences"], 2);
+}
+
+#[test]
+fn a_plain_carmen_log_is_tracked_over_its_consecutive_scans() {
+    let Some(data) = testdata::shared_data_dir() else {
+        return;
+    };
+    // mit-csail's log has laser lines with odometry and no VERTEX2 pose.
+    let log = data.join("mit-csail").join("mit-csail.clf");
+    let (out, err) = ok(&[
+        "track",
+        "--method",
+        "crf",
+        "--associations",
+        "icp",
+        "--log",
+        log.to_str().unwrap(),
+    ]);
+    assert!(err.contains("no VERTEX2 poses"), "{err}");
+    let out = json(&out);
+    let scans = out["scans"].as_array().unwrap();
+    assert_eq!(scans.len(), 1987);
+    let times: Vec<f64> = scans.iter().map(|s| s["time"].as_f64().unwrap()).collect();
+    assert!(times.windows(2).all(|w| w[0] < w[1]));
+    assert_eq!(out["tracking"]["sequences"], 1);
+    // The scan-to-scan motions come from the log's odometry refined by ICP: every pair
+    // has one.
+    assert!(scans.iter().all(|s| s["ego_motion"].is_object()));
 }

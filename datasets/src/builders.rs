@@ -10,7 +10,10 @@
 //!   clustering` refuses such pairs; issue 16, kind 10).
 //! - [`consecutive_pairs`] (intel-lab): consecutive laser scans that both follow a
 //!   `VERTEX2` pose; true ego-motion `inverse(V_i ∘ L_i) ∘ (V_{i+1} ∘ L_{i+1})`, no
-//!   labels, as above. In the FLIRT logs the robot pose of each ROBOTLASER1 line *is*
+//!   labels, as above. A log without any `VERTEX2` line (a plain CARMEN log such as
+//!   mit-csail's) gives its consecutive laser scans without ground truth (the odometry
+//!   prior only), to run a model on or to track (`pgm track --log`); a scan without a
+//!   valid return is left out (its neighbours are paired across it). In the FLIRT logs the robot pose of each ROBOTLASER1 line *is*
 //!   the corrected vertex pose, so it is not an independent odometry: when more than
 //!   half of the scans have odometry equal to their vertex pose (within 1e-6; in
 //!   intel-lab all but the first, whose vertex is rounded), the builder removes the
@@ -311,10 +314,33 @@ pub struct ConsecutivePairs {
     pub pairs: Vec<ScanPair>,
     /// True when the log's odometry equalled the vertex poses and was removed.
     pub odometry_was_ground_truth: bool,
+    /// True when the log has no `VERTEX2` line: the pairs have no ground truth.
+    pub without_ground_truth: bool,
+    /// Laser scans left out for having no valid return (log without `VERTEX2` lines).
+    pub empty_scans: usize,
 }
 
 /// Builds pairs of consecutive scans with `VERTEX2` poses (see the module docs).
 pub fn consecutive_pairs(log: &CarmenLog, name: &str) -> ConsecutivePairs {
+    if log.vertices.is_empty() {
+        // A plain log: consecutive scans with returns, no ground truth.
+        let seen: Vec<(usize, &Scan)> = log
+            .scans
+            .iter()
+            .enumerate()
+            .filter(|(_, s)| s.scan.valid_count() > 0)
+            .map(|(i, s)| (i, &s.scan))
+            .collect();
+        return ConsecutivePairs {
+            pairs: seen
+                .windows(2)
+                .map(|w| log_pair(name, w[0].0, w[1].0, w[0].1, w[1].1))
+                .collect(),
+            odometry_was_ground_truth: false,
+            without_ground_truth: true,
+            empty_scans: log.scans.len() - seen.len(),
+        };
+    }
     let with_pose: Vec<_> = log
         .scans
         .iter()
@@ -345,6 +371,8 @@ pub fn consecutive_pairs(log: &CarmenLog, name: &str) -> ConsecutivePairs {
     ConsecutivePairs {
         pairs,
         odometry_was_ground_truth,
+        without_ground_truth: false,
+        empty_scans: 0,
     }
 }
 

@@ -64,8 +64,9 @@ pub enum PairSource {
         /// The CARMEN reader's options (laser geometry overrides).
         options: CarmenOptions,
     },
-    /// Consecutive scans of a CARMEN log with `VERTEX2` poses (the poses give the true
-    /// ego-motion).
+    /// Consecutive scans of a CARMEN log: with `VERTEX2` poses the poses give the true
+    /// ego-motion; a log without any gives its consecutive scans without ground truth
+    /// ([`crate::builders::consecutive_pairs`]).
     ConsecutiveLog {
         /// The CARMEN log.
         log: PathBuf,
@@ -248,6 +249,22 @@ impl PairSource {
                     return Err(no_scans(path, "FLASER / ROBOTLASER1", &log.skipped));
                 }
                 let built = consecutive_pairs(&log, &file_stem(path));
+                if built.without_ground_truth {
+                    notes.push(format!(
+                        "{}: no VERTEX2 poses: {} pairs of consecutive laser scans without \
+                         ground truth (odometry prior only){}",
+                        path.display(),
+                        built.pairs.len(),
+                        if built.empty_scans > 0 {
+                            format!(
+                                "; {} scans without a valid return left out",
+                                built.empty_scans
+                            )
+                        } else {
+                            String::new()
+                        }
+                    ));
+                }
                 if built.odometry_was_ground_truth {
                     notes.push(format!(
                         "{}: the robot poses of the laser lines equal the VERTEX2 poses; \

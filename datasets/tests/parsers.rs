@@ -344,3 +344,34 @@ fn leigh_tracks_tell_standing_from_walking_people() {
         tracks[&2]
     );
 }
+
+#[test]
+fn a_log_without_vertex2_gives_consecutive_pairs_without_ground_truth() {
+    use pgm_datasets::builders::consecutive_pairs;
+    // Four scans; the third has no valid return (every range at the maximum).
+    let odometry =
+        |x: f64, t: f64| format!("FLASER 3 1.0 2.0 3.0 {x} 0.0 0.0 {x} 0.0 0.0 {t} host {t}\n");
+    let text = odometry(0.0, 10.0)
+        + &odometry(0.1, 10.1)
+        + "FLASER 3 80.0 80.0 80.0 0.2 0.0 0.0 0.2 0.0 0.0 10.2 host 10.2\n"
+        + &odometry(0.3, 10.3);
+    let log = carmen(&text).unwrap();
+    assert!(log.vertices.is_empty());
+    let built = consecutive_pairs(&log, "plain");
+    assert!(built.without_ground_truth);
+    assert_eq!(built.empty_scans, 1);
+    let names: Vec<&str> = built.pairs.iter().map(|p| p.name.as_str()).collect();
+    assert_eq!(names, ["plain:0-1", "plain:1-3"]);
+    for p in &built.pairs {
+        assert!(p.truth.is_none(), "{}", p.name);
+        assert!(p.current.timestamp > p.reference.timestamp);
+    }
+    // The odometry prior: the laser 0.1 m and 0.2 m ahead.
+    let prior = |i: usize| {
+        built.pairs[i]
+            .odometry
+            .expect("odometry on the laser lines")
+    };
+    assert!((prior(0).x() - 0.1).abs() < 1e-9, "{:?}", prior(0));
+    assert!((prior(1).x() - 0.2).abs() < 1e-9, "{:?}", prior(1));
+}

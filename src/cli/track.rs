@@ -229,8 +229,8 @@ pub fn run(args: TrackArgs) -> CliResult {
         return Err(CliError(format!(
             "{source}: no pair to track{}",
             if args.source.log.is_some() {
-                " (--log reads consecutive scans with VERTEX2 poses; a log with laser and \
-                 odometry only: write it as a bag, or pairs with pgm data pairs)"
+                " (--log pairs consecutive laser scans that have valid returns, and in a log \
+                 with VERTEX2 lines the scans that follow one)"
             } else {
                 ""
             }
