@@ -40,7 +40,7 @@ fn tracking_options_need_track_and_sense() {
             "--track-min-evidence",
             "0",
         ],
-        &["min_evidence", "0"],
+        &["--track-min-evidence 0"],
     );
     refused(
         &[
@@ -54,7 +54,7 @@ fn tracking_options_need_track_and_sense() {
             "--track-min-speed",
             "nan",
         ],
-        &["min_speed"],
+        &["--track-min-speed NaN"],
     );
 }
 
@@ -166,7 +166,7 @@ fn track_refuses_bad_options_and_writes_its_output_whole() {
             "--min-evidence",
             "0",
         ],
-        &["min_evidence"],
+        &["--min-evidence 0"],
     );
     refused(
         &[
@@ -177,7 +177,7 @@ fn track_refuses_bad_options_and_writes_its_output_whole() {
             &pairs,
             "--min-speed=-1",
         ],
-        &["min_speed"],
+        &["--min-speed -1"],
     );
     refused(
         &[

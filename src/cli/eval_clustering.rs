@@ -50,7 +50,6 @@ use pgm_datasets::evaluation::{
 };
 use pgm_features::methods::MotionClusterer;
 use pgm_features::tracking::{TrackingCounts, TrackingParams};
-use pgm_features::ParamGuard;
 use serde::Serialize;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -298,16 +297,13 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
     let tracker = args
         .track
         .then(|| {
-            TrackingParams {
-                min_evidence: args.track_min_evidence,
-                min_speed: args.track_min_speed,
-                backward: !args.track_forward_only,
-                ..TrackingParams::default()
-            }
-            .check()
+            super::track::tracker(
+                (args.track_min_evidence, "--track-min-evidence"),
+                (args.track_min_speed, "--track-min-speed"),
+                !args.track_forward_only,
+            )
         })
-        .transpose()
-        .map_err(|e| CliError(format!("--track: {e}")))?;
+        .transpose()?;
     if args.min_object_returns == 0 {
         return Err(CliError(
             "--min-object-returns 0: an object without a return in the current scan cannot \

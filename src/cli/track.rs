@@ -180,6 +180,33 @@ fn refuse_labelling_options(args: &TrackArgs) -> Result<(), CliError> {
     Ok(())
 }
 
+/// The tracker of the command-line options `(value, flag)`; a bad value is refused
+/// naming its flag.
+pub(super) fn tracker(
+    (min_evidence, evidence_flag): (usize, &str),
+    (min_speed, speed_flag): (f64, &str),
+    backward: bool,
+) -> Result<pgm_features::tracking::Tracker, CliError> {
+    if min_evidence == 0 {
+        return Err(CliError(format!(
+            "{evidence_flag} 0: a track needs at least 1 step of evidence of motion"
+        )));
+    }
+    if !(min_speed.is_finite() && min_speed >= 0.0) {
+        return Err(CliError(format!(
+            "{speed_flag} {min_speed}: expected a finite speed in m/s >= 0"
+        )));
+    }
+    TrackingParams {
+        min_evidence,
+        min_speed,
+        backward,
+        ..TrackingParams::default()
+    }
+    .check()
+    .map_err(CliError::from_display)
+}
+
 /// Runs `pgm track`.
 pub fn run(args: TrackArgs) -> CliResult {
     refuse_labelling_options(&args)?;
@@ -190,14 +217,11 @@ pub fn run(args: TrackArgs) -> CliResult {
         args.k.unwrap_or(1),
     )?;
     let options = args.method.options()?;
-    let tracker = TrackingParams {
-        min_evidence: args.min_evidence,
-        min_speed: args.min_speed,
-        backward: !args.forward_only,
-        ..TrackingParams::default()
-    }
-    .check()
-    .map_err(CliError::from_display)?;
+    let tracker = tracker(
+        (args.min_evidence, "--min-evidence"),
+        (args.min_speed, "--min-speed"),
+        !args.forward_only,
+    )?;
     let inputs: Vec<&std::path::Path> = [
         args.pairs.as_deref(),
         args.source.bag.bag.as_deref(),

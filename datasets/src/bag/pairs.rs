@@ -119,11 +119,16 @@ pub fn laser_mount(log: &BagLog, given: Option<Pose2>) -> (Pose2, String) {
             );
         }
     }
+    let why = if log.odometry.is_empty() {
+        "no odometry topic to name the robot frame".to_string()
+    } else {
+        format!("no tf edge from the odometry's frame to the scan frame {scan_frame}")
+    };
     (
         Pose2::identity(),
         format!(
-            "{}: no --laser-mount and no tf edge from the odometry's frame to the scan frame \
-             {scan_frame}: the laser is taken at the origin of the robot frame",
+            "{}: no --laser-mount and {why}: the laser is taken at the origin of the robot \
+             frame",
             log.path.display()
         ),
     )
