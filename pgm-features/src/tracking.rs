@@ -54,7 +54,15 @@
 //!    against the previous scan (the better fit of "static" and "as the detector's
 //!    motion over the pair says", refined by a translation-only fit), else the
 //!    detector's motion over the pair. A detection the previous scan shows slower than
-//!    the speed that counts is no evidence.
+//!    the speed that counts is no evidence. A track that was never found after its
+//!    birth (its velocity rests on one measurement, or only on the detector's motion
+//!    over the pair, and may be far off) is also continued by a detection whose own
+//!    velocity, measured against the previous scan and at least that speed, moves it
+//!    back to within the gate of where the track was born; the track then takes that
+//!    velocity. Only when the two detections are independent evidence: the new pair
+//!    starts no earlier than the scan the track was born in (with `k > 1`, the pairs
+//!    of consecutive scans share `k − 1` scan intervals, and clutter the detector
+//!    calls moving in one it tends to call moving in the next).
 //! 5. Tracks found moving that the detector missed become objects too. Every object
 //!    of the requested pair `(i, j)` continuing a track gets its motion over the pair
 //!    from the track: the velocity scaled to the pair's time gap, shifted onto the
@@ -361,6 +369,9 @@ struct Track {
     step: f64,
     /// Scans since it was last found.
     coast: usize,
+    /// The centre of its returns where it was last found or detected, in the frame
+    /// of the last current scan (carried along by the ego-motion alone).
+    seen: Point2<f64>,
     /// Where it started (centre of its returns, in the frame of the first scan of the
     /// sequence) and when (s).
     origin: Point2<f64>,
@@ -733,6 +744,7 @@ impl Tracker {
         let mut found = Vec::new();
         let mut keep = vec![true; tracks.len()];
         for (t, track) in tracks.iter_mut().enumerate() {
+            track.seen = back.transform_point(&track.seen);
             // The velocity over `dt` in this frame, and the returns where it puts them.
             let velocity = scale(
                 &back.compose(&track.velocity).compose(&ego),
@@ -812,6 +824,7 @@ impl Tracker {
                 taken[k] = true;
             }
             track.points = inliers.iter().map(|&k| points[k]).collect();
+            track.seen = centroid(&track.points);
             track.velocity = smoothed;
             track.coast = 0;
             found.push(Found {
@@ -887,6 +900,8 @@ impl Tracker {
                     *votes.entry(track_of_beam[b]).or_insert(0) += 1;
                 }
             }
+            // The velocity of a detection that continues a track lost at its first step.
+            let mut relinked: Option<(Pose2, f64)> = None;
             let continued = votes
                 .into_iter()
                 .max_by_key(|&(t, c)| (c, std::cmp::Reverse(t)))
@@ -897,18 +912,66 @@ impl Tracker {
                     // predicted centre lies within the gate of the object's: the
                     // detector found it again where the point-wise search did not (a
                     // walker's legs move unlike one rigid body).
-                    let centre = centroid(
-                        &members
-                            .iter()
-                            .map(|&b| pair.current.beam_point(b))
-                            .collect::<Vec<_>>(),
-                    );
-                    (0..tracks.len())
-                        .filter(|&t| !detected[t] && tracks[t].coast > 0)
+                    let points: Vec<Point2<f64>> = members
+                        .iter()
+                        .map(|&b| pair.current.beam_point(b))
+                        .collect();
+                    let centre = centroid(&points);
+                    let lost = (0..tracks.len()).filter(|&t| !detected[t] && tracks[t].coast > 0);
+                    lost.clone()
                         .map(|t| (t, (centroid(&tracks[t].points) - centre).norm()))
                         .filter(|&(_, d)| d <= p.gate)
                         .min_by(|a, b| a.1.total_cmp(&b.1))
                         .map(|(t, _)| t)
+                        .or_else(|| {
+                            // A track never found since its birth (its velocity, from one
+                            // measurement, may be far off) is continued by a detection
+                            // whose own velocity, measured against the previous scan,
+                            // puts it where the track was born, when the two detections
+                            // are independent evidence: this pair starts no earlier than
+                            // the scan the track was born in (with k > 1 consecutive
+                            // pairs overlap, and clutter flagged in one is flagged in the
+                            // next).
+                            let newborn: Vec<usize> = lost
+                                .filter(|&t| {
+                                    evidence[tracks[t].id].followed == tracks[t].coast
+                                        && pair.reference.timestamp >= tracks[t].born
+                                })
+                                .collect();
+                            if newborn.is_empty() {
+                                return None;
+                            }
+                            let over_pair = detection
+                                .motions
+                                .iter()
+                                .find(|m| m.label == label)
+                                .map(|m| m.motion.inverse().compose(&ego_pair));
+                            let (velocity, step) = consecutive.and_then(|c| {
+                                self.velocity_from_previous(
+                                    c,
+                                    &points,
+                                    &over_pair.unwrap_or_default(),
+                                    gap,
+                                )
+                            })?;
+                            // A detection the previous scan shows slow is no evidence.
+                            if (velocity.transform_point(&centre) - centre).norm() / step
+                                < p.min_speed
+                            {
+                                return None;
+                            }
+                            let t = newborn
+                                .into_iter()
+                                .map(|t| {
+                                    let back = scale(&velocity, tracks[t].coast as f64).inverse();
+                                    (t, (back.transform_point(&centre) - tracks[t].seen).norm())
+                                })
+                                .filter(|&(_, d)| d <= p.gate)
+                                .min_by(|a, b| a.1.total_cmp(&b.1))
+                                .map(|(t, _)| t)?;
+                            relinked = Some((velocity, step));
+                            Some(t)
+                        })
                 });
             if let Some(t) = continued {
                 // The detection's returns are the object as seen now: the track takes
@@ -918,7 +981,13 @@ impl Tracker {
                     .iter()
                     .map(|&b| pair.current.beam_point(b))
                     .collect();
+                tracks[t].seen = centroid(&tracks[t].points);
                 tracks[t].coast = 0;
+                if let Some((velocity, step)) = relinked {
+                    // Its birth velocity was off; the detection's own replaces it.
+                    tracks[t].velocity = velocity;
+                    tracks[t].step = step;
+                }
                 if !detected[t] {
                     detected[t] = true;
                     evidence[tracks[t].id].steps += 1;
@@ -988,6 +1057,7 @@ impl Tracker {
                     velocity,
                     step,
                     coast: 0,
+                    seen: centre,
                 });
                 detected.push(true);
                 objects.push(tracked_object(
@@ -1529,6 +1599,42 @@ mod tests {
         assert!(moving(4) && moving(5), "{:?}", tracked.counts);
         for j in 0..3 {
             assert!(!moving(j), "pair {j}: the standing box is reported moving");
+        }
+    }
+
+    #[test]
+    fn a_track_lost_at_its_first_step_is_continued_by_the_next_detection() {
+        let pairs = sequence(6, 1.0);
+        // The first pair starts the sequence: no previous scan to measure the box's
+        // velocity against, and the detector's motion is ten times too large, so the
+        // track looks for the box in the wrong place in the next scan. The detector
+        // sees it there again with its true motion.
+        let detector = Scripted(HashMap::from([
+            (
+                pairs[0].name.clone(),
+                (box_beams(&pairs[0]), Pose2::new(0.6, -0.8, 0.0)),
+            ),
+            (
+                pairs[1].name.clone(),
+                (box_beams(&pairs[1]), Pose2::new(0.06, -0.08, 0.0)),
+            ),
+        ]));
+        let tracked = Tracker::default().track(&pairs, &detector).unwrap();
+        assert_eq!(tracked.counts.tracks, 1, "{:?}", tracked.counts);
+        let first = tracked.objects[0][0].track;
+        assert!(first.is_some());
+        for (j, objects) in tracked.objects.iter().enumerate() {
+            assert_eq!(objects.len(), 1, "pair {j}");
+            assert_eq!(objects[0].track, first, "pair {j}");
+        }
+        // From the second pair on, the track's velocity is the box's (0.6 m/s towards
+        // the sensor, 0.8 to the left).
+        for (j, objects) in tracked.objects.iter().enumerate().skip(2) {
+            let v = Vector2::from(objects[0].velocity.expect("a track's velocity"));
+            assert!(
+                (v - Vector2::new(-0.6, 0.8)).norm() < 0.2,
+                "pair {j}: {v:?}"
+            );
         }
     }
 
