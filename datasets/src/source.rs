@@ -39,7 +39,8 @@ pub enum SourceKind {
     Stored,
     /// A CARMEN log with a Kümmerle-style relations file (mit-csail).
     Relations,
-    /// A CARMEN log with `VERTEX2` poses: consecutive scans (intel-lab).
+    /// A CARMEN log read as consecutive scans: with `VERTEX2` poses the true
+    /// ego-motion (intel-lab), without them no ground truth (mit-csail's `.clf`).
     ConsecutiveLog,
     /// leigh-gtm1 text logs.
     Leigh,

@@ -469,7 +469,7 @@ impl Tracker {
         let mut pose = Pose2::identity();
         // For the backward pass: each step's consecutive pair, and every track as it
         // was born (with the step it was born at).
-        let mut consecutives: Vec<Option<ScanPair>> = Vec::with_capacity(steps.len());
+        let mut consecutives: Vec<Option<Pose2>> = Vec::with_capacity(steps.len());
         let mut births: Vec<(usize, Track)> = Vec::new();
         for (n, (s, detection)) in steps.iter().zip(detections).enumerate() {
             let pair = &pairs[s.pair];
@@ -516,7 +516,7 @@ impl Tracker {
                     .filter(|t| t.id >= first_new)
                     .map(|t| (n, t.clone())),
             );
-            consecutives.push(consecutive);
+            consecutives.push(consecutive.and_then(|c| c.odometry));
         }
         let confirmed =
             |e: &Evidence| e.steps >= p.min_evidence || (e.followed == 0 && e.steps > 0);
@@ -575,7 +575,7 @@ impl Tracker {
         &self,
         pairs: &[ScanPair],
         steps: &[Step],
-        consecutives: &[Option<ScanPair>],
+        consecutives: &[Option<Pose2>],
         births: Vec<(usize, Track)>,
         poses: &[Pose2],
         clusterings: &mut [MotionClustering],
@@ -592,15 +592,19 @@ impl Tracker {
             // From the later scan of the sequence into this one.
             let later = consecutives
                 .get(n + 1)
-                .and_then(Option::as_ref)
+                .copied()
+                .flatten()
                 .zip(steps.get(n + 1).and_then(|s| s.previous));
             match later {
-                Some((c, (_, dt))) if !tracks.is_empty() => {
-                    let ego = c.odometry.unwrap_or_default().inverse();
+                Some((motion, (_, dt))) if !tracks.is_empty() => {
+                    // The consecutive pair taken in reverse: the later scan as
+                    // reference, this one as current, the inverse motion.
+                    let ego = motion.inverse();
+                    let later_scan = &pairs[steps[n + 1].pair];
                     let reversed = ScanPair {
-                        name: c.name.clone(),
-                        reference: c.current.clone(),
-                        current: c.reference.clone(),
+                        name: format!("{} (before {})", pairs[i].name, later_scan.name),
+                        reference: later_scan.current.clone(),
+                        current: pairs[i].current.clone(),
                         odometry: Some(ego),
                         truth: None,
                     };
@@ -659,9 +663,12 @@ impl Tracker {
     }
 
     /// Reports the object of `track` (velocity forward in time) in `pair` on `beams`
-    /// of its current scan, those that no reported object holds; false when more than
-    /// half of them are taken (already reported) or fewer than
-    /// [`TrackingParams::min_returns`] are left.
+    /// of its current scan; true when it adds an object. Not when a reported object
+    /// holds any of them (no second object on the same returns; a reported object with
+    /// at least half of its returns among them is the track's object, seen from its
+    /// side as the forward pass continues a track, and takes the track's other
+    /// returns that are background), with fewer than [`TrackingParams::min_returns`]
+    /// free returns, or in a pair without time between its scans.
     fn report_backward(
         &self,
         pair: &ScanPair,
@@ -670,13 +677,44 @@ impl Tracker {
         clustering: &mut MotionClustering,
         objects: &mut Vec<TrackedObject>,
     ) -> bool {
+        let mut held: HashMap<u32, usize> = HashMap::new();
+        for &b in beams {
+            if let Some(l) = clustering.labels[b].filter(|&l| l > 0) {
+                *held.entry(l).or_insert(0) += 1;
+            }
+        }
+        if let Some(l) = held
+            .iter()
+            .filter(|&(&l, &n)| {
+                2 * n >= clustering.labels.iter().filter(|&&x| x == Some(l)).count()
+            })
+            .map(|(&l, _)| l)
+            .min()
+        {
+            // The object is there already: it takes the track's other returns.
+            for &b in beams {
+                if clustering.labels[b] == Some(0) {
+                    clustering.labels[b] = Some(l);
+                }
+            }
+            if let Some(object) = objects.iter_mut().find(|o| o.label == l) {
+                let grown = untracked_object(pair, &clustering.labels, l);
+                object.beams = grown.beams;
+                object.returns = grown.returns;
+                object.centre = grown.centre;
+            }
+            return false;
+        }
+        if !held.is_empty() {
+            return false;
+        }
         let free: Vec<usize> = beams
             .iter()
             .copied()
             .filter(|&b| matches!(clustering.labels[b], None | Some(0)))
             .collect();
         let gap = pair.current.timestamp - pair.reference.timestamp;
-        if 2 * free.len() < beams.len() || free.len() < self.params.min_returns || gap <= 0.0 {
+        if free.len() < self.params.min_returns || gap <= 0.0 {
             return false;
         }
         let label = clustering
@@ -932,6 +970,11 @@ impl Tracker {
                             // the scan the track was born in (with k > 1 consecutive
                             // pairs overlap, and clutter flagged in one is flagged in the
                             // next).
+                            if members.len() < p.min_returns
+                                || gap < p.min_step.max(f64::MIN_POSITIVE)
+                            {
+                                return None;
+                            }
                             let newborn: Vec<usize> = lost
                                 .filter(|&t| {
                                     evidence[tracks[t].id].followed == tracks[t].coast
@@ -963,7 +1006,9 @@ impl Tracker {
                             let t = newborn
                                 .into_iter()
                                 .map(|t| {
-                                    let back = scale(&velocity, tracks[t].coast as f64).inverse();
+                                    // Back over the time since the track's birth.
+                                    let since = pair.current.timestamp - tracks[t].born;
+                                    let back = scale(&velocity, since / step).inverse();
                                     (t, (back.transform_point(&centre) - tracks[t].seen).norm())
                                 })
                                 .filter(|&(_, d)| d <= p.gate)
@@ -1636,6 +1681,73 @@ mod tests {
                 "pair {j}: {v:?}"
             );
         }
+    }
+
+    #[test]
+    fn a_track_is_continued_across_uneven_scan_gaps() {
+        // Scans at uneven times (two dropped after 0.2 s), the box at 2 m/s.
+        let times = [0.0, 0.1, 0.2, 0.5, 0.6, 0.7];
+        let pairs: Vec<ScanPair> = times
+            .windows(2)
+            .map(|w| ScanPair {
+                name: format!("u:{}-{}", w[0], w[1]),
+                reference: scan(w[0], &scene(w[0], 2.0)),
+                current: scan(w[1], &scene(w[1], 2.0)),
+                odometry: Some(Pose2::identity()),
+                truth: None,
+            })
+            .collect();
+        // The box's motion over a pair of `g` seconds maps its returns back by 2 m/s.
+        let over = |g: f64| Pose2::new(1.2 * g, -1.6 * g, 0.0);
+        let detector = Scripted(HashMap::from([
+            // Birth without a previous scan, the detector's motion ten times too large.
+            (pairs[0].name.clone(), (box_beams(&pairs[0]), over(1.0))),
+            // Found again after the gap with its true motion over the pair.
+            (pairs[2].name.clone(), (box_beams(&pairs[2]), over(0.3))),
+        ]));
+        let tracked = Tracker::default().track(&pairs, &detector).unwrap();
+        assert_eq!(tracked.counts.tracks, 1, "{:?}", tracked.counts);
+        assert_eq!(tracked.counts.dropped, 0, "{:?}", tracked.counts);
+        let first = tracked.objects[0].first().and_then(|o| o.track);
+        assert!(first.is_some(), "the first detection is kept");
+        assert_eq!(tracked.objects[2][0].track, first);
+    }
+
+    #[test]
+    fn the_backward_pass_reports_no_object_twice() {
+        let pairs = sequence(8, 1.0);
+        // The box detected in the sixth pair, and as two returns only in the third
+        // (too few for a track: reported as detected).
+        let third = &pairs[2];
+        let sixth = &pairs[5];
+        let detector = Scripted(HashMap::from([
+            (
+                third.name.clone(),
+                (box_beams(third)[..2].to_vec(), Pose2::new(0.06, -0.08, 0.0)),
+            ),
+            (
+                sixth.name.clone(),
+                (box_beams(sixth), Pose2::new(0.06, -0.08, 0.0)),
+            ),
+        ]));
+        let tracked = Tracker::default().track(&pairs, &detector).unwrap();
+        // Followed back into the fifth and fourth pairs; in the third the box is
+        // reported already: once.
+        let track = tracked.objects[5][0].track;
+        assert_eq!(tracked.objects[4][0].track, track);
+        assert_eq!(tracked.objects[3][0].track, track);
+        assert_eq!(tracked.objects[2].len(), 1, "{:?}", tracked.objects[2]);
+        assert_eq!(tracked.objects[2][0].track, None);
+        // The detection there takes the box's other returns.
+        assert_eq!(tracked.objects[2][0].beams, box_beams(third));
+        let label = tracked.objects[2][0].label;
+        assert!(box_beams(third)
+            .iter()
+            .all(|&b| tracked.clusterings[2].labels[b] == Some(label)));
+        // And back on into the second pair (the first starts the sequence).
+        assert_eq!(tracked.objects[1].len(), 1);
+        assert_eq!(tracked.objects[1][0].track, track);
+        assert!(tracked.objects[0].is_empty());
     }
 
     #[test]

@@ -2,8 +2,9 @@
 //!
 //! - `pgm data pairs --carmen FILE --relations FILE --out DIR`: one pair per relation
 //!   (mit-csail style: true ego-motion, no motion labels).
-//! - `pgm data pairs --log FILE --out DIR`: consecutive scans of a CARMEN log with
-//!   `VERTEX2` poses (intel-lab style).
+//! - `pgm data pairs --log FILE --out DIR`: consecutive scans of a CARMEN log; with
+//!   `VERTEX2` poses they carry the true ego-motion (intel-lab style), without them no
+//!   ground truth.
 //! - `pgm data pairs --scans FILE --people FILE [--odometry FILE] --k K
 //!   [--moving-threshold M] --out DIR`: leigh-gtm1 pairs `K` scans apart with
 //!   moving-person labels (without odometry only `--moving-threshold 0` works).
@@ -285,7 +286,8 @@ pub struct SourceArgs {
     /// Kümmerle-style relations file (`t1 t2 x y z roll pitch yaw`).
     #[arg(long, requires = "carmen")]
     pub relations: Option<PathBuf>,
-    /// CARMEN log with VERTEX2 poses: pairs of consecutive scans.
+    /// CARMEN log: pairs of consecutive laser scans (with VERTEX2 poses, their true
+    /// ego-motion; without, no ground truth).
     #[arg(long)]
     pub log: Option<PathBuf>,
     /// leigh-gtm1 scan log (`SCAN idx …` lines).
