@@ -600,7 +600,8 @@ impl Tracker {
                     // The consecutive pair taken in reverse: the later scan as
                     // reference, this one as current, the inverse motion.
                     let ego = motion.inverse();
-                    let later_scan = &pairs[steps[n + 1].pair];
+                    let later_pair = steps[n + 1].pair;
+                    let later_scan = &pairs[later_pair];
                     let reversed = ScanPair {
                         name: format!("{} (before {})", pairs[i].name, later_scan.name),
                         reference: later_scan.current.clone(),
@@ -612,7 +613,6 @@ impl Tracker {
                     // A step that shows the track moving shows it moving over the
                     // later scan's step: the object is reported in the later pair, on
                     // the returns the previous step found it on.
-                    let later_pair = steps[n + 1].pair;
                     for f in &found {
                         let beams = seen.insert(tracks[f.track].id, f.beams.clone());
                         if let Some(beams) = beams.filter(|b| f.moving && !b.is_empty()) {
@@ -938,9 +938,12 @@ impl Tracker {
                     *votes.entry(track_of_beam[b]).or_insert(0) += 1;
                 }
             }
-            // The velocity of a detection that continues a track lost at its first step.
-            let mut relinked: Option<(Pose2, f64)> = None;
-            let continued = votes
+            let points: Vec<Point2<f64>> = members
+                .iter()
+                .map(|&b| pair.current.beam_point(b))
+                .collect();
+            let centre = centroid(&points);
+            let mut continued = votes
                 .into_iter()
                 .max_by_key(|&(t, c)| (c, std::cmp::Reverse(t)))
                 .filter(|&(_, c)| 2 * c >= members.len())
@@ -950,83 +953,51 @@ impl Tracker {
                     // predicted centre lies within the gate of the object's: the
                     // detector found it again where the point-wise search did not (a
                     // walker's legs move unlike one rigid body).
-                    let points: Vec<Point2<f64>> = members
-                        .iter()
-                        .map(|&b| pair.current.beam_point(b))
-                        .collect();
-                    let centre = centroid(&points);
-                    let lost = (0..tracks.len()).filter(|&t| !detected[t] && tracks[t].coast > 0);
-                    lost.clone()
+                    (0..tracks.len())
+                        .filter(|&t| !detected[t] && tracks[t].coast > 0)
                         .map(|t| (t, (centroid(&tracks[t].points) - centre).norm()))
                         .filter(|&(_, d)| d <= p.gate)
                         .min_by(|a, b| a.1.total_cmp(&b.1))
                         .map(|(t, _)| t)
-                        .or_else(|| {
-                            // A track never found since its birth (its velocity, from one
-                            // measurement, may be far off) is continued by a detection
-                            // whose own velocity, measured against the previous scan,
-                            // puts it where the track was born, when the two detections
-                            // are independent evidence: this pair starts no earlier than
-                            // the scan the track was born in (with k > 1 consecutive
-                            // pairs overlap, and clutter flagged in one is flagged in the
-                            // next).
-                            if members.len() < p.min_returns
-                                || gap < p.min_step.max(f64::MIN_POSITIVE)
-                            {
-                                return None;
-                            }
-                            let newborn: Vec<usize> = lost
-                                .filter(|&t| {
-                                    evidence[tracks[t].id].followed == tracks[t].coast
-                                        && pair.reference.timestamp >= tracks[t].born
-                                })
-                                .collect();
-                            if newborn.is_empty() {
-                                return None;
-                            }
-                            let over_pair = detection
-                                .motions
-                                .iter()
-                                .find(|m| m.label == label)
-                                .map(|m| m.motion.inverse().compose(&ego_pair));
-                            let (velocity, step) = consecutive.and_then(|c| {
-                                self.velocity_from_previous(
-                                    c,
-                                    &points,
-                                    &over_pair.unwrap_or_default(),
-                                    gap,
-                                )
-                            })?;
-                            // A detection the previous scan shows slow is no evidence.
-                            if (velocity.transform_point(&centre) - centre).norm() / step
-                                < p.min_speed
-                            {
-                                return None;
-                            }
-                            let t = newborn
-                                .into_iter()
-                                .map(|t| {
-                                    // Back over the time since the track's birth.
-                                    let since = pair.current.timestamp - tracks[t].born;
-                                    let back = scale(&velocity, since / step).inverse();
-                                    (t, (back.transform_point(&centre) - tracks[t].seen).norm())
-                                })
-                                .filter(|&(_, d)| d <= p.gate)
-                                .min_by(|a, b| a.1.total_cmp(&b.1))
-                                .map(|(t, _)| t)?;
-                            relinked = Some((velocity, step));
-                            Some(t)
-                        })
                 });
+            // A detection that continues no track: its motion over the pair, forward in
+            // time, in the current frame (none from a detector without motions, such as
+            // CBD); better, over the last step, measured against the previous scan. A
+            // pair closer in time than a laser's sweep (a log's artefact) gives no
+            // velocity to start a track with.
+            let startable =
+                members.len() >= p.min_returns && gap >= p.min_step.max(f64::MIN_POSITIVE);
+            let over_pair = detection
+                .motions
+                .iter()
+                .find(|m| m.label == label)
+                .map(|m| m.motion.inverse().compose(&ego_pair));
+            let measured = if continued.is_none() && startable {
+                consecutive.and_then(|c| {
+                    self.velocity_from_previous(c, &points, &over_pair.unwrap_or_default(), gap)
+                })
+            } else {
+                None
+            };
+            // A detection that the previous scan shows slower than the speed that counts
+            // as moving is no evidence of motion (a detector's displacement threshold
+            // over a pair lets slow objects and jitter through).
+            let slow = measured.is_some_and(|(v, step)| {
+                (v.transform_point(&centre) - centre).norm() / step < p.min_speed
+            });
+            // The velocity of a detection that continues a track lost at its first step.
+            let relinked = measured.filter(|_| !slow).and_then(|(velocity, step)| {
+                let t = self
+                    .newborn_continued(tracks, evidence, &detected, pair, centre, velocity, step)?;
+                continued = Some(t);
+                Some((velocity, step))
+            });
             if let Some(t) = continued {
                 // The detection's returns are the object as seen now: the track takes
                 // them (a passing car shows other parts of itself scan after scan; the
                 // returns the track found near its prediction alone would shrink).
-                tracks[t].points = members
-                    .iter()
-                    .map(|&b| pair.current.beam_point(b))
-                    .collect();
-                tracks[t].seen = centroid(&tracks[t].points);
+                tracks[t].points = points;
+                tracks[t].seen = centre;
                 tracks[t].coast = 0;
                 if let Some((velocity, step)) = relinked {
                     // Its birth velocity was off; the detection's own replaces it.
@@ -1057,65 +1028,36 @@ impl Tracker {
                 ));
                 continue;
             }
-            let motion = detection
-                .motions
-                .iter()
-                .find(|m| m.label == label)
-                .map(|m| m.motion);
-            // A pair closer in time than a laser's sweep (a log's artefact) gives no
-            // velocity to start a track with.
-            if members.len() >= p.min_returns && gap >= p.min_step.max(f64::MIN_POSITIVE) {
-                let points: Vec<Point2<f64>> = members
-                    .iter()
-                    .map(|&b| pair.current.beam_point(b))
-                    .collect();
-                // Its motion over the pair, forward in time, in the current frame (none
-                // from a detector without motions, such as CBD); better, over the last
-                // step, measured against the previous scan.
-                let over_pair = motion.map(|object| object.inverse().compose(&ego_pair));
-                let measured = consecutive.and_then(|c| {
-                    self.velocity_from_previous(c, &points, &over_pair.unwrap_or_default(), gap)
-                });
-                let slow = measured.is_some_and(|(v, step)| {
-                    let centre = centroid(&points);
-                    (v.transform_point(&centre) - centre).norm() / step < p.min_speed
-                });
-                let Some((velocity, step)) = measured.or(over_pair.map(|v| (v, gap))) else {
-                    objects.push(untracked_object(pair, &detection.labels, label));
-                    continue;
-                };
-                let id = evidence.len();
-                // A detection that the previous scan shows slower than the speed that
-                // counts as moving is no evidence of motion (a detector's displacement
-                // threshold over a pair lets slow objects and jitter through). Without a
-                // previous scan the detection stands as the detector made it.
-                let centre = centroid(&points);
-                evidence.push(Evidence {
-                    steps: usize::from(!slow),
-                    followed: 0,
-                });
-                tracks.push(Track {
-                    id,
-                    origin: pose.transform_point(&centre),
-                    born: pair.current.timestamp,
-                    points,
-                    velocity,
-                    step,
-                    coast: 0,
-                    seen: centre,
-                });
-                detected.push(true);
-                objects.push(tracked_object(
-                    pair,
-                    &detection.labels,
-                    label,
-                    tracks.last().expect("just pushed"),
-                    true,
-                ));
-                counts.tracks += 1;
-            } else {
+            let velocity = measured.or(over_pair.map(|v| (v, gap)));
+            let Some((velocity, step)) = velocity.filter(|_| startable) else {
                 objects.push(untracked_object(pair, &detection.labels, label));
-            }
+                continue;
+            };
+            let id = evidence.len();
+            // Without a previous scan the detection stands as the detector made it.
+            evidence.push(Evidence {
+                steps: usize::from(!slow),
+                followed: 0,
+            });
+            tracks.push(Track {
+                id,
+                origin: pose.transform_point(&centre),
+                born: pair.current.timestamp,
+                points,
+                velocity,
+                step,
+                coast: 0,
+                seen: centre,
+            });
+            detected.push(true);
+            objects.push(tracked_object(
+                pair,
+                &detection.labels,
+                label,
+                tracks.last().expect("just pushed"),
+                true,
+            ));
+            counts.tracks += 1;
         }
         // Tracks found moving where the detector reported nothing: one more object
         // each, on the returns no detected object holds, with the motion over the
@@ -1150,6 +1092,45 @@ impl Tracker {
             counts.tracked_objects += 1;
         }
         (detection, objects)
+    }
+
+    /// The track that a detection centred at `centre` (current frame) continues when
+    /// it continues none by its returns or its predicted centre: one never found since
+    /// its birth (its velocity rests on one measurement, or only on the detector's
+    /// motion over a pair, and may be far off), lost now, born no later than the scan
+    /// this pair starts at (the two detections are independent evidence; with `k > 1`
+    /// the pairs of consecutive scans share `k − 1` scan intervals, and clutter the
+    /// detector calls moving in one it tends to call moving in the next), whose birth
+    /// place the detection's own `velocity` (over `step` seconds) moves it back to
+    /// within the gate of; the nearest.
+    #[allow(clippy::too_many_arguments)]
+    fn newborn_continued(
+        &self,
+        tracks: &[Track],
+        evidence: &[Evidence],
+        detected: &[bool],
+        pair: &ScanPair,
+        centre: Point2<f64>,
+        velocity: Pose2,
+        step: f64,
+    ) -> Option<usize> {
+        (0..tracks.len())
+            .filter(|&t| {
+                let track = &tracks[t];
+                !detected[t]
+                    && track.coast > 0
+                    && evidence[track.id].followed == track.coast
+                    && pair.reference.timestamp >= track.born
+            })
+            .map(|t| {
+                // Back over the time since the track's birth.
+                let since = pair.current.timestamp - tracks[t].born;
+                let back = scale(&velocity, since / step).inverse();
+                (t, (back.transform_point(&centre) - tracks[t].seen).norm())
+            })
+            .filter(|&(_, d)| d <= self.params.gate)
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|(t, _)| t)
     }
 
     /// A new object's velocity measured against the previous current scan (the

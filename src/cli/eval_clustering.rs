@@ -38,6 +38,7 @@
 
 use super::cluster::{association_names, CrfArgs};
 use super::data::{load_pairs, pair_source, LeighArgs, SourceArgs};
+use super::track::TrackingFields;
 use super::{CliError, CliResult};
 use clap::builder::{PossibleValue, PossibleValuesParser};
 use clap::Args;
@@ -49,7 +50,7 @@ use pgm_datasets::evaluation::{
     evaluate_clustering_with, scorable_for_clustering, DetectionOptions, DetectionSummary,
 };
 use pgm_features::methods::MotionClusterer;
-use pgm_features::tracking::{TrackingCounts, TrackingParams};
+use pgm_features::tracking::TrackingParams;
 use serde::Serialize;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -236,16 +237,6 @@ struct Report<'a> {
     detection: DetectionFields,
     /// `--track`: the tracking parameters and what tracking changed; `null` without.
     tracking: Option<TrackingFields>,
-}
-
-/// The `tracking` object of the `--json` output.
-#[derive(Serialize)]
-struct TrackingFields {
-    min_evidence: usize,
-    min_speed: f64,
-    backward: bool,
-    #[serde(flatten)]
-    counts: TrackingCounts,
 }
 
 /// The detection metrics of the `--json` object (`v_measure_mean` is the summary's).

@@ -78,17 +78,19 @@ struct Output<'a> {
     associations: Option<&'a str>,
     data: String,
     weights: &'a str,
-    tracking: Tracking,
+    tracking: TrackingFields,
     scans: Vec<ScanObjects>,
 }
 
+/// The `tracking` object of the JSON output (also `pgm eval clustering --track`'s):
+/// the tracking options and what tracking changed.
 #[derive(Serialize)]
-struct Tracking {
-    min_evidence: usize,
-    min_speed: f64,
-    backward: bool,
+pub(super) struct TrackingFields {
+    pub(super) min_evidence: usize,
+    pub(super) min_speed: f64,
+    pub(super) backward: bool,
     #[serde(flatten)]
-    counts: TrackingCounts,
+    pub(super) counts: TrackingCounts,
 }
 
 #[derive(Serialize)]
@@ -342,7 +344,7 @@ pub fn run(args: TrackArgs) -> CliResult {
         associations: built.associations.as_deref(),
         data: source.to_string(),
         weights: &built.weights,
-        tracking: Tracking {
+        tracking: TrackingFields {
             min_evidence: args.min_evidence,
             min_speed: args.min_speed,
             backward: !args.forward_only,
