@@ -48,7 +48,7 @@
 
 use crate::pose::Pose2;
 use crate::scan::Scan;
-use nalgebra::Point2;
+use nalgebra::{Point2, Vector2};
 
 /// Neighbour orders of the shape descriptors (the paper's 1st, 3rd and 5th).
 pub const NEIGHBOURS: [usize; 3] = [1, 3, 5];
@@ -107,6 +107,11 @@ pub struct ScanShape {
     /// ([`surface_points`](crate::scan::surface_points)): the positions the registered
     /// features, the pairwise geometry and the motion fits use.
     pub surface: Vec<Point2<f64>>,
+    /// Unit normal of each surface point's line, `None` where the return keeps its
+    /// measured position ([`surface_model`](crate::scan::surface_model)): the
+    /// point-to-line terms of the motion fits
+    /// ([`refine_point_to_line`](crate::alignment::refine_point_to_line)).
+    pub normals: Vec<Option<Vector2<f64>>>,
     /// Beam index of each return.
     pub beams: Vec<usize>,
     /// Beam angle of each return (rad).
@@ -167,9 +172,13 @@ impl ScanShape {
             descriptors.push(p.coords.norm());
         }
         let angles = beams.iter().map(|&b| scan.angles[b]).collect();
-        let surface = crate::scan::surface_points(&points, scan.angle_increment());
+        let (surface, normals) = crate::scan::surface_model(&points, scan.angle_increment())
+            .into_iter()
+            .map(|s| (s.point, s.normal))
+            .unzip();
         Self {
             surface,
+            normals,
             points,
             beams,
             angles,

@@ -15,7 +15,7 @@
 //! consecutive points are far apart (the initial segmentation of both papers).
 
 use crate::pose::Pose2;
-use nalgebra::Point2;
+use nalgebra::{Point2, Vector2};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::TAU;
 use std::ops::Range;
@@ -354,6 +354,31 @@ pub const SURFACE_MIN_INCIDENCE_COS: f64 = 0.2;
 ///
 /// Output: one point per input point. O(n).
 pub fn surface_points(points: &[Point2<f64>], increment: f64) -> Vec<Point2<f64>> {
+    surface_model(points, increment)
+        .into_iter()
+        .map(|s| s.point)
+        .collect()
+}
+
+/// One return of [`surface_model`]: its position with the range noise reduced and the
+/// unit normal of the line it was moved onto.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfacePoint {
+    /// The return moved along its beam onto its surface's line (sensor frame, m); as
+    /// measured where [`surface_points`] keeps it.
+    pub point: Point2<f64>,
+    /// Unit normal of that line (sensor frame; its sign is arbitrary); `None` where the
+    /// return keeps its measured position (fewer than three returns on its surface, a
+    /// grazing incidence, or a correction beyond [`SURFACE_MAX_SHIFT`]: no line
+    /// describes the surface there).
+    pub normal: Option<Vector2<f64>>,
+}
+
+/// [`surface_points`] with the normal of each return's line: the surface model of
+/// point-to-line ICP (Censi 2008), used by
+/// [`refine_point_to_line`](crate::alignment::refine_point_to_line). One output per
+/// input point. O(n).
+pub fn surface_model(points: &[Point2<f64>], increment: f64) -> Vec<SurfacePoint> {
     let n = points.len();
     let same_surface = |a: usize, b: usize| -> bool {
         let r = points[a].coords.norm().min(points[b].coords.norm());
@@ -382,8 +407,12 @@ pub fn surface_points(points: &[Point2<f64>], increment: f64) -> Vec<Point2<f64>
             let lo = i.saturating_sub(SURFACE_WINDOW).max(run_start[i]);
             let hi = (i + SURFACE_WINDOW + 1).min(run_end[i]);
             let window = &points[lo..hi];
+            let kept = SurfacePoint {
+                point: p,
+                normal: None,
+            };
             if window.len() < 3 {
-                return p;
+                return kept;
             }
             let centre = window
                 .iter()
@@ -403,18 +432,21 @@ pub fn surface_points(points: &[Point2<f64>], increment: f64) -> Vec<Point2<f64>
             let normal = eigen.eigenvectors.column(smallest).into_owned();
             let range = p.coords.norm();
             if range <= 0.0 {
-                return p;
+                return kept;
             }
             let beam = p.coords / range;
             let cos = normal.dot(&beam);
             if cos.abs() < SURFACE_MIN_INCIDENCE_COS {
-                return p;
+                return kept;
             }
             let t = normal.dot(&centre) / cos;
             if !t.is_finite() || (t - range).abs() > SURFACE_MAX_SHIFT {
-                return p;
+                return kept;
             }
-            Point2::from(beam * t)
+            SurfacePoint {
+                point: Point2::from(beam * t),
+                normal: Some(normal),
+            }
         })
         .collect()
 }
@@ -490,6 +522,24 @@ mod tests {
         with_gap[60] = Point2::new(with_gap[60].x * 3.0, with_gap[60].y * 3.0);
         assert_eq!(surface_points(&with_gap, increment)[60], with_gap[60]);
         assert!(surface_points(&[], increment).is_empty());
+        // The surface model gives the wall's normal where it moved a return, and none
+        // for the lone return.
+        let model = surface_model(&with_gap, increment);
+        assert_eq!(model[60].normal, None);
+        let moved = model.iter().filter(|s| s.normal.is_some()).count();
+        assert!(moved > points.len() - 10, "{moved} of {}", points.len());
+        let normals: Vec<_> = model.iter().filter_map(|s| s.normal).collect();
+        assert!(normals.iter().all(|n| (n.norm() - 1.0).abs() < 1e-9));
+        // Along the wall (y = 4) the normal is (0, ±1), within 11° for most returns
+        // (five returns with 3 cm range noise fix a line only so well).
+        let across = normals.iter().filter(|n| n.y.abs() > 0.98).count();
+        assert!(
+            across * 10 >= normals.len() * 8,
+            "{across} of {}",
+            normals.len()
+        );
+        let plain: Vec<Point2<f64>> = model.iter().map(|s| s.point).collect();
+        assert_eq!(plain, surface_points(&with_gap, increment));
     }
 
     #[test]

@@ -70,6 +70,12 @@ pub struct MatchingParams {
     /// / 0.00510 rad with (ICP: 0.0216 m / 0.00398 rad and 0.0223 m / 0.00557 rad).
     /// The associations are the CRF's either way.
     pub polish_ego: bool,
+    /// Weight of the point-to-point term of the point-to-line refinement that ends
+    /// every motion solve (`Some(0.1)`, [`pgm_features::alignment::POINT_TO_POINT_WEIGHT`];
+    /// `None`: eq. 6 alone, as the paper). See [`MatchingModel::solve_motions`]; on the
+    /// design seed every weight from 0.01 to 0.3 gave the same mean exact accuracy
+    /// within 0.1 point (notes/issue14.md).
+    pub point_to_line: Option<f64>,
     /// Segment-wise ICP for the ego-motion and the motion hypotheses.
     pub segments: SegmentParams,
     /// The learned weights and boosters (default: the shipped ones).
@@ -88,6 +94,7 @@ impl Default for MatchingParams {
             max_rounds: 5,
             segment_motions: true,
             polish_ego: true,
+            point_to_line: Some(pgm_features::alignment::POINT_TO_POINT_WEIGHT),
             segments: SegmentParams::default(),
             weights: MatchingWeights::default(),
         }
@@ -118,6 +125,9 @@ impl ParamGuard for MatchingParams {
             .into());
         }
         InvalidParameter::non_negative("tolerance", self.tolerance, "a number >= 0")?;
+        if let Some(w) = self.point_to_line {
+            InvalidParameter::positive("point_to_line", w, "a positive weight")?;
+        }
         self.segments.check_ref()?;
         self.weights.check_ref()
     }
@@ -268,7 +278,8 @@ impl Matcher {
                     motions.clone(),
                     &p.weights.weights,
                     p.band,
-                ),
+                )
+                .with_point_to_line(p.point_to_line),
             };
             let initial: Vec<usize> = (0..n)
                 .map(|i| {

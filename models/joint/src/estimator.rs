@@ -111,6 +111,12 @@ pub struct JointParams {
     /// 0.0061 / 0.0059; every other figure of `pgm eval joint` unchanged. The default is
     /// the physical figure, not the best of these.
     pub object_rotation_sigma: Option<f64>,
+    /// Weight of the point-to-point term of the point-to-line refinement that ends
+    /// every cluster's motion solve (`Some(0.1)`,
+    /// [`pgm_features::alignment::POINT_TO_POINT_WEIGHT`]; `None`: eq. 6 alone, as the
+    /// paper). As CRF-Matching's (`pgm_features::alignment::refine_point_to_line`):
+    /// eq. 6 on one-to-one partners carries the sampling of the surfaces.
+    pub point_to_line: Option<f64>,
     /// Segment-wise ICP for the motion hypotheses.
     pub segments: SegmentParams,
     /// The learned weights and boosters (default: the shipped ones).
@@ -131,6 +137,7 @@ impl Default for JointParams {
             max_rounds: 5,
             polish_ego: true,
             object_rotation_sigma: Some(0.05),
+            point_to_line: Some(pgm_features::alignment::POINT_TO_POINT_WEIGHT),
             segments: SegmentParams::default(),
             weights: JointWeights::default(),
         }
@@ -179,6 +186,9 @@ impl ParamGuard for JointParams {
                 sigma,
                 "a standard deviation in rad > 0",
             )?;
+        }
+        if let Some(w) = self.point_to_line {
+            InvalidParameter::positive("point_to_line", w, "a positive weight")?;
         }
         self.segments.check_ref()?;
         self.weights.check_ref()
@@ -358,7 +368,8 @@ impl Joint {
                     &p.weights.weights,
                     p.band,
                     &clusters,
-                ),
+                )
+                .with_point_to_line(p.point_to_line),
             };
             let start_association: Vec<usize> = (0..n)
                 .map(|i| {

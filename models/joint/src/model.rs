@@ -26,13 +26,13 @@
 //! alternation cannot move a return into the outlier state of either chain first.)
 
 use crate::weights::{ASSOCIATION_BASE, CLUSTERING_BASE};
-use nalgebra::Point2;
 use pgm_core::exact::PairPattern;
 use pgm_core::hybrid::chain::{FeatureSink, HybridChainModel};
+use pgm_features::alignment::{fit_trimmed, POINT_TO_POINT_WEIGHT};
 use pgm_features::association_chain::{AssociationProblem, AssociationTables};
 use pgm_features::clustering_chain;
 use pgm_features::scan::segment_by_gap;
-use pgm_features::{Pose2, RigidAlignment};
+use pgm_features::{Pose2, RigidAlignment, SurfacePair, TrimmedFit};
 use std::sync::Arc;
 
 /// The association chain's index.
@@ -71,6 +71,9 @@ pub struct JointModel<'a> {
     association: Vec<Option<usize>>,
     cluster: Vec<Option<usize>>,
     stats: RigidAlignment,
+    /// Weight of the point-to-point term of the point-to-line refinement of every
+    /// motion solve (`None`: eq. 6 alone).
+    point_to_line: Option<f64>,
 }
 
 impl std::fmt::Debug for JointModel<'_> {
@@ -115,7 +118,16 @@ impl<'a> JointModel<'a> {
             association: vec![None; n],
             cluster: vec![None; n],
             stats: RigidAlignment::new(),
+            point_to_line: Some(POINT_TO_POINT_WEIGHT),
         }
+    }
+
+    /// The same model with the point-to-line refinement of its motion solves weighted
+    /// `point_weight` (see [`JointModel::solve_motions`]; `None`: eq. 6 alone, as the
+    /// paper).
+    pub fn with_point_to_line(mut self, point_weight: Option<f64>) -> Self {
+        self.point_to_line = point_weight;
+        self
     }
 
     /// The model of the next round (new `candidates` and `motions`; the same problem,
@@ -144,6 +156,7 @@ impl<'a> JointModel<'a> {
             association: vec![None; n],
             cluster: vec![None; n],
             stats: RigidAlignment::new(),
+            point_to_line: self.point_to_line,
         }
     }
 
@@ -234,11 +247,13 @@ impl<'a> JointModel<'a> {
     /// motion, pairs farther than [`INLIER_SIGMAS`] association standard deviations
     /// leave and the rest are solved again (eq. 6, weights `1/σ²`), at most
     /// [`TRIM_ITERATIONS`] times; fewer than [`MIN_CLUSTER_POINTS`] pairs keep the
-    /// motion. `prior`: `(θ₀, κ)` of a rotation prior. `pairs` is scratch space.
+    /// motion; then the point-to-line refinement on the kept pairs
+    /// ([`pgm_features::alignment::fit_trimmed`]). `prior`: `(θ₀, κ)` of a rotation
+    /// prior. `pairs` is scratch space.
     fn fit_cluster(
         &mut self,
         c: usize,
-        pairs: &mut Vec<(Point2<f64>, Point2<f64>, f64)>,
+        pairs: &mut Vec<SurfacePair>,
         prior: Option<(f64, f64)>,
     ) -> Pose2 {
         let p = self.tables.problem();
@@ -247,33 +262,22 @@ impl<'a> JointModel<'a> {
             if self.cluster[i] != Some(c) {
                 continue;
             }
-            if let Some(g) = self.partner(i) {
-                pairs.push((p.current.surface[i], *g, p.variances[i]));
+            if let Some(j) = self.association[i].and_then(|a| self.tables.partner(i, a)) {
+                pairs.push(SurfacePair {
+                    source: p.current.surface[i],
+                    target: p.reference.surface[j],
+                    normal: p.reference.normals[j],
+                    variance: p.variances[i],
+                });
             }
         }
-        let mut motion = self.motions[c];
-        for round in 0..TRIM_ITERATIONS {
-            let before = pairs.len();
-            pairs.retain(|(s, g, var)| {
-                (motion.transform_point(s) - g).norm_squared()
-                    <= INLIER_SIGMAS * INLIER_SIGMAS * var
-            });
-            if pairs.len() < MIN_CLUSTER_POINTS || (round > 0 && pairs.len() == before) {
-                break;
-            }
-            self.stats.clear();
-            for (s, g, var) in pairs.iter() {
-                self.stats.add(s, g, 1.0 / var);
-            }
-            let solved = match prior {
-                Some((theta0, kappa)) => self.stats.solve_with_rotation_prior(theta0, kappa),
-                None => self.stats.solve(),
-            };
-            if let Some(a) = solved {
-                motion = a.motion;
-            }
-        }
-        motion
+        let limits = TrimmedFit {
+            inlier_sigmas: INLIER_SIGMAS,
+            iterations: TRIM_ITERATIONS,
+            min_pairs: MIN_CLUSTER_POINTS,
+            point_to_line: self.point_to_line,
+        };
+        fit_trimmed(pairs, self.motions[c], &limits, prior, &mut self.stats)
     }
 }
 
