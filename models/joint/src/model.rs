@@ -71,8 +71,8 @@ pub struct JointModel<'a> {
     association: Vec<Option<usize>>,
     cluster: Vec<Option<usize>>,
     stats: RigidAlignment,
-    /// Weight of the point-to-point term of the point-to-line refinement of every
-    /// motion solve (`None`: eq. 6 alone).
+    /// Weight of the point-to-point term of the point-to-line refinement of the
+    /// background cluster's motion solve (`None`: eq. 6 alone).
     point_to_line: Option<f64>,
 }
 
@@ -122,9 +122,9 @@ impl<'a> JointModel<'a> {
         }
     }
 
-    /// The same model with the point-to-line refinement of its motion solves weighted
-    /// `point_weight` (see [`JointModel::solve_motions`]; `None`: eq. 6 alone, as the
-    /// paper).
+    /// The same model with the point-to-line refinement of the background cluster's
+    /// motion solve weighted `point_weight` (see [`crate::JointParams::point_to_line`];
+    /// `None`: eq. 6 alone, as the paper).
     pub fn with_point_to_line(mut self, point_weight: Option<f64>) -> Self {
         self.point_to_line = point_weight;
         self
@@ -247,9 +247,9 @@ impl<'a> JointModel<'a> {
     /// motion, pairs farther than [`INLIER_SIGMAS`] association standard deviations
     /// leave and the rest are solved again (eq. 6, weights `1/σ²`), at most
     /// [`TRIM_ITERATIONS`] times; fewer than [`MIN_CLUSTER_POINTS`] pairs keep the
-    /// motion; then the point-to-line refinement on the kept pairs
-    /// ([`pgm_features::alignment::fit_trimmed`]). `prior`: `(θ₀, κ)` of a rotation
-    /// prior. `pairs` is scratch space.
+    /// motion; then, for the background cluster, the point-to-line refinement on the
+    /// kept pairs ([`pgm_features::alignment::fit_trimmed`]). `prior`: `(θ₀, κ)` of a
+    /// rotation prior. `pairs` is scratch space.
     fn fit_cluster(
         &mut self,
         c: usize,
@@ -275,7 +275,8 @@ impl<'a> JointModel<'a> {
             inlier_sigmas: INLIER_SIGMAS,
             iterations: TRIM_ITERATIONS,
             min_pairs: MIN_CLUSTER_POINTS,
-            point_to_line: self.point_to_line,
+            // The background's motion only (see `JointParams::point_to_line`).
+            point_to_line: self.point_to_line.filter(|_| c == self.background),
         };
         fit_trimmed(pairs, self.motions[c], &limits, prior, &mut self.stats)
     }
