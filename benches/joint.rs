@@ -6,7 +6,9 @@
 //! state per return), `full` every reference return and the outlier state (sparse
 //! pairwise tables); both re-solve the motions after every sweep (the default).
 //! `pruned_every_visit` re-solves them after every node visit whose label changed
-//! (Algorithm 1's schedule). The targets: at most 5 ms pruned, 200 ms full.
+//! (Algorithm 1's schedule). `pruned_eq6` is `pruned` with the background's motion
+//! solved by eq. 6 alone (`JointParams::point_to_line` off), beside it in the same
+//! run. The targets: at most 5 ms pruned, 200 ms full.
 //!
 //! Run: `cargo bench --bench joint`.
 
@@ -25,19 +27,33 @@ fn joint(c: &mut Criterion) {
     group
         .sample_size(20)
         .measurement_time(Duration::from_secs(8));
-    for (name, space, update) in [
-        ("pruned", StateSpace::Pruned(6), ChainUpdate::EverySweep),
-        ("full", StateSpace::Full, ChainUpdate::EverySweep),
+    for (name, space, update, point_to_line) in [
+        (
+            "pruned",
+            StateSpace::Pruned(6),
+            ChainUpdate::EverySweep,
+            true,
+        ),
+        ("full", StateSpace::Full, ChainUpdate::EverySweep, true),
         (
             "pruned_every_visit",
             StateSpace::Pruned(6),
             ChainUpdate::EveryVisit,
+            true,
+        ),
+        (
+            "pruned_eq6",
+            StateSpace::Pruned(6),
+            ChainUpdate::EverySweep,
+            false,
         ),
     ] {
+        let defaults = JointParams::default();
         let joint = JointParams {
             state_space: space,
             update,
-            ..JointParams::default()
+            point_to_line: defaults.point_to_line.filter(|_| point_to_line),
+            ..defaults
         }
         .check()
         .expect("valid");

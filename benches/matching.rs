@@ -4,6 +4,8 @@
 //! default state space (6 candidates and the outlier state per point), `full` every
 //! reference return and the outlier state (sparse pairwise tables: the band and the
 //! outlier row and column, see `pgm_crf_matching::model::band_pattern`).
+//! `pruned_eq6` is `pruned` with the motion solves by eq. 6 alone
+//! (`MatchingParams::point_to_line` off), beside it in the same run.
 //!
 //! Run: `cargo bench --bench matching`.
 
@@ -19,16 +21,24 @@ fn matching(c: &mut Criterion) {
     group
         .sample_size(20)
         .measurement_time(Duration::from_secs(8));
-    for (name, space) in [
-        ("pruned", StateSpace::Pruned(6)),
-        ("full", StateSpace::Full),
+    for (name, space, point_to_line) in [
+        ("pruned", StateSpace::Pruned(6), true),
+        ("full", StateSpace::Full, true),
+        ("pruned_eq6", StateSpace::Pruned(6), false),
     ] {
+        let defaults = MatchingParams::default();
         let matcher = MatchingParams {
             state_space: space,
-            ..MatchingParams::default()
+            point_to_line: defaults.point_to_line.filter(|_| point_to_line),
+            ..defaults
         }
         .check()
         .expect("valid");
+        let m = matcher.match_pair(&pair).expect("matches");
+        eprintln!(
+            "crf-matching {name}: {} sweeps, {} rounds on {}",
+            m.sweeps, m.rounds, pair.name
+        );
         group.bench_function(name, |b| {
             b.iter(|| std::hint::black_box(matcher.match_pair(&pair).expect("matches")))
         });
