@@ -31,7 +31,7 @@
 
 use super::cluster::OnePairArgs;
 use super::data::{load_pairs, pair_source, LeighArgs, SourceArgs};
-use super::matching::{parse_state_space, MatchingOptionArgs};
+use super::matching::{parse_state_space, MatchingOptionArgs, MotionFit};
 use super::{CliError, CliResult};
 use clap::builder::{PossibleValue, PossibleValuesParser};
 use clap::Args;
@@ -107,6 +107,11 @@ pub struct JointArgs {
     /// return and the outlier state).
     #[arg(long, default_value = "6", value_parser = parse_state_space)]
     pub candidates: StateSpace,
+    /// How the background cluster's motion solve ends: `point-to-line` (eq. 6, then
+    /// the point-to-line refinement; the default) or `point-to-point` (eq. 6 alone, as
+    /// the paper). The other clusters are eq. 6 either way.
+    #[arg(long, value_enum, default_value_t = MotionFit::PointToLine)]
+    pub motion_fit: MotionFit,
     /// The cluster states: `auto` (one per group of moving segments, at most 8 with the
     /// outlier cluster) or a fixed number `D` (2-32, the outlier cluster included; the
     /// paper's experiments use 5).
@@ -160,12 +165,14 @@ fn state_space_name(space: StateSpace) -> String {
 /// The joint model's parameters from the command line.
 fn joint_params(
     candidates: StateSpace,
+    motion_fit: MotionFit,
     clusters: Clusters,
     object_rotation_sigma: RotationSigma,
     weights: Option<&Path>,
 ) -> Result<JointParams, CliError> {
     let mut params = JointParams {
         state_space: candidates,
+        point_to_line: motion_fit.point_to_line(),
         clusters,
         object_rotation_sigma: object_rotation_sigma.0,
         ..JointParams::default()
@@ -209,6 +216,7 @@ pub fn run_joint(args: JointArgs) -> CliResult {
     let pair = args.source.load()?;
     let params = joint_params(
         args.candidates,
+        args.motion_fit,
         args.clusters,
         args.object_rotation_sigma,
         args.weights.as_deref(),
@@ -382,6 +390,7 @@ pub fn run_eval_joint(args: JointEvalArgs) -> CliResult {
     let mut options = args.matching.apply(MethodOptions::default())?;
     options.joint = joint_params(
         args.matching.candidates,
+        args.matching.motion_fit,
         args.clusters,
         args.object_rotation_sigma,
         args.weights.as_deref(),

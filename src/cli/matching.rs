@@ -41,6 +41,32 @@ pub struct MatchingOptionArgs {
     /// `full` (every reference return and the outlier state).
     #[arg(long, default_value = "6", value_parser = parse_state_space)]
     pub candidates: StateSpace,
+    /// CRF-Matching (and the joint model's background): how every motion solve ends:
+    /// `point-to-line` (eq. 6 on the MAP partners, then each return against the line
+    /// through its partner's surface; the default) or `point-to-point` (eq. 6 alone,
+    /// as the paper).
+    #[arg(long, value_enum, default_value_t = MotionFit::PointToLine)]
+    pub motion_fit: MotionFit,
+}
+
+/// `--motion-fit`: how CRF-Matching's and the joint model's motion solves end.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum MotionFit {
+    /// Eq. 6, then the point-to-line refinement
+    /// (`pgm_features::alignment::refine_point_to_line`, point-to-point weight 0.1).
+    PointToLine,
+    /// Eq. 6 alone (the paper's).
+    PointToPoint,
+}
+
+impl MotionFit {
+    /// The `point_to_line` parameter of `MatchingParams` and `JointParams`.
+    pub fn point_to_line(self) -> Option<f64> {
+        match self {
+            MotionFit::PointToLine => Some(pgm_features::alignment::POINT_TO_POINT_WEIGHT),
+            MotionFit::PointToPoint => None,
+        }
+    }
 }
 
 /// Parses `--candidates`: `full` or a number of candidates in 1..=64.
@@ -66,6 +92,8 @@ impl MatchingOptionArgs {
         }
         options.matching.state_space = self.candidates;
         options.joint.state_space = self.candidates;
+        options.matching.point_to_line = self.motion_fit.point_to_line();
+        options.joint.point_to_line = self.motion_fit.point_to_line();
         Ok(options)
     }
 }
