@@ -6,9 +6,9 @@
 //! state per return), `full` every reference return and the outlier state (sparse
 //! pairwise tables); both re-solve the motions after every sweep (the default).
 //! `pruned_every_visit` re-solves them after every node visit whose label changed
-//! (Algorithm 1's schedule). `pruned_eq6` is `pruned` with the background's motion
-//! solved by eq. 6 alone (`JointParams::point_to_line` off), beside it in the same
-//! run. The targets: at most 5 ms pruned, 200 ms full.
+//! (Algorithm 1's schedule). `pruned_eq6` and `pruned_every_visit_eq6` are those two
+//! with the background's motion solved by eq. 6 alone (`JointParams::point_to_line`
+//! off), beside them in the same run. The targets: at most 5 ms pruned, 200 ms full.
 //!
 //! Run: `cargo bench --bench joint`.
 
@@ -45,6 +45,12 @@ fn joint(c: &mut Criterion) {
             "pruned_eq6",
             StateSpace::Pruned(6),
             ChainUpdate::EverySweep,
+            false,
+        ),
+        (
+            "pruned_every_visit_eq6",
+            StateSpace::Pruned(6),
+            ChainUpdate::EveryVisit,
             false,
         ),
     ] {

@@ -377,23 +377,28 @@ pub const POINT_TO_LINE_ITERATIONS: usize = 5;
 /// smallest eigenvalue is below this fraction of the largest.
 const SINGULAR_RATIO: f64 = 1e-10;
 
-/// The motion that minimises, over the fixed `pairs` (weights `1/σ²`),
+/// The motion that minimises, over the fixed `pairs` (weights `w = 1/σ²`),
 ///
-/// `Σ w (n·(R s + T − g))² + λ Σ w ‖R s + T − g‖²`
+/// `Σ w (n·(R s + T − g))² + λ Σ w ‖R s + T − g‖² − 2κ cos(θ − θ₀)`
 ///
-/// (`λ` = `point_weight`; pairs without a normal count with their full point-to-point
-/// distance), the objective of point-to-line ICP (Censi, "An ICP variant using a
-/// point-to-line metric", ICRA 2008) on fixed correspondences, plus
-/// `−κ cos(θ − θ₀)` for a rotation `prior` `(θ₀, κ)` as in
-/// [`RigidAlignment::solve_with_rotation_prior`]. Gauss-Newton from `start` (the
-/// point-to-point solution, eq. 3, is the natural start), at most
-/// [`POINT_TO_LINE_ITERATIONS`] steps.
+/// (`λ` = `point_weight`; a pair without a normal counts with its full point-to-point
+/// distance, weight 1 instead of `λ`; the last term only with a rotation `prior`
+/// `(θ₀, κ)`, `κ ≥ 0` and finite, the objective of
+/// [`RigidAlignment::solve_with_rotation_prior`]). The first term is the point-to-line
+/// metric of Censi ("An ICP variant using a point-to-line metric", ICRA 2008) on fixed
+/// correspondences, with lines from a local fit of the reference returns
+/// ([`crate::scan::surface_model`]) rather than Censi's segment between the two
+/// nearest returns; the point-to-point term is added to hold the motion along a
+/// straight surface, which the first term does not observe. Gauss-Newton from `start`
+/// (the point-to-point solution, eq. 3 here, eq. 6 of the joint paper, is the natural
+/// start), at most [`POINT_TO_LINE_ITERATIONS`] steps.
 ///
 /// Why: eq. 3 on one-to-one partners pins every current return to one sampled
 /// reference return, so the motion carries the sampling of the surfaces (up to half
 /// a beam spacing along each); the line through the partner's surface lets a return
-/// fall between two reference returns. Returns `start` when the normal equations are
-/// singular (fewer than two distinct points) or a step is not finite.
+/// fall between two reference returns. Returns the last iterate (`start` if the first
+/// step fails) when the normal equations are singular (all sources at one point, or
+/// `λ = 0` with too few normal directions, and no prior) or a step is not finite.
 pub fn refine_point_to_line(
     start: Pose2,
     pairs: &[SurfacePair],
@@ -431,8 +436,8 @@ pub fn refine_point_to_line(
             h[(2, 2)] += kappa * d.cos().max(0.0);
             g[2] += kappa * d.sin();
         }
-        // Singular normal equations (one point, or every point on one line through
-        // the sensor and no prior): the motion is not observed.
+        // Singular normal equations (all sources at one point, or λ = 0 with too few
+        // normal directions, and no prior): the motion is not observed.
         let eigen = h.symmetric_eigenvalues();
         let (smallest, largest) = (eigen.min(), eigen.max());
         if smallest.is_nan() || smallest <= SINGULAR_RATIO * largest {
@@ -456,34 +461,36 @@ pub fn refine_point_to_line(
     motion
 }
 
-/// Limits of [`fit_trimmed`].
+/// Parameters of [`fit_trimmed`].
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct TrimmedFit {
+pub struct TrimmedFitParams {
     /// Pairs farther than this many association standard deviations `σ` from the
     /// motion leave the fit.
     pub inlier_sigmas: f64,
     /// Most trim-and-solve iterations.
     pub iterations: usize,
-    /// Fewest kept pairs a motion is solved from; fewer keep the start.
+    /// Fewest kept pairs a motion is solved from.
     pub min_pairs: usize,
-    /// The final [`refine_point_to_line`] with this weight of its point-to-point term
-    /// (`None`: eq. 3 alone).
+    /// `Some(λ)`: end with [`refine_point_to_line`], `λ` the weight of its
+    /// point-to-point term; `None`: eq. 3 alone.
     pub point_to_line: Option<f64>,
 }
 
 /// The motion of one group of returns from their associated `pairs`, trimmed (the
 /// motion re-solve of CRF-Matching's groups and of the joint model's clusters): from
-/// `start`, the pairs farther than [`TrimmedFit::inlier_sigmas`] standard deviations
-/// leave and the rest are solved again by eq. 3 (weights `1/σ²`, with the rotation
-/// `prior` `(θ₀, κ)` if given), until no pair leaves, at most
-/// [`TrimmedFit::iterations`] times (a pair that left is not re-admitted, so the
-/// iteration cannot cycle); then [`refine_point_to_line`] on the kept pairs. Fewer
-/// than [`TrimmedFit::min_pairs`] kept pairs keep `start`. `pairs` keeps the pairs
-/// kept; `stats` is scratch space.
+/// `start`, the pairs farther than [`TrimmedFitParams::inlier_sigmas`] standard
+/// deviations leave and the rest are solved again by eq. 3 (the closed form of this
+/// module; eq. 6 of the joint paper), weights `1/σ²`, with the rotation `prior`
+/// `(θ₀, κ)` if given, until no pair leaves, at most [`TrimmedFitParams::iterations`]
+/// times (a pair that left is not re-admitted, so the iteration cannot cycle); then,
+/// with [`TrimmedFitParams::point_to_line`], [`refine_point_to_line`] on the kept
+/// pairs. Fewer than [`TrimmedFitParams::min_pairs`] pairs within the bound of `start`
+/// keep `start`; a later trim below `min_pairs` keeps the previous solve, unrefined
+/// (`pairs` then holds the pairs of that last trim). `stats` is scratch space.
 pub fn fit_trimmed(
     pairs: &mut Vec<SurfacePair>,
     start: Pose2,
-    limits: &TrimmedFit,
+    limits: &TrimmedFitParams,
     prior: Option<(f64, f64)>,
     stats: &mut RigidAlignment,
 ) -> Pose2 {
@@ -757,9 +764,59 @@ mod tests {
         };
         // One point does not fix a rotation: the normal equations are singular.
         assert_eq!(refine_point_to_line(start, &[pair], 0.1, None), start);
-        // A rotation prior makes them regular again.
+        // A rotation prior makes them regular again: the rotation is the prior's, the
+        // translation puts the source on its target.
         let with_prior = refine_point_to_line(start, &[pair], 0.1, Some((0.3, 1.0)));
-        assert!(with_prior.x().is_finite() && with_prior.theta().is_finite());
+        let expected = Pose2::new(2.0 - 0.3f64.cos(), -(0.3f64.sin()), 0.3);
+        assert!(
+            with_prior.translation_error(&expected) < 1e-9,
+            "{with_prior:?}"
+        );
+        assert!(
+            with_prior.rotation_error(&expected) < 1e-9,
+            "{with_prior:?}"
+        );
+    }
+
+    #[test]
+    fn point_to_line_with_a_prior_and_no_normals_is_the_closed_form_with_that_prior() {
+        // Without normals the objective is eq. 3 with the rotation prior, which
+        // `solve_with_rotation_prior` solves in closed form: the Gauss-Newton steps
+        // must land on the same motion (a prior weighted otherwise would not).
+        let truth = Pose2::new(0.2, -0.4, 0.15);
+        let pairs: Vec<SurfacePair> = [(1.0, 0.0), (0.0, 2.0), (-1.0, 1.5), (2.0, -1.0)]
+            .iter()
+            .enumerate()
+            .map(|(k, &(x, y))| {
+                let s = Point2::new(x, y);
+                let noise = Vector2::new(0.02 * k as f64, -0.03 * (k % 2) as f64);
+                SurfacePair {
+                    source: s,
+                    target: truth.transform_point(&s) + noise,
+                    normal: None,
+                    variance: 0.05 * 0.05,
+                }
+            })
+            .collect();
+        let mut stats = RigidAlignment::new();
+        for p in &pairs {
+            stats.add(&p.source, &p.target, 1.0 / p.variance);
+        }
+        let (theta0, kappa) = (0.0, 1.0 / (0.05 * 0.05));
+        let closed = stats
+            .solve_with_rotation_prior(theta0, kappa)
+            .unwrap()
+            .motion;
+        let start = Pose2::new(closed.x() + 0.01, closed.y() - 0.01, closed.theta() + 0.01);
+        let refined = refine_point_to_line(start, &pairs, 0.1, Some((theta0, kappa)));
+        assert!(
+            refined.translation_error(&closed) < 1e-9,
+            "{refined:?} {closed:?}"
+        );
+        assert!(
+            refined.rotation_error(&closed) < 1e-9,
+            "{refined:?} {closed:?}"
+        );
     }
 
     #[test]
@@ -772,7 +829,7 @@ mod tests {
             target: pairs[0].target + Vector2::new(1.0, 0.0),
             ..pairs[0]
         });
-        let limits = TrimmedFit {
+        let limits = TrimmedFitParams {
             inlier_sigmas: 2.0,
             iterations: 6,
             min_pairs: 3,
@@ -790,7 +847,7 @@ mod tests {
         let eq3 = fit_trimmed(
             &mut kept,
             start,
-            &TrimmedFit {
+            &TrimmedFitParams {
                 point_to_line: None,
                 ..limits
             },

@@ -61,7 +61,7 @@ pub mod registration;
 pub mod scan;
 pub mod tracking;
 
-pub use alignment::{Alignment, RigidAlignment, SurfacePair, TrimmedFit};
+pub use alignment::{Alignment, RigidAlignment, SurfacePair, TrimmedFitParams};
 pub use association::{AssociationSource, PointAssociations};
 pub use correlative::{CorrelativeMatcher, CorrelativeParams, Hypothesis};
 pub use error::{Error, Result};

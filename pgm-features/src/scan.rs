@@ -374,10 +374,12 @@ pub struct SurfacePoint {
     pub normal: Option<Vector2<f64>>,
 }
 
-/// [`surface_points`] with the normal of each return's line: the surface model of
-/// point-to-line ICP (Censi 2008), used by
-/// [`refine_point_to_line`](crate::alignment::refine_point_to_line). One output per
-/// input point. O(n).
+/// [`surface_points`] with the normal of each return's line (a local line fit in the
+/// spirit of the surface model of point-to-line ICP, Censi 2008), used by
+/// [`refine_point_to_line`](crate::alignment::refine_point_to_line). The normal is
+/// given wherever the return was moved onto the line, however line-like its window
+/// is (five returns in a blob give a normal that wanders; the point-to-point term of
+/// the refinement bounds what it can do). One output per input point. O(n).
 pub fn surface_model(points: &[Point2<f64>], increment: f64) -> Vec<SurfacePoint> {
     let n = points.len();
     let same_surface = |a: usize, b: usize| -> bool {

@@ -74,7 +74,7 @@ pub struct MatchingParams {
     /// every motion solve (`Some(0.1)`, [`pgm_features::alignment::POINT_TO_POINT_WEIGHT`];
     /// `None`: eq. 6 alone, as the paper). See [`MatchingModel::solve_motions`]; on the
     /// design seed every weight from 0.01 to 0.3 gave the same mean exact accuracy
-    /// within 0.1 point (notes/issue14.md).
+    /// within 0.11 point (notes/issue14.md).
     pub point_to_line: Option<f64>,
     /// Segment-wise ICP for the ego-motion and the motion hypotheses.
     pub segments: SegmentParams,

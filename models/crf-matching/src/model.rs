@@ -12,14 +12,15 @@
 //! than three associated points keeps its motion). The paper's CRF-Matching has one
 //! motion; moving objects then keep no partner under it, and "its motion estimate"
 //! (the paper's words for registered translation) is read here as the motion of the
-//! point's group. Each solve ends with a point-to-line refinement on the same pairs
-//! (Censi 2008; [`MatchingModel::solve_motions`]).
+//! point's group. With [`MatchingModel::with_point_to_line`] (the matcher's default)
+//! each solve ends with a point-to-line refinement on the same pairs (Censi 2008;
+//! [`MatchingModel::solve_motions`]).
 
 use pgm_core::exact::PairPattern;
 use pgm_core::hybrid::chain::{FeatureSink, HybridChainModel};
 use pgm_features::alignment::{fit_trimmed, POINT_TO_POINT_WEIGHT};
 use pgm_features::association_chain::{AssociationProblem, AssociationTables};
-use pgm_features::{Pose2, RigidAlignment, SurfacePair, TrimmedFit};
+use pgm_features::{Pose2, RigidAlignment, SurfacePair, TrimmedFitParams};
 use std::sync::Arc;
 
 /// The CRF of one pair with its motion groups (see the module docs): a
@@ -168,7 +169,7 @@ impl<'a> MatchingModel<'a> {
         let p = self.tables.problem();
         let mut change = 0.0f64;
         let mut pairs = Vec::new();
-        let limits = TrimmedFit {
+        let limits = TrimmedFitParams {
             inlier_sigmas: INLIER_SIGMAS,
             iterations: TRIM_ITERATIONS,
             min_pairs: MIN_GROUP_POINTS,

@@ -77,6 +77,14 @@ fn weights_round_trip_and_bad_parameters_are_refused() {
             candidate_gate: f64::NAN,
             ..MatchingParams::default()
         },
+        MatchingParams {
+            point_to_line: Some(0.0),
+            ..MatchingParams::default()
+        },
+        MatchingParams {
+            point_to_line: Some(f64::NAN),
+            ..MatchingParams::default()
+        },
     ] {
         assert!(bad.check().is_err());
     }

@@ -32,7 +32,7 @@ use pgm_features::alignment::{fit_trimmed, POINT_TO_POINT_WEIGHT};
 use pgm_features::association_chain::{AssociationProblem, AssociationTables};
 use pgm_features::clustering_chain;
 use pgm_features::scan::segment_by_gap;
-use pgm_features::{Pose2, RigidAlignment, SurfacePair, TrimmedFit};
+use pgm_features::{Pose2, RigidAlignment, SurfacePair, TrimmedFitParams};
 use std::sync::Arc;
 
 /// The association chain's index.
@@ -271,7 +271,7 @@ impl<'a> JointModel<'a> {
                 });
             }
         }
-        let limits = TrimmedFit {
+        let limits = TrimmedFitParams {
             inlier_sigmas: INLIER_SIGMAS,
             iterations: TRIM_ITERATIONS,
             min_pairs: MIN_CLUSTER_POINTS,

@@ -66,6 +66,14 @@ fn weights_round_trip_and_bad_parameters_are_refused() {
             tolerance: f64::NAN,
             ..JointParams::default()
         },
+        JointParams {
+            point_to_line: Some(-0.1),
+            ..JointParams::default()
+        },
+        JointParams {
+            point_to_line: Some(f64::INFINITY),
+            ..JointParams::default()
+        },
     ] {
         let e = bad.check().unwrap_err().to_string();
         assert!(e.contains("expected"), "{e}");
