@@ -68,7 +68,12 @@ pub struct MatchingParams {
     /// shipped weights: mit-csail near pairs median 0.0230 m / 0.00413 rad without,
     /// 0.0213 m / 0.00401 rad with; intel-lab 0.0236 m / 0.00524 rad without, 0.0214 m
     /// / 0.00510 rad with (ICP: 0.0216 m / 0.00398 rad and 0.0223 m / 0.00557 rad).
-    /// The associations are the CRF's either way.
+    /// The associations are the CRF's either way. Since the motion solves end
+    /// point-to-line ([`MatchingParams::point_to_line`]) the sampling no longer biases
+    /// the CRF's estimate, and the polish helps less (measured 2026-11-30, without →
+    /// with): mit-csail near 0.0216 / 0.00406 → 0.0213 / 0.00390, intel-lab 0.0210 /
+    /// 0.00432 → 0.0207 / 0.00479, simulated dev seed 3 median 6.4-9.9 mm → 9.0-13.1
+    /// mm per preset (notes/issue14.md, where a point-to-line polish is measured too).
     pub polish_ego: bool,
     /// Weight of the point-to-point term of the point-to-line refinement that ends
     /// every motion solve (`Some(0.1)`, [`pgm_features::alignment::POINT_TO_POINT_WEIGHT`];
