@@ -469,6 +469,20 @@ fn the_motion_fit_reaches_crf_matching_and_the_joint_model() {
         "association_accuracy",
     );
     assert!(line > point, "point-to-line {line}, point-to-point {point}");
+    // The outputs say which solve made them.
+    for fit in ["point-to-line", "point-to-point"] {
+        for command in ["joint", "match"] {
+            let (out, err, code) = pgm(&[
+                command,
+                "--pairs",
+                dir.to_str().unwrap(),
+                "--motion-fit",
+                fit,
+            ]);
+            assert_eq!(code, Some(0), "{command}: {err}");
+            assert_eq!(json(&out)["motion_fit"], fit, "{command}");
+        }
+    }
     let (_, err, code) = pgm(&[
         "joint",
         "--pairs",

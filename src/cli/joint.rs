@@ -31,7 +31,7 @@
 
 use super::cluster::OnePairArgs;
 use super::data::{load_pairs, pair_source, LeighArgs, SourceArgs};
-use super::matching::{parse_state_space, MatchingOptionArgs, MotionFit};
+use super::matching::{parse_state_space, state_space_name, MatchingOptionArgs, MotionFit};
 use super::{CliError, CliResult};
 use clap::builder::{PossibleValue, PossibleValuesParser};
 use clap::Args;
@@ -147,19 +147,13 @@ struct JointOutput<'a> {
     pair: &'a str,
     weights: String,
     candidates: String,
+    /// `--motion-fit` as typed.
+    motion_fit: &'static str,
     #[serde(flatten)]
     result: &'a JointResult,
     cluster_motions: Vec<ClusterSummary>,
     /// Returns in the outlier cluster.
     outliers: usize,
-}
-
-/// `K` or `full`, as typed.
-fn state_space_name(space: StateSpace) -> String {
-    match space {
-        StateSpace::Full => "full".into(),
-        StateSpace::Pruned(k) => k.to_string(),
-    }
 }
 
 /// The joint model's parameters from the command line.
@@ -231,6 +225,7 @@ pub fn run_joint(args: JointArgs) -> CliResult {
             .as_ref()
             .map_or(SHIPPED_JOINT_WEIGHTS.into(), |p| p.display().to_string()),
         candidates: state_space_name(args.candidates),
+        motion_fit: args.motion_fit.name(),
         result: &result,
         cluster_motions: result
             .motions
@@ -271,6 +266,13 @@ pub fn run_joint(args: JointArgs) -> CliResult {
         );
         draw_joint(&pair, &estimate, title, path)?;
         eprintln!("pgm: drew {} into {}", pair.name, path.display());
+    }
+    if !result.converged {
+        eprintln!(
+            "pgm: warning: the joint model did not converge on {} ({} sweeps in {} rounds); \
+             the result may be inaccurate",
+            pair.name, result.sweeps, result.rounds
+        );
     }
     Ok(ExitCode::SUCCESS)
 }
@@ -336,6 +338,9 @@ struct EvalOutput<'a> {
     /// stem): which sets and seeds the pairs come from.
     pair_sets: Vec<String>,
     weights: String,
+    /// CRF-Matching's and the joint model's `--candidates` and `--motion-fit`, as typed.
+    candidates: String,
+    motion_fit: &'static str,
     #[serde(flatten)]
     summary: &'a JointSummary,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -437,6 +442,8 @@ pub fn run_eval_joint(args: JointEvalArgs) -> CliResult {
             data,
             pair_sets: sets,
             weights,
+            candidates: state_space_name(args.matching.candidates),
+            motion_fit: args.matching.motion_fit.name(),
             summary: &report.summary,
             outcomes: args.per_pair.then_some(report.outcomes.as_slice()),
         };

@@ -60,12 +60,28 @@ pub enum MotionFit {
 }
 
 impl MotionFit {
+    /// The value as typed (`point-to-line`, `point-to-point`), for the JSON outputs.
+    pub fn name(self) -> &'static str {
+        match self {
+            MotionFit::PointToLine => "point-to-line",
+            MotionFit::PointToPoint => "point-to-point",
+        }
+    }
+
     /// The `point_to_line` parameter of `MatchingParams` and `JointParams`.
     pub fn point_to_line(self) -> Option<f64> {
         match self {
             MotionFit::PointToLine => Some(pgm_features::alignment::POINT_TO_POINT_WEIGHT),
             MotionFit::PointToPoint => None,
         }
+    }
+}
+
+/// `K` or `full`, as typed after `--candidates`.
+pub fn state_space_name(space: StateSpace) -> String {
+    match space {
+        StateSpace::Full => "full".into(),
+        StateSpace::Pruned(k) => k.to_string(),
     }
 }
 
@@ -115,6 +131,10 @@ pub struct MatchArgs {
 #[derive(Serialize)]
 struct MatchOutput<'a> {
     pair: &'a str,
+    /// `--candidates` as typed (`K` or `full`).
+    candidates: String,
+    /// `--motion-fit` as typed.
+    motion_fit: &'static str,
     #[serde(flatten)]
     matching: &'a pgm_crf_matching::Matching,
 }
@@ -131,6 +151,8 @@ pub fn run_match(args: MatchArgs) -> CliResult {
     let matching = matcher.match_pair(&pair).map_err(CliError::from_display)?;
     let json = serde_json::to_string(&MatchOutput {
         pair: &pair.name,
+        candidates: state_space_name(args.matching.candidates),
+        motion_fit: args.matching.motion_fit.name(),
         matching: &matching,
     })
     .map_err(CliError::from_display)?;
@@ -201,6 +223,10 @@ pub struct AssociationEvalArgs {
 #[derive(Serialize)]
 struct AssociationJson<'a> {
     method: &'a str,
+    /// CRF-Matching's `--candidates` and `--motion-fit` (as typed; they do not apply to
+    /// the other sources).
+    candidates: String,
+    motion_fit: &'static str,
     #[serde(flatten)]
     summary: &'a AssociationSummary,
 }
@@ -243,6 +269,8 @@ pub fn run_eval_association(args: AssociationEvalArgs) -> CliResult {
     if args.json {
         let json = AssociationJson {
             method: &evaluated.method,
+            candidates: state_space_name(args.matching.candidates),
+            motion_fit: args.matching.motion_fit.name(),
             summary: report,
         };
         println!(
