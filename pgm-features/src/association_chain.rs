@@ -314,6 +314,19 @@ impl AssociationProblem {
         self.current.is_empty()
     }
 
+    /// The pair of current return `i` and reference return `j` (indices among the
+    /// valid returns) for a motion solve ([`crate::alignment::fit_trimmed`]): their
+    /// surface points, the partner's surface normal and the association variance of
+    /// `i`.
+    pub fn surface_pair(&self, i: usize, j: usize) -> crate::SurfacePair {
+        crate::SurfacePair {
+            source: self.current.surface[i],
+            target: self.reference.surface[j],
+            normal: self.reference.normals[j],
+            variance: self.variances[i],
+        }
+    }
+
     /// The candidates of every node, sorted by reference index: with
     /// [`StateSpace::Pruned`]`(k)`, the `k` reference returns nearest to the point
     /// moved by `motions[i]` and, where `ego[i]` differs, the `k / 2` nearest under

@@ -20,7 +20,7 @@ use pgm_core::exact::PairPattern;
 use pgm_core::hybrid::chain::{FeatureSink, HybridChainModel};
 use pgm_features::alignment::{fit_trimmed, POINT_TO_POINT_WEIGHT};
 use pgm_features::association_chain::{AssociationProblem, AssociationTables};
-use pgm_features::{Pose2, RigidAlignment, SurfacePair, TrimmedFitParams};
+use pgm_features::{Pose2, RigidAlignment, TrimmedFitParams};
 use std::sync::Arc;
 
 /// The CRF of one pair with its motion groups (see the module docs): a
@@ -183,12 +183,7 @@ impl<'a> MatchingModel<'a> {
                     continue;
                 }
                 if let Some(j) = self.labels[i].and_then(|l| self.tables.partner(i, l)) {
-                    pairs.push(SurfacePair {
-                        source: p.current.surface[i],
-                        target: p.reference.surface[j],
-                        normal: p.reference.normals[j],
-                        variance: p.variances[i],
-                    });
+                    pairs.push(p.surface_pair(i, j));
                 }
             }
             let motion = fit_trimmed(

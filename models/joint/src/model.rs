@@ -263,12 +263,7 @@ impl<'a> JointModel<'a> {
                 continue;
             }
             if let Some(j) = self.association[i].and_then(|a| self.tables.partner(i, a)) {
-                pairs.push(SurfacePair {
-                    source: p.current.surface[i],
-                    target: p.reference.surface[j],
-                    normal: p.reference.normals[j],
-                    variance: p.variances[i],
-                });
+                pairs.push(p.surface_pair(i, j));
             }
         }
         let limits = TrimmedFitParams {
