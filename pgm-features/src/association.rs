@@ -602,6 +602,55 @@ pub struct SegmentMotions {
     pub moved: Vec<bool>,
 }
 
+impl SegmentMotions {
+    /// Checks that these hypotheses fit `pair`: one entry per valid current return in
+    /// `motion_of` and `segment_of`, every segment index within `moved`, every motion
+    /// finite (for hypotheses made elsewhere than [`segment_motions`]).
+    ///
+    /// # Errors
+    /// [`Error::BadPair`] naming the pair and the first mismatch.
+    pub fn check_for(&self, pair: &ScanPair) -> Result<()> {
+        let n = pair.current.valid.iter().filter(|&&v| v).count();
+        let bad = |problem: String| Error::BadPair {
+            pair: pair.name.clone(),
+            problem: format!("motion hypotheses: {problem}"),
+        };
+        if self.motion_of.len() != n || self.segment_of.len() != n {
+            return Err(bad(format!(
+                "motions for {} and segments for {} returns, but the current scan has {n} \
+                 valid returns",
+                self.motion_of.len(),
+                self.segment_of.len()
+            )));
+        }
+        if let Some(s) = self.segment_of.iter().find(|&&s| s >= self.moved.len()) {
+            return Err(bad(format!(
+                "segment {s} is not among the {} segments of `moved`",
+                self.moved.len()
+            )));
+        }
+        let finite = |m: &Pose2| m.x().is_finite() && m.y().is_finite() && m.theta().is_finite();
+        if !finite(&self.ego) {
+            return Err(bad(format!(
+                "the ego-motion ({}, {}, {}) is not finite",
+                self.ego.x(),
+                self.ego.y(),
+                self.ego.theta()
+            )));
+        }
+        if let Some(i) = self.motion_of.iter().position(|m| !finite(m)) {
+            let m = &self.motion_of[i];
+            return Err(bad(format!(
+                "the motion of return {i} ({}, {}, {}) is not finite",
+                m.x(),
+                m.y(),
+                m.theta()
+            )));
+        }
+        Ok(())
+    }
+}
+
 /// [`SegmentMotions`] of `pair` with the parameters of segment-wise ICP. Errors name
 /// the pair.
 pub fn segment_motions(pair: &ScanPair, params: &SegmentIcp) -> Result<SegmentMotions> {

@@ -43,5 +43,6 @@ pub mod weights;
 
 pub use error::{Error, Result};
 pub use matcher::{Matcher, Matching, MatchingParams};
+pub use pgm_features::association::SegmentMotions;
 pub use pgm_features::association_chain::StateSpace;
 pub use weights::MatchingWeights;

@@ -22,7 +22,9 @@ use crate::weights::MatchingWeights;
 use crate::{Error, Result};
 use pgm_core::hybrid::chain::{ChainUpdate, HybridChainParams};
 use pgm_core::param::{InvalidParameter, ParamGuard};
-use pgm_features::association::{segment_motions, AssociationSource, SegmentIcp, SegmentParams};
+use pgm_features::association::{
+    segment_motions, AssociationSource, SegmentIcp, SegmentMotions, SegmentParams,
+};
 use pgm_features::association_chain::{AssociationProblem, StateSpace};
 use pgm_features::methods::{EgoMotionEstimate, ScanMatcher};
 use pgm_features::registration::IcpStatus;
@@ -209,6 +211,32 @@ impl Matcher {
     /// Matches the current scan of `pair` to its reference scan (see the module docs).
     /// Errors name the pair.
     pub fn match_pair(&self, pair: &ScanPair) -> Result<Matching> {
+        self.run(pair, None)
+    }
+
+    /// [`Matcher::match_pair`] with the motion hypotheses given instead of found by
+    /// segment-wise ICP (step 1 of the module docs): the ego-motion to start from, and
+    /// per valid current return (beam order) its segment and the motion it starts
+    /// from, with the segments that moved; each moved segment is a motion group of its
+    /// own (with [`MatchingParams::segment_motions`]). For hypotheses a pair alone
+    /// cannot give: a tracker's predictions from earlier scans, or an oracle's (the
+    /// example `association_bound` starts CRF-Matching from the true motions this way).
+    ///
+    /// # Errors
+    /// [`Error::Features`] (`BadPair`, naming the pair) when `hypotheses` do not fit
+    /// the pair ([`SegmentMotions::check_for`]), and the errors of
+    /// [`Matcher::match_pair`].
+    pub fn match_pair_with_hypotheses(
+        &self,
+        pair: &ScanPair,
+        hypotheses: SegmentMotions,
+    ) -> Result<Matching> {
+        hypotheses.check_for(pair)?;
+        self.run(pair, Some(hypotheses))
+    }
+
+    /// Both entry points: `given` hypotheses, else segment-wise ICP's.
+    fn run(&self, pair: &ScanPair, given: Option<SegmentMotions>) -> Result<Matching> {
         let p = &self.params;
         // The problem (shape features, search structures) and the motion hypotheses
         // do not depend on each other: they are built side by side (rayon; one
@@ -216,6 +244,11 @@ impl Matcher {
         let n = pair.current.valid.iter().filter(|&&v| v).count();
         let (problem, hypotheses) = if n == 0 {
             (AssociationProblem::new(pair, &p.weights.boosters), None)
+        } else if let Some(given) = given {
+            (
+                AssociationProblem::new(pair, &p.weights.boosters),
+                Some(Ok(given)),
+            )
         } else {
             let (problem, hypotheses) = rayon::join(
                 || AssociationProblem::new(pair, &p.weights.boosters),

@@ -242,3 +242,51 @@ fn next_round_tables_are_fresh_tables() {
         }
     }
 }
+
+/// The hypotheses segment-wise ICP makes, given back, give the same matching; bad ones
+/// are refused with the pair named.
+#[test]
+fn given_hypotheses_match_like_found_ones_and_bad_ones_are_refused() {
+    use pgm_datasets::sim::Preset;
+    use pgm_features::association::segment_motions;
+    let config = SimConfig {
+        preset: Preset::Overtaking,
+        ..SimConfig::default()
+    }
+    .check()
+    .unwrap();
+    let pairs = simulate_pairs(&config, 7, 3);
+    let matcher = Matcher::default();
+    let segments = matcher.params().segments.check().unwrap();
+    for pair in &pairs {
+        let h = segment_motions(pair, &segments).unwrap();
+        assert!(
+            h.moved.iter().any(|&m| m),
+            "{}: a moving segment",
+            pair.name
+        );
+        assert_eq!(
+            matcher.match_pair_with_hypotheses(pair, h).unwrap(),
+            matcher.match_pair(pair).unwrap()
+        );
+    }
+    let pair = &pairs[0];
+    let found = segment_motions(pair, &segments).unwrap();
+    let mut short = found.clone();
+    short.motion_of.pop();
+    let mut outside = found.clone();
+    outside.segment_of[0] = found.moved.len();
+    let mut nan = found.clone();
+    nan.motion_of[3] = pgm_features::Pose2::new(f64::NAN, 0.0, 0.0);
+    for (h, says) in [
+        (short, "valid returns"),
+        (outside, "is not among"),
+        (nan, "return 3"),
+    ] {
+        let e = matcher
+            .match_pair_with_hypotheses(pair, h)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(&pair.name) && e.contains(says), "{e}");
+    }
+}

@@ -36,7 +36,7 @@ use crate::weights::JointWeights;
 use crate::{Error, Result};
 use pgm_core::hybrid::chain::{ChainUpdate, Convergence, HybridChainParams};
 use pgm_core::param::{InvalidParameter, ParamGuard};
-use pgm_features::association::{segment_motions, SegmentIcp, SegmentParams};
+use pgm_features::association::{segment_motions, SegmentIcp, SegmentMotions, SegmentParams};
 use pgm_features::association_chain::{AssociationProblem, StateSpace};
 use pgm_features::clustering_chain::MAX_MOTION_CLUSTERS;
 use pgm_features::registration::IcpStatus;
@@ -274,9 +274,17 @@ impl Joint {
 
     /// The starting motions (cluster 0: the ego-motion) and each return's starting
     /// cluster (see the module docs, step 1).
-    fn initial_clusters(&self, pair: &ScanPair, n: usize) -> Result<(Vec<Pose2>, Vec<usize>)> {
+    fn initial_clusters(
+        &self,
+        pair: &ScanPair,
+        n: usize,
+        given: Option<SegmentMotions>,
+    ) -> Result<(Vec<Pose2>, Vec<usize>)> {
         let p = &self.params;
-        let h = segment_motions(pair, &self.segment_icp)?;
+        let h = match given {
+            Some(h) => h,
+            None => segment_motions(pair, &self.segment_icp)?,
+        };
         let mut size = vec![0usize; h.moved.len()];
         let mut motion = vec![h.ego; h.moved.len()];
         for i in 0..n {
@@ -319,6 +327,31 @@ impl Joint {
 
     /// Runs the joint model on `pair` (see the module docs). Errors name the pair.
     pub fn estimate(&self, pair: &ScanPair) -> Result<JointResult> {
+        self.run(pair, None)
+    }
+
+    /// [`Joint::estimate`] with the motion hypotheses of step 1 given instead of found
+    /// by segment-wise ICP: the ego-motion, and per valid current return (beam order)
+    /// its segment and motion, with the segments that moved (each starts a motion
+    /// cluster, the largest first, as step 1 says). For hypotheses a pair alone cannot
+    /// give: a tracker's predictions from earlier scans, or an oracle's (the example
+    /// `association_bound` starts the joint model from the true motions this way).
+    ///
+    /// # Errors
+    /// [`Error::Features`] (`BadPair`, naming the pair) when `hypotheses` do not fit
+    /// the pair ([`SegmentMotions::check_for`]), and the errors of
+    /// [`Joint::estimate`].
+    pub fn estimate_with_hypotheses(
+        &self,
+        pair: &ScanPair,
+        hypotheses: SegmentMotions,
+    ) -> Result<JointResult> {
+        hypotheses.check_for(pair)?;
+        self.run(pair, Some(hypotheses))
+    }
+
+    /// Both entry points: `given` hypotheses, else segment-wise ICP's.
+    fn run(&self, pair: &ScanPair, given: Option<SegmentMotions>) -> Result<JointResult> {
         let p = &self.params;
         // The problem (shape features, search structures) and the motion hypotheses
         // do not depend on each other: they are built side by side (rayon; one
@@ -329,7 +362,7 @@ impl Joint {
         } else {
             let (problem, initial) = rayon::join(
                 || AssociationProblem::new(pair, &p.weights.boosters),
-                || self.initial_clusters(pair, n),
+                || self.initial_clusters(pair, n, given),
             );
             (problem, Some(initial))
         };

@@ -36,4 +36,5 @@ pub mod weights;
 
 pub use error::{Error, Result};
 pub use estimator::{ClusterLabel, Clusters, Joint, JointParams, JointResult};
+pub use pgm_features::association::SegmentMotions;
 pub use weights::{AssociationPart, JointWeights};

@@ -211,3 +211,35 @@ fn rotation_prior_changes_only_the_object_motions_and_helps_small_objects() {
     .check()
     .is_err());
 }
+
+/// The hypotheses segment-wise ICP makes, given back, give the same estimate; bad ones
+/// are refused with the pair named.
+#[test]
+fn given_hypotheses_estimate_like_found_ones_and_bad_ones_are_refused() {
+    use pgm_datasets::sim::Preset;
+    use pgm_features::association::segment_motions;
+    let config = SimConfig {
+        preset: Preset::Overtaking,
+        ..SimConfig::default()
+    }
+    .check()
+    .unwrap();
+    let pairs = simulate_pairs(&config, 7, 3);
+    let joint = Joint::default();
+    let segments = joint.params().segments.check().unwrap();
+    for pair in &pairs {
+        let h = segment_motions(pair, &segments).unwrap();
+        assert_eq!(
+            joint.estimate_with_hypotheses(pair, h).unwrap(),
+            joint.estimate(pair).unwrap()
+        );
+    }
+    let pair = &pairs[0];
+    let mut h = segment_motions(pair, &segments).unwrap();
+    h.segment_of.pop();
+    let e = joint
+        .estimate_with_hypotheses(pair, h)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains(&pair.name) && e.contains("valid returns"), "{e}");
+}
