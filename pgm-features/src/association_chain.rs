@@ -49,6 +49,7 @@ use crate::{Association, Error, InvalidParameter, Pose2, Result, Scan, ScanPair}
 use pgm_core::exact::PairPattern;
 use pgm_core::hybrid::chain::FeatureSink;
 use serde::{Deserialize, Serialize};
+use rayon::prelude::*;
 use std::cell::RefCell;
 use std::sync::Arc;
 
@@ -351,9 +352,11 @@ impl AssociationProblem {
             StateSpace::Full => vec![(0..m).collect(); n],
             StateSpace::Pruned(k) => {
                 let increment = self.reference_increment;
-                let mut found = Vec::new();
+                // Node by node (rayon; one thread does them in turn).
                 (0..n)
-                    .map(|i| {
+                    .into_par_iter()
+                    .with_min_len(PARALLEL_NODES)
+                    .map_init(Vec::new, |found, i| {
                         let s = self.current.points[i];
                         let mut c: Vec<usize> = Vec::with_capacity(2 * k);
                         let runs: &[(Pose2, usize)] = if motions[i] == ego[i] {
@@ -365,7 +368,7 @@ impl AssociationProblem {
                             let q = motion.transform_point(&s);
                             let reach = gate + 3.0 * q.coords.norm() * increment;
                             self.search
-                                .k_nearest_references(&q, count, reach, &mut found);
+                                .k_nearest_references(&q, count, reach, found);
                             c.extend(found.iter().filter_map(|&(b, _)| self.reference_index[b]));
                         }
                         c.sort_unstable();
@@ -572,6 +575,10 @@ impl NodeTruth {
     }
 }
 
+/// Fewest nodes one rayon task takes in the node-wise loops (candidates, booster
+/// margins): smaller tasks cost more in scheduling than they compute.
+const PARALLEL_NODES: usize = 32;
+
 /// One listed entry of the full state space's pairwise pattern.
 #[derive(Clone, Copy, Debug)]
 struct PatternEntry {
@@ -716,42 +723,60 @@ impl<'a> AssociationTables<'a> {
             total += c.len();
         }
         offsets.push(total);
-        let mut data_rest = Vec::with_capacity(total);
-        let mut features = [0.0; ASSOCIATION_FEATURES];
-        for (i, c) in candidates.iter().enumerate() {
-            // The previous round's candidates of node `i` (sorted, as these).
-            let mut known = previous.map_or(&[][..], |p| &p.candidates[i][..]);
-            let known_offset = previous.map_or(0, |p| p.offsets[i]);
-            let mut skipped = 0;
-            for &j in c {
-                // Both lists are sorted: walk the previous one along.
-                while let Some((&first, rest)) = known.split_first() {
-                    if first >= j {
-                        break;
-                    }
-                    known = rest;
-                    skipped += 1;
-                }
-                if let (Some(&first), Some(p)) = (known.first(), previous) {
-                    if first == j {
-                        data_rest.push(p.data_rest[known_offset + skipped]);
-                        continue;
-                    }
-                }
-                // The registered features are scored by the step functions later.
-                association_features(
-                    &problem.current,
-                    i,
-                    &problem.reference,
-                    j,
-                    &Pose2::identity(),
-                    problem.reference_increment,
-                    &mut features,
-                );
-                data_rest.push(problem.data_rest.score(&features));
-            }
+        // The previous round's candidates, where each node's start and their margins.
+        let known_rounds = previous.map(|p| (&p.candidates, &p.offsets, &p.data_rest));
+        // Every node's margins into its own slice of the flat array (rayon: the nodes
+        // are independent; one thread fills them in turn).
+        let mut data_rest = vec![0.0; total];
+        let mut slices: Vec<&mut [f64]> = Vec::with_capacity(n);
+        let mut rest = &mut data_rest[..];
+        for c in &candidates {
+            let (node, tail) = rest.split_at_mut(c.len());
+            slices.push(node);
+            rest = tail;
         }
+        slices
+            .into_par_iter()
+            .zip(candidates.par_iter())
+            .enumerate()
+            .with_min_len(PARALLEL_NODES)
+            .for_each(|(i, (margins, c))| {
+                let mut features = [0.0; ASSOCIATION_FEATURES];
+                // The previous round's candidates of node `i` (sorted, as these).
+                let mut known = known_rounds.map_or(&[][..], |p| &p.0[i][..]);
+                let known_offset = known_rounds.map_or(0, |p| p.1[i]);
+                let mut skipped = 0;
+                for (slot, &j) in margins.iter_mut().zip(c) {
+                    // Both lists are sorted: walk the previous one along.
+                    while let Some((&first, rest)) = known.split_first() {
+                        if first >= j {
+                            break;
+                        }
+                        known = rest;
+                        skipped += 1;
+                    }
+                    if let (Some(&first), Some(p)) = (known.first(), known_rounds) {
+                        if first == j {
+                            *slot = p.2[known_offset + skipped];
+                            continue;
+                        }
+                    }
+                    // The registered features are scored by the step functions later.
+                    association_features(
+                        &problem.current,
+                        i,
+                        &problem.reference,
+                        j,
+                        &Pose2::identity(),
+                        problem.reference_increment,
+                        &mut features,
+                    );
+                    *slot = problem.data_rest.score(&features);
+                }
+            });
         let outlier = (0..n)
+            .into_par_iter()
+            .with_min_len(PARALLEL_NODES)
             .map(|i| problem.outlier_score(i, &outlier_motions[i]))
             .collect();
         let m = problem.reference.len();
