@@ -594,6 +594,10 @@ fn parallel_nodes(n: usize) -> bool {
     n >= 2 * PARALLEL_NODES && rayon::current_num_threads() > 1
 }
 
+/// What the table build fills for one node: its index, its slice of the booster
+/// margins and its outlier margin, and its candidates.
+type NodeSlots<'s> = (usize, ((&'s mut [f64], &'s mut f64), &'s Vec<usize>));
+
 /// One listed entry of the full state space's pairwise pattern.
 #[derive(Clone, Copy, Debug)]
 struct PatternEntry {
@@ -752,42 +756,41 @@ impl<'a> AssociationTables<'a> {
             slices.push(node);
             rest = tail;
         }
-        let fill =
-            |(i, ((margins, outlier), c)): (usize, ((&mut [f64], &mut f64), &Vec<usize>))| {
-                *outlier = problem.outlier_score(i, &outlier_motions[i]);
-                let mut features = [0.0; ASSOCIATION_FEATURES];
-                // The previous round's candidates of node `i` (sorted, as these).
-                let mut known = known_rounds.map_or(&[][..], |p| &p.0[i][..]);
-                let known_offset = known_rounds.map_or(0, |p| p.1[i]);
-                let mut skipped = 0;
-                for (slot, &j) in margins.iter_mut().zip(c) {
-                    // Both lists are sorted: walk the previous one along.
-                    while let Some((&first, rest)) = known.split_first() {
-                        if first >= j {
-                            break;
-                        }
-                        known = rest;
-                        skipped += 1;
+        let fill = |(i, ((margins, outlier), c)): NodeSlots| {
+            *outlier = problem.outlier_score(i, &outlier_motions[i]);
+            let mut features = [0.0; ASSOCIATION_FEATURES];
+            // The previous round's candidates of node `i` (sorted, as these).
+            let mut known = known_rounds.map_or(&[][..], |p| &p.0[i][..]);
+            let known_offset = known_rounds.map_or(0, |p| p.1[i]);
+            let mut skipped = 0;
+            for (slot, &j) in margins.iter_mut().zip(c) {
+                // Both lists are sorted: walk the previous one along.
+                while let Some((&first, rest)) = known.split_first() {
+                    if first >= j {
+                        break;
                     }
-                    if let (Some(&first), Some(p)) = (known.first(), known_rounds) {
-                        if first == j {
-                            *slot = p.2[known_offset + skipped];
-                            continue;
-                        }
-                    }
-                    // The registered features are scored by the step functions later.
-                    association_features(
-                        &problem.current,
-                        i,
-                        &problem.reference,
-                        j,
-                        &Pose2::identity(),
-                        problem.reference_increment,
-                        &mut features,
-                    );
-                    *slot = problem.data_rest.score(&features);
+                    known = rest;
+                    skipped += 1;
                 }
-            };
+                if let (Some(&first), Some(p)) = (known.first(), known_rounds) {
+                    if first == j {
+                        *slot = p.2[known_offset + skipped];
+                        continue;
+                    }
+                }
+                // The registered features are scored by the step functions later.
+                association_features(
+                    &problem.current,
+                    i,
+                    &problem.reference,
+                    j,
+                    &Pose2::identity(),
+                    problem.reference_increment,
+                    &mut features,
+                );
+                *slot = problem.data_rest.score(&features);
+            }
+        };
         if parallel_nodes(n) {
             slices
                 .into_par_iter()
