@@ -587,30 +587,43 @@ fn segment_icp(pair: &ScanPair, params: &SegmentParams) -> Result<PointAssociati
     })
 }
 
-/// The motion hypotheses of segment-wise ICP (steps 1-3 of [`SegmentIcp`]): the
-/// ego-motion, and for every valid point of the current scan (in beam order) the
-/// motion of its gap segment (the ego-motion unless the segment moved).
+/// Motion hypotheses of one pair: the ego-motion, and for every valid point of the
+/// current scan (in beam order) its gap segment and the motion of that segment. Made
+/// by segment-wise ICP (steps 1-3 of [`SegmentIcp`], [`segment_motions`]), or given
+/// from elsewhere (a tracker's predictions, an oracle) to CRF-Matching and the joint
+/// model, which start every moved segment as a motion group of its own.
+///
+/// Reading rules (what [`SegmentMotions::check_for`] enforces): one entry per valid
+/// current return in `motion_of` and `segment_of`; every segment index within
+/// `moved`; all returns of a moved segment carry the same motion. The motions of the
+/// returns of segments that did not move are not read (they follow the ego-motion),
+/// and a segment marked moved that holds no return is ignored.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SegmentMotions {
-    /// The ego-motion (ICP from the prior).
+    /// The ego-motion (maps current points onto the reference scan).
     pub ego: Pose2,
-    /// The motion of each valid current point's segment.
+    /// The motion of each valid current point's segment (the ego-motion for segments
+    /// that did not move, as segment-wise ICP writes them).
     pub motion_of: Vec<Pose2>,
     /// The gap segment of each valid current point (indices from 0, beam order).
     pub segment_of: Vec<usize>,
-    /// Whether each segment was aligned on its own (it moved).
+    /// Whether each segment moved (was aligned on its own), by segment index.
     pub moved: Vec<bool>,
 }
 
 impl SegmentMotions {
-    /// Checks that these hypotheses fit `pair`: one entry per valid current return in
-    /// `motion_of` and `segment_of`, every segment index within `moved`, every motion
-    /// finite (for hypotheses made elsewhere than [`segment_motions`]).
+    /// Checks that these hypotheses fit `pair` by the reading rules above. Only the
+    /// number of valid returns ties hypotheses to a pair: another pair's hypotheses
+    /// with as many returns pass.
     ///
     /// # Errors
-    /// [`Error::BadPair`] naming the pair and the first mismatch.
+    /// [`Error::BadPair`] naming the pair and the first mismatch (the return as its
+    /// index among the valid returns and its beam).
     pub fn check_for(&self, pair: &ScanPair) -> Result<()> {
-        let n = pair.current.valid.iter().filter(|&&v| v).count();
+        let beams: Vec<usize> = (0..pair.current.len())
+            .filter(|&b| pair.current.valid[b])
+            .collect();
+        let n = beams.len();
         let bad = |problem: String| Error::BadPair {
             pair: pair.name.clone(),
             problem: format!("motion hypotheses: {problem}"),
@@ -623,9 +636,12 @@ impl SegmentMotions {
                 self.segment_of.len()
             )));
         }
-        if let Some(s) = self.segment_of.iter().find(|&&s| s >= self.moved.len()) {
+        if let Some(i) = self.segment_of.iter().position(|&s| s >= self.moved.len()) {
             return Err(bad(format!(
-                "segment {s} is not among the {} segments of `moved`",
+                "valid return {i} (beam {}): segment {} is not among the {} segments of \
+                 `moved`",
+                beams[i],
+                self.segment_of[i],
                 self.moved.len()
             )));
         }
@@ -638,14 +654,39 @@ impl SegmentMotions {
                 self.ego.theta()
             )));
         }
-        if let Some(i) = self.motion_of.iter().position(|m| !finite(m)) {
-            let m = &self.motion_of[i];
-            return Err(bad(format!(
-                "the motion of return {i} ({}, {}, {}) is not finite",
-                m.x(),
-                m.y(),
-                m.theta()
-            )));
+        let mut first: Vec<Option<usize>> = vec![None; self.moved.len()];
+        for (i, m) in self.motion_of.iter().enumerate() {
+            let s = self.segment_of[i];
+            if !self.moved[s] {
+                continue;
+            }
+            if !finite(m) {
+                return Err(bad(format!(
+                    "the motion of valid return {i} (beam {}), ({}, {}, {}), is not finite",
+                    beams[i],
+                    m.x(),
+                    m.y(),
+                    m.theta()
+                )));
+            }
+            match first[s] {
+                None => first[s] = Some(i),
+                Some(k) if self.motion_of[k] != *m => {
+                    return Err(bad(format!(
+                        "segment {s} moved with two motions: ({}, {}, {}) at valid return {k} \
+                         (beam {}) and ({}, {}, {}) at valid return {i} (beam {})",
+                        self.motion_of[k].x(),
+                        self.motion_of[k].y(),
+                        self.motion_of[k].theta(),
+                        beams[k],
+                        m.x(),
+                        m.y(),
+                        m.theta(),
+                        beams[i]
+                    )));
+                }
+                Some(_) => {}
+            }
         }
         Ok(())
     }

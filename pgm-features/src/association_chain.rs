@@ -581,8 +581,9 @@ impl NodeTruth {
     }
 }
 
-/// Fewest nodes one rayon task takes in the node-wise loops (candidates, booster
-/// margins): smaller tasks cost more in scheduling than they compute.
+/// Fewest nodes one rayon task takes in the node-wise loops (candidates, the data
+/// booster's and the outlier booster's margins): smaller tasks cost more in
+/// scheduling than they compute.
 const PARALLEL_NODES: usize = 32;
 
 /// Whether the node-wise loops over `n` nodes run on rayon's pool: only when it has
@@ -592,6 +593,14 @@ const PARALLEL_NODES: usize = 32;
 /// one-thread pool).
 fn parallel_nodes(n: usize) -> bool {
     n >= 2 * PARALLEL_NODES && rayon::current_num_threads() > 1
+}
+
+/// The previous round's tables as [`AssociationTables::next_round`] reads them.
+#[derive(Clone, Copy)]
+struct Earlier<'s> {
+    candidates: &'s [Vec<usize>],
+    offsets: &'s [usize],
+    margins: &'s [f64],
 }
 
 /// What the table build fills for one node: its index, its slice of the booster
@@ -742,8 +751,13 @@ impl<'a> AssociationTables<'a> {
             total += c.len();
         }
         offsets.push(total);
-        // The previous round's candidates, where each node's start and their margins.
-        let known_rounds = previous.map(|p| (&p.candidates, &p.offsets, &p.data_rest));
+        // The previous round's tables, to take the margins of shared candidates from:
+        // each node's candidates, where they start in the flat arrays, and the margins.
+        let earlier = previous.map(|p| Earlier {
+            candidates: &p.candidates,
+            offsets: &p.offsets,
+            margins: &p.data_rest,
+        });
         // Every node's margins into its own slice of the flat array, and its outlier
         // margin (the nodes are independent: side by side on rayon's pool when it has
         // more than one thread; see `parallel_nodes`).
@@ -760,8 +774,8 @@ impl<'a> AssociationTables<'a> {
             *outlier = problem.outlier_score(i, &outlier_motions[i]);
             let mut features = [0.0; ASSOCIATION_FEATURES];
             // The previous round's candidates of node `i` (sorted, as these).
-            let mut known = known_rounds.map_or(&[][..], |p| &p.0[i][..]);
-            let known_offset = known_rounds.map_or(0, |p| p.1[i]);
+            let mut known = earlier.map_or(&[][..], |p| &p.candidates[i][..]);
+            let known_offset = earlier.map_or(0, |p| p.offsets[i]);
             let mut skipped = 0;
             for (slot, &j) in margins.iter_mut().zip(c) {
                 // Both lists are sorted: walk the previous one along.
@@ -772,9 +786,9 @@ impl<'a> AssociationTables<'a> {
                     known = rest;
                     skipped += 1;
                 }
-                if let (Some(&first), Some(p)) = (known.first(), known_rounds) {
+                if let (Some(&first), Some(p)) = (known.first(), earlier) {
                     if first == j {
-                        *slot = p.2[known_offset + skipped];
+                        *slot = p.margins[known_offset + skipped];
                         continue;
                     }
                 }

@@ -216,11 +216,13 @@ impl Matcher {
 
     /// [`Matcher::match_pair`] with the motion hypotheses given instead of found by
     /// segment-wise ICP (step 1 of the module docs): the ego-motion to start from, and
-    /// per valid current return (beam order) its segment and the motion it starts
-    /// from, with the segments that moved; each moved segment is a motion group of its
-    /// own (with [`MatchingParams::segment_motions`]). For hypotheses a pair alone
-    /// cannot give: a tracker's predictions from earlier scans, or an oracle's (the
-    /// example `association_bound` starts CRF-Matching from the true motions this way).
+    /// per valid current return (beam order) its segment and the motion its segment
+    /// starts from, with the segments that moved (read as [`SegmentMotions`] says);
+    /// each moved segment is a motion group of its own (with
+    /// [`MatchingParams::segment_motions`]). For hypotheses a pair alone cannot give: a
+    /// tracker's predictions from earlier scans, or an oracle's (the example
+    /// `association_bound` starts CRF-Matching from the true motions this way). Only
+    /// the number of valid returns ties the hypotheses to `pair`.
     ///
     /// # Errors
     /// [`Error::Features`] (`BadPair`, naming the pair) when `hypotheses` do not fit
@@ -229,10 +231,10 @@ impl Matcher {
     pub fn match_pair_with_hypotheses(
         &self,
         pair: &ScanPair,
-        hypotheses: SegmentMotions,
+        hypotheses: &SegmentMotions,
     ) -> Result<Matching> {
         hypotheses.check_for(pair)?;
-        self.run(pair, Some(hypotheses))
+        self.run(pair, Some(hypotheses.clone()))
     }
 
     /// Both entry points: `given` hypotheses, else segment-wise ICP's.

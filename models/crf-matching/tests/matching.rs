@@ -243,12 +243,14 @@ fn next_round_tables_are_fresh_tables() {
     }
 }
 
-/// The hypotheses segment-wise ICP makes, given back, give the same matching; bad ones
-/// are refused with the pair named.
+/// The hypotheses segment-wise ICP makes, given back, give the same matching; other
+/// hypotheses give another (moved by 1 m, or none moving, which is CRF-Matching
+/// without motion groups); bad ones are refused with the pair named.
 #[test]
-fn given_hypotheses_match_like_found_ones_and_bad_ones_are_refused() {
+fn given_hypotheses_are_the_ones_used_and_bad_ones_are_refused() {
     use pgm_datasets::sim::Preset;
     use pgm_features::association::segment_motions;
+    use pgm_features::Pose2;
     let config = SimConfig {
         preset: Preset::Overtaking,
         ..SimConfig::default()
@@ -258,6 +260,12 @@ fn given_hypotheses_match_like_found_ones_and_bad_ones_are_refused() {
     let pairs = simulate_pairs(&config, 7, 3);
     let matcher = Matcher::default();
     let segments = matcher.params().segments.check().unwrap();
+    let one_motion = MatchingParams {
+        segment_motions: false,
+        ..MatchingParams::default()
+    }
+    .check()
+    .unwrap();
     for pair in &pairs {
         let h = segment_motions(pair, &segments).unwrap();
         assert!(
@@ -265,9 +273,23 @@ fn given_hypotheses_match_like_found_ones_and_bad_ones_are_refused() {
             "{}: a moving segment",
             pair.name
         );
+        let found = matcher.match_pair(pair).unwrap();
+        assert_eq!(matcher.match_pair_with_hypotheses(pair, &h).unwrap(), found);
+        // Every moving segment's motion shifted by 1 m: other associations.
+        let mut shifted = h.clone();
+        for (i, m) in shifted.motion_of.iter_mut().enumerate() {
+            if h.moved[h.segment_of[i]] {
+                *m = Pose2::new(m.x() + 1.0, m.y(), m.theta());
+            }
+        }
+        let moved = matcher.match_pair_with_hypotheses(pair, &shifted).unwrap();
+        assert_ne!(moved.associations, found.associations, "{}", pair.name);
+        // Nothing moving: the matching of one motion group.
+        let mut still = h.clone();
+        still.moved.fill(false);
         assert_eq!(
-            matcher.match_pair_with_hypotheses(pair, h).unwrap(),
-            matcher.match_pair(pair).unwrap()
+            matcher.match_pair_with_hypotheses(pair, &still).unwrap(),
+            one_motion.match_pair(pair).unwrap()
         );
     }
     let pair = &pairs[0];
@@ -276,17 +298,101 @@ fn given_hypotheses_match_like_found_ones_and_bad_ones_are_refused() {
     short.motion_of.pop();
     let mut outside = found.clone();
     outside.segment_of[0] = found.moved.len();
+    let moving = (0..found.segment_of.len())
+        .find(|&i| found.moved[found.segment_of[i]])
+        .unwrap();
     let mut nan = found.clone();
-    nan.motion_of[3] = pgm_features::Pose2::new(f64::NAN, 0.0, 0.0);
+    nan.motion_of[moving] = Pose2::new(f64::NAN, 0.0, 0.0);
+    let mut two = found.clone();
+    two.motion_of[moving] = Pose2::new(0.5, 0.0, 0.0);
+    let mut nan_ego = found.clone();
+    nan_ego.ego = Pose2::new(0.0, f64::INFINITY, 0.0);
+    let beam = |i: usize| {
+        format!("valid return {i} (beam {})", {
+            (0..pair.current.len())
+                .filter(|&b| pair.current.valid[b])
+                .nth(i)
+                .unwrap()
+        })
+    };
     for (h, says) in [
-        (short, "valid returns"),
-        (outside, "is not among"),
-        (nan, "return 3"),
+        (short, "valid returns".to_string()),
+        (outside, format!("{}: segment", beam(0))),
+        (nan, format!("{}, (NaN", beam(moving))),
+        (two, "moved with two motions".to_string()),
+        (nan_ego, "the ego-motion".to_string()),
     ] {
         let e = matcher
-            .match_pair_with_hypotheses(pair, h)
+            .match_pair_with_hypotheses(pair, &h)
             .unwrap_err()
             .to_string();
-        assert!(e.contains(&pair.name) && e.contains(says), "{e}");
+        assert!(e.contains(&pair.name) && e.contains(&says), "{e} / {says}");
     }
+    // The motions of segments that did not move are not read.
+    let mut unread = found.clone();
+    let still = (0..found.segment_of.len())
+        .find(|&i| !found.moved[found.segment_of[i]])
+        .unwrap();
+    unread.motion_of[still] = Pose2::new(f64::NAN, 0.0, 0.0);
+    assert_eq!(
+        matcher.match_pair_with_hypotheses(pair, &unread).unwrap(),
+        matcher.match_pair(pair).unwrap()
+    );
+}
+
+/// The association tables' node-wise loops give the same candidates and features on
+/// a pool of one thread (sequential) and of four (side by side), in the first round
+/// and the next.
+#[test]
+fn association_tables_are_the_same_on_one_thread_and_on_four() {
+    use pgm_core::hybrid::chain::FeatureSink;
+    use pgm_features::association_chain::{AssociationProblem, AssociationTables};
+    use pgm_features::Pose2;
+    struct Record(Vec<(usize, usize, u64)>);
+    impl FeatureSink for Record {
+        fn add(&mut self, entry: usize, feature: usize, value: f64) {
+            self.0.push((entry, feature, value.to_bits()));
+        }
+    }
+    let pair = &simulate_pairs(&SimConfig::default().check().unwrap(), 7, 1)[0];
+    let weights = MatchingWeights::default();
+    let problem = AssociationProblem::new(pair, &weights.boosters).unwrap();
+    let n = problem.len();
+    assert!(n >= 100, "{n} nodes: enough for the side-by-side path");
+    let ego = pair.odometry.unwrap();
+    let moved = Pose2::new(ego.x() + 0.3, ego.y() - 0.2, ego.theta() + 0.02);
+    let own: Vec<Pose2> = (0..n)
+        .map(|i| if i % 3 == 0 { moved } else { ego })
+        .collect();
+    let egos = vec![ego; n];
+    let build = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let first = problem.candidates(StateSpace::Pruned(6), &egos, &egos, 1.0);
+            let second = problem.candidates(StateSpace::Pruned(6), &own, &egos, 1.0);
+            let tables = AssociationTables::new(&problem, first.clone(), 8, &egos);
+            let mut record = Record(Vec::new());
+            for (i, motion) in egos.iter().enumerate() {
+                tables.write_local(i, motion, 0, &mut record);
+            }
+            let tables = tables.next_round(second.clone(), &own);
+            for (i, motion) in own.iter().enumerate() {
+                tables.write_local(i, motion, 0, &mut record);
+                if i + 1 < n {
+                    tables.write_pair(i, motion, 0, &mut record);
+                }
+            }
+            (first, second, record.0)
+        })
+    };
+    let sequential = build(1);
+    let parallel = build(4);
+    assert!(!sequential.2.is_empty());
+    assert!(
+        sequential == parallel,
+        "the tables differ between one and four threads"
+    );
 }

@@ -293,8 +293,9 @@ impl Joint {
             motion[s] = h.motion_of[i];
         }
         // One group per moving segment (see the module docs on merging).
+        // A segment marked moved without a return is no group ([`SegmentMotions`]).
         let mut groups: Vec<Group> = (0..h.moved.len())
-            .filter(|&s| h.moved[s])
+            .filter(|&s| h.moved[s] && size[s] > 0)
             .map(|s| Group {
                 motion: motion[s],
                 size: size[s],
@@ -333,9 +334,11 @@ impl Joint {
     /// [`Joint::estimate`] with the motion hypotheses of step 1 given instead of found
     /// by segment-wise ICP: the ego-motion, and per valid current return (beam order)
     /// its segment and motion, with the segments that moved (each starts a motion
-    /// cluster, the largest first, as step 1 says). For hypotheses a pair alone cannot
-    /// give: a tracker's predictions from earlier scans, or an oracle's (the example
-    /// `association_bound` starts the joint model from the true motions this way).
+    /// cluster, the largest first, as step 1 says; read as [`SegmentMotions`] says).
+    /// For hypotheses a pair alone cannot give: a tracker's predictions from earlier
+    /// scans, or an oracle's (the example `association_bound` starts the joint model
+    /// from the true motions this way). Only the number of valid returns ties the
+    /// hypotheses to `pair`.
     ///
     /// # Errors
     /// [`Error::Features`] (`BadPair`, naming the pair) when `hypotheses` do not fit
@@ -344,10 +347,10 @@ impl Joint {
     pub fn estimate_with_hypotheses(
         &self,
         pair: &ScanPair,
-        hypotheses: SegmentMotions,
+        hypotheses: &SegmentMotions,
     ) -> Result<JointResult> {
         hypotheses.check_for(pair)?;
-        self.run(pair, Some(hypotheses))
+        self.run(pair, Some(hypotheses.clone()))
     }
 
     /// Both entry points: `given` hypotheses, else segment-wise ICP's.

@@ -212,12 +212,14 @@ fn rotation_prior_changes_only_the_object_motions_and_helps_small_objects() {
     .is_err());
 }
 
-/// The hypotheses segment-wise ICP makes, given back, give the same estimate; bad ones
-/// are refused with the pair named.
+/// The hypotheses segment-wise ICP makes, given back, give the same estimate; other
+/// hypotheses give another; a segment marked moved without a return changes nothing;
+/// bad ones are refused with the pair named.
 #[test]
-fn given_hypotheses_estimate_like_found_ones_and_bad_ones_are_refused() {
+fn given_hypotheses_are_the_ones_used_and_bad_ones_are_refused() {
     use pgm_datasets::sim::Preset;
     use pgm_features::association::segment_motions;
+    use pgm_features::Pose2;
     let config = SimConfig {
         preset: Preset::Overtaking,
         ..SimConfig::default()
@@ -229,16 +231,25 @@ fn given_hypotheses_estimate_like_found_ones_and_bad_ones_are_refused() {
     let segments = joint.params().segments.check().unwrap();
     for pair in &pairs {
         let h = segment_motions(pair, &segments).unwrap();
-        assert_eq!(
-            joint.estimate_with_hypotheses(pair, h).unwrap(),
-            joint.estimate(pair).unwrap()
-        );
+        let found = joint.estimate(pair).unwrap();
+        assert_eq!(joint.estimate_with_hypotheses(pair, &h).unwrap(), found);
+        let mut shifted = h.clone();
+        for (i, m) in shifted.motion_of.iter_mut().enumerate() {
+            if h.moved[h.segment_of[i]] {
+                *m = Pose2::new(m.x() + 1.0, m.y(), m.theta());
+            }
+        }
+        let moved = joint.estimate_with_hypotheses(pair, &shifted).unwrap();
+        assert_ne!(moved.associations, found.associations, "{}", pair.name);
+        let mut empty = h.clone();
+        empty.moved.extend([true, true]);
+        assert_eq!(joint.estimate_with_hypotheses(pair, &empty).unwrap(), found);
     }
     let pair = &pairs[0];
     let mut h = segment_motions(pair, &segments).unwrap();
     h.segment_of.pop();
     let e = joint
-        .estimate_with_hypotheses(pair, h)
+        .estimate_with_hypotheses(pair, &h)
         .unwrap_err()
         .to_string();
     assert!(e.contains(&pair.name) && e.contains("valid returns"), "{e}");
