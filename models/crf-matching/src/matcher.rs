@@ -224,6 +224,30 @@ impl Matcher {
     /// `association_bound` starts CRF-Matching from the true motions this way). Only
     /// the number of valid returns ties the hypotheses to `pair`.
     ///
+    /// ```
+    /// use pgm_crf_matching::Matcher;
+    /// use pgm_datasets::sim::{simulate_pair, SimConfig};
+    /// use pgm_features::association::segment_motions;
+    /// use pgm_features::{ParamGuard, Pose2};
+    ///
+    /// let pair = simulate_pair(&SimConfig::default().check()?, 1, 0);
+    /// let matcher = Matcher::default();
+    /// // Segment-wise ICP's hypotheses, as `match_pair` finds them ...
+    /// let mut hypotheses = segment_motions(&pair, &matcher.params().segments.check()?)?;
+    /// let found = matcher.match_pair_with_hypotheses(&pair, &hypotheses)?;
+    /// assert_eq!(found, matcher.match_pair(&pair)?);
+    /// // ... or with every moving segment started from a motion of your own (here a
+    /// // prediction 0.1 m further along x).
+    /// for (i, m) in hypotheses.motion_of.iter_mut().enumerate() {
+    ///     if hypotheses.moved[hypotheses.segment_of[i]] {
+    ///         *m = Pose2::new(m.x() + 0.1, m.y(), m.theta());
+    ///     }
+    /// }
+    /// let predicted = matcher.match_pair_with_hypotheses(&pair, &hypotheses)?;
+    /// assert_eq!(predicted.associations.len(), pair.current.len());
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    ///
     /// # Errors
     /// [`Error::Features`] (`BadPair`, naming the pair) when `hypotheses` do not fit
     /// the pair ([`SegmentMotions::check_for`]), and the errors of
