@@ -331,9 +331,17 @@ fn score_pair(
     let hypotheses = segment_motions(pair, segments).expect(runs);
     let own = true_hypotheses(&hypotheses, &current.beams, pair, false);
     let all = true_hypotheses(&hypotheses, &current.beams, pair, true);
+    // The models as shipped, from the hypotheses they would find themselves (made
+    // once here: `estimate` and `match_pair` would each make them again).
     let predicted = [
-        joint.estimate(pair).expect(runs).associations,
-        matcher.match_pair(pair).expect(runs).associations,
+        joint
+            .estimate_with_hypotheses(pair, &hypotheses)
+            .expect(runs)
+            .associations,
+        matcher
+            .match_pair_with_hypotheses(pair, &hypotheses)
+            .expect(runs)
+            .associations,
         matcher
             .match_pair_with_hypotheses(pair, &own)
             .expect(runs)
