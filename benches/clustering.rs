@@ -12,8 +12,8 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use pgm_crf_clustering::{ClusteringInput, ClusteringParams, UpdateSchedule};
 use pgm_datasets::sim::{simulate_pair, SimConfig};
-use pgm_features::association::{AssociationSource, GroundTruthAssociations};
-use pgm_features::ParamGuard;
+use pgm_scan::association::{AssociationSource, GroundTruthAssociations};
+use pgm_scan::ParamGuard;
 use std::time::Duration;
 
 fn inference(c: &mut Criterion) {

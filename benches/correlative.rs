@@ -1,4 +1,4 @@
-//! Correlative scan matching (`pgm_features::correlative`) on one simulated 361-beam
+//! Correlative scan matching (`pgm_scan::correlative`) on one simulated 361-beam
 //! pair (preset mixed, seed 1, pair 0) from 16 priors perturbed by up to 1 m and 30
 //! degrees (uniform in a disc and an interval, seeded), with the default parameters:
 //! the full ±1 m, ±30° window.
@@ -21,9 +21,9 @@ use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use pgm_datasets::builders::{relation_pairs, RelationPairOptions};
 use pgm_datasets::sim::{simulate_pair, SimConfig};
 use pgm_datasets::{carmen, relations, testdata, ScanPair};
-use pgm_features::correlative::{CorrelativeIcpMatcher, CorrelativeMatcher};
-use pgm_features::registration::IcpMatcher;
-use pgm_features::{ParamGuard, Pose2};
+use pgm_scan::correlative::{CorrelativeIcpMatcher, CorrelativeMatcher};
+use pgm_scan::registration::IcpMatcher;
+use pgm_scan::{ParamGuard, Pose2};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::hint::black_box;

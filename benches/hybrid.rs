@@ -12,7 +12,8 @@ use pgm_core::hybrid::{HybridInference, UpdatePolicy};
 use pgm_core::{
     BeliefPropagation, FactorGraph, Mode, PottsFactor, Sequential, TableFactor, VariableId,
 };
-use pgm_features::{Pose2, RigidMotionNodes};
+use pgm_features::RigidMotionNodes;
+use pgm_scan::Pose2;
 use std::time::Duration;
 
 fn problem(n: usize) -> (FactorGraph, RigidMotionNodes, Vec<usize>) {

@@ -13,7 +13,7 @@
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use pgm_datasets::builders::{relation_pairs, RelationPairOptions};
 use pgm_datasets::{carmen, relations, testdata, ScanPair};
-use pgm_features::registration::{Icp, IcpParams};
+use pgm_scan::registration::{Icp, IcpParams};
 use std::hint::black_box;
 
 const BATCH: usize = 100;
@@ -97,7 +97,7 @@ fn bench_icp(c: &mut Criterion) {
 
 /// Two `n`-beam scans as carmen-long100000 writes them: the same pseudo-random ranges
 /// in 5-6 m over 180°, read from poses 0.1 m apart.
-fn long_pair(n: usize) -> (pgm_features::Scan, pgm_features::Scan) {
+fn long_pair(n: usize) -> (pgm_scan::Scan, pgm_scan::Scan) {
     let mut state = 0x2545_f491_4f6c_dd1du64;
     let ranges: Vec<f64> = (0..n)
         .map(|_| {
@@ -110,7 +110,7 @@ fn long_pair(n: usize) -> (pgm_features::Scan, pgm_features::Scan) {
     let angles: Vec<f64> = (0..n)
         .map(|k| -std::f64::consts::FRAC_PI_2 + std::f64::consts::PI * k as f64 / (n - 1) as f64)
         .collect();
-    let scan = pgm_features::Scan::from_ranges(angles, ranges, 80.0);
+    let scan = pgm_scan::Scan::from_ranges(angles, ranges, 80.0);
     (scan.clone(), scan)
 }
 
@@ -124,7 +124,7 @@ fn bench_long(c: &mut Criterion) {
             b.iter(|| {
                 let icp = Icp::new(&reference, IcpParams::default()).expect("valid reference");
                 let r = icp
-                    .align(&current, pgm_features::Pose2::new(0.1, 0.0, 0.0))
+                    .align(&current, pgm_scan::Pose2::new(0.1, 0.0, 0.0))
                     .expect("valid current");
                 black_box(r.motion)
             })

@@ -15,9 +15,9 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use pgm_core::hybrid::chain::ChainUpdate;
 use pgm_datasets::sim::{simulate_pair, SimConfig};
-use pgm_features::association_chain::StateSpace;
-use pgm_features::ParamGuard;
+use pgm_features::matching_features::StateSpace;
 use pgm_joint::JointParams;
+use pgm_scan::ParamGuard;
 use std::time::Duration;
 
 fn joint(c: &mut Criterion) {

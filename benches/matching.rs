@@ -12,7 +12,7 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use pgm_crf_matching::{MatchingParams, StateSpace};
 use pgm_datasets::sim::{simulate_pair, SimConfig};
-use pgm_features::ParamGuard;
+use pgm_scan::ParamGuard;
 use std::time::Duration;
 
 fn matching(c: &mut Criterion) {

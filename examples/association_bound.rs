@@ -4,7 +4,7 @@
 //! Every oracle decides the outliers perfectly (a return whose true association is the
 //! outlier state is counted correct) and associates every true inlier with the
 //! reference return nearest to it under a motion, on surface points
-//! ([`pgm_features::scan::surface_points`]); they differ in the motion of each true
+//! ([`pgm_scan::scan::surface_points`]); they differ in the motion of each true
 //! object (the background included):
 //!
 //! 1. **true motion**: the simulator's;
@@ -47,11 +47,11 @@
 
 use pgm_crf_matching::Matcher;
 use pgm_datasets::sim::{simulate_pairs, Preset, SimConfig};
-use pgm_features::alignment::RigidAlignment;
-use pgm_features::association::{segment_motions, SegmentIcp, SegmentMotions};
-use pgm_features::matching::ScanShape;
-use pgm_features::{Association, ParamGuard, Pose2, ScanPair};
+use pgm_features::shape_features::ScanShape;
 use pgm_joint::Joint;
+use pgm_scan::alignment::RigidAlignment;
+use pgm_scan::association::{segment_motions, SegmentIcp, SegmentMotions};
+use pgm_scan::{Association, ParamGuard, Pose2, ScanPair};
 use rayon::prelude::*;
 
 /// Point-to-point ICP iterations of oracle 3.

@@ -3,7 +3,7 @@
 //! seeded), and each scan matcher runs from there. Printed: the share of pairs that end
 //! within 0.1 m and 0.02 rad of the true ego-motion, for ICP, CRF-Matching and
 //! `icp+csm` (correlative scan matching over the whole ±1 m, ±30° window, then ICP from
-//! its hypotheses: `pgm_features::correlative::CorrelativeIcpMatcher`) side by side, on
+//! its hypotheses: `pgm_scan::correlative::CorrelativeIcpMatcher`) side by side, on
 //! held-out simulated pairs (preset mixed, seed 7) and on the mit-csail pairs less than
 //! 1.5 s apart (skipped without the shared data folder).
 //!
@@ -13,9 +13,9 @@ use pgm::methods::{scan_matcher, MethodOptions};
 use pgm_datasets::builders::{relation_pairs, RelationPairOptions};
 use pgm_datasets::sim::{simulate_pairs, SimConfig};
 use pgm_datasets::{carmen, relations, testdata, ParamGuard, ScanPair};
-use pgm_features::correlative::CorrelativeIcpMatcher;
-use pgm_features::methods::ScanMatcher;
-use pgm_features::Pose2;
+use pgm_scan::correlative::CorrelativeIcpMatcher;
+use pgm_scan::methods::ScanMatcher;
+use pgm_scan::Pose2;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;

@@ -17,7 +17,8 @@ use pgm_core::hybrid::{HybridInference, UpdatePolicy};
 use pgm_core::{
     BeliefPropagation, FactorGraph, Mode, PottsFactor, Sequential, TableFactor, VariableId,
 };
-use pgm_features::{Pose2, RigidAlignment, RigidMotionNodes};
+use pgm_features::RigidMotionNodes;
+use pgm_scan::{Pose2, RigidAlignment};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};

@@ -22,9 +22,9 @@
 
 use pgm::methods::{association_source, clusterer, MethodOptions};
 use pgm_datasets::builders::{leigh_pairs, LeighPairOptions};
-use pgm_datasets::evaluation::{evaluate_clustering, ClusteringReport, ClusteringSummary};
 use pgm_datasets::sim::{simulate_pairs, SimConfig};
 use pgm_datasets::{leigh, ParamGuard, ScanPair};
+use pgm_eval::{evaluate_clustering, ClusteringReport, ClusteringSummary};
 use std::process::ExitCode;
 
 const PAPER: [(&str, [f64; 6]); 4] = [

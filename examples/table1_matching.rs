@@ -18,9 +18,9 @@
 
 use pgm::methods::{association_source, MethodOptions};
 use pgm_crf_matching::StateSpace;
-use pgm_datasets::evaluation::evaluate_association;
 use pgm_datasets::sim::{simulate_pairs, Preset, SimConfig};
 use pgm_datasets::{ParamGuard, ScanPair};
+use pgm_eval::evaluate_association;
 use std::process::ExitCode;
 use std::time::Instant;
 

@@ -9,7 +9,7 @@
 //! K-Means on ICP's and on CRF-Matching's associations (k = 4, as the paper), the
 //! separate pipeline (CRF-Matching, then CRF-Clustering on its associations: the
 //! paper's "CRF-Clustering" rows) and the joint model. Scored by
-//! `pgm_datasets::evaluation::{evaluate_association, evaluate_joint}`; Table III gives
+//! `pgm_eval::{evaluate_association, evaluate_joint}`; Table III gives
 //! medians (the `pgm eval joint` fields) where the paper gives means.
 //!
 //! 1. **Leave-one-out** over `--loo-pairs` (31) simulated pairs (preset mixed, seed
@@ -45,17 +45,17 @@ use pgm::methods::{
 use pgm_datasets::bag::pairs::BagPairOptions;
 use pgm_datasets::bag::BagTopics;
 use pgm_datasets::builders::LeighPairOptions;
-use pgm_datasets::evaluation::{
-    evaluate_association, evaluate_clustering_with, evaluate_joint, evaluate_matching,
-    summarize_association, summarize_joint, AssociationOutcome, AssociationReport,
-    DetectionOptions, JointOutcome, JointReport,
-};
 use pgm_datasets::mocap::{Footprint, MocapOptions};
 use pgm_datasets::sim::{simulate_pairs, Preset, SimConfig};
 use pgm_datasets::source::PairSource;
 use pgm_datasets::{ParamGuard, ScanPair};
-use pgm_features::methods::{JointClusters, MotionClusterer};
-use pgm_features::Pose2;
+use pgm_eval::{
+    evaluate_association, evaluate_clustering_with, evaluate_joint, evaluate_matching,
+    summarize_association, summarize_joint, AssociationOutcome, AssociationReport,
+    DetectionOptions, JointOutcome, JointReport,
+};
+use pgm_scan::methods::{JointClusters, MotionClusterer};
+use pgm_scan::Pose2;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;

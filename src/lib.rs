@@ -7,11 +7,15 @@
 //!   propagation with pluggable schedules, exact references, hybrid
 //!   observed-continuous nodes and the hybrid chain solver, pseudo-likelihood
 //!   learning, checked parameters, UAI I/O;
-//! - [`features`] (`pgm-features`): poses, scans and their geometry, scan pairs,
-//!   rigid alignment, registration (ICP), association sources, feature functions, and
-//!   the interfaces methods are evaluated through;
+//! - [`scan`] (`pgm-scan`): poses, scans and their geometry, scan pairs, rigid
+//!   alignment, registration (ICP, correlative search), association sources, and the
+//!   interfaces methods are evaluated through;
+//! - [`features`] (`pgm-features`): the papers' CRF parts: feature functions,
+//!   boosting, the association and clustering chains, rigid-motion nodes;
+//! - [`tracking`] (`pgm-tracking`): moving objects followed over a sequence of scans;
 //! - [`datasets`] (`pgm-datasets`): log readers, pair sources, the on-disk format,
-//!   the urban simulator, metrics and the generic evaluation;
+//!   the urban simulator and the metrics;
+//! - [`eval`] (`pgm-eval`): the evaluation loops every method runs through;
 //! - [`baselines`] (`pgm-baselines`): motion K-Means, consistency-based detection;
 //! - [`crf_clustering`] (`pgm-crf-clustering`): the CRF-Clustering model;
 //! - [`crf_matching`] (`pgm-crf-matching`): the CRF-Matching model;
@@ -24,9 +28,9 @@
 //! by motion with the ground-truth associations, and score the result.
 //!
 //! ```
-//! use pgm::datasets::evaluation::evaluate_clustering;
+//! use pgm::eval::evaluate_clustering;
 //! use pgm::datasets::sim::{simulate_pairs, SimConfig};
-//! use pgm::features::ParamGuard;
+//! use pgm::scan::ParamGuard;
 //! use pgm::methods::{association_source, clusterer, MethodOptions};
 //!
 //! let pairs = simulate_pairs(&SimConfig::default().check().unwrap(), 1, 2);
@@ -42,8 +46,11 @@ pub use pgm_core as core;
 pub use pgm_crf_clustering as crf_clustering;
 pub use pgm_crf_matching as crf_matching;
 pub use pgm_datasets as datasets;
+pub use pgm_eval as eval;
 pub use pgm_features as features;
 pub use pgm_joint as joint;
+pub use pgm_scan as scan;
+pub use pgm_tracking as tracking;
 
 pub mod methods;
 pub mod plot;

@@ -20,16 +20,16 @@ use pgm_baselines::consistency::ConsistencyParams;
 use pgm_baselines::motion_kmeans::MotionKMeansParams;
 use pgm_crf_clustering::{ClusteringParams, ClusteringWeights};
 use pgm_crf_matching::{MatchingParams, MatchingWeights};
-use pgm_features::association::{
+use pgm_joint::{JointParams, JointWeights};
+use pgm_scan::association::{
     AssociationSource, GroundTruthAssociations, NearestParams, SegmentParams,
 };
-use pgm_features::methods::{
+use pgm_scan::methods::{
     Associated, JointClusters, JointEgoMotion, JointEstimator, MotionClusterer, Odometry,
     OneCluster, ScanMatcher, TwoSteps,
 };
-use pgm_features::registration::IcpParams;
-use pgm_features::{ParamGuard, ScanPair};
-use pgm_joint::{JointParams, JointWeights};
+use pgm_scan::registration::IcpParams;
+use pgm_scan::{ParamGuard, ScanPair};
 use std::fmt;
 use std::sync::Arc;
 
@@ -344,7 +344,7 @@ pub fn scan_matcher(
     Ok(match name {
         "odometry" => Box::new(Odometry),
         "icp" => Box::new(options.icp.check().map_err(invalid)?),
-        "icp+csm" => Box::new(pgm_features::correlative::CorrelativeIcpMatcher::default()),
+        "icp+csm" => Box::new(pgm_scan::correlative::CorrelativeIcpMatcher::default()),
         "crf-matching" => Box::new(options.matching.clone().check().map_err(invalid)?),
         "joint" => Box::new(JointEgoMotion(
             options.joint.clone().check().map_err(invalid)?,
@@ -381,7 +381,7 @@ pub const JOINT_ESTIMATORS: &[(&str, &str)] = &[
 
 /// The joint method named `name` (see [`JOINT_ESTIMATORS`]), named as typed. The
 /// two-step pipelines put a return their association source calls an outlier in the
-/// outlier cluster ([`pgm_features::methods::JointEstimate::from_two_steps`]).
+/// outlier cluster ([`pgm_scan::methods::JointEstimate::from_two_steps`]).
 pub fn joint_estimator(
     name: &str,
     options: &MethodOptions,

@@ -21,7 +21,7 @@
 
 use nalgebra::Point2;
 use pgm_datasets::{ClusterMotion, ScanPair};
-use pgm_features::Pose2;
+use pgm_scan::Pose2;
 use plotters::prelude::*;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -155,7 +155,7 @@ pub struct PairPicture<'a> {
     /// Associations (one per current beam) drawn as lines from each aligned current
     /// point to its reference partner, like Fig. 3 of the joint-model paper (outliers
     /// get no line). Default: none.
-    pub associations: Option<&'a [Option<pgm_features::Association>]>,
+    pub associations: Option<&'a [Option<pgm_scan::Association>]>,
 }
 
 impl<'a> PairPicture<'a> {
@@ -248,7 +248,7 @@ impl<'a> PairPicture<'a> {
                     .iter()
                     .zip(&current_beams)
                     .filter_map(|(p, &k)| match associations[k] {
-                        Some(pgm_features::Association::Point(r))
+                        Some(pgm_scan::Association::Point(r))
                             if r < reference.len() && reference.valid[r] =>
                         {
                             Some((*p, reference.beam_point(r)))
@@ -367,7 +367,7 @@ impl<'a> PairPicture<'a> {
 #[derive(Clone, Debug)]
 pub struct TrackedScan<'a> {
     /// The scan.
-    pub scan: &'a pgm_features::Scan,
+    pub scan: &'a pgm_scan::Scan,
     /// Its sensor frame in the picture's frame (maps its points there).
     pub pose: Pose2,
     /// Its moving objects: track number and centre (m, its own sensor frame).

@@ -11,11 +11,11 @@
 //! same estimate rather than on it, which moves a few nearest-neighbour partners
 //! across the gate, and K-Means (unlike the CRF) follows every partner.
 
-use pgm::datasets::evaluation::evaluate_clustering_pair;
 use pgm::datasets::sim::{simulate_pairs, SimConfig};
 use pgm::datasets::{Association, ParamGuard, ScanPair};
-use pgm::features::Scan;
+use pgm::eval::evaluate_clustering_pair;
 use pgm::methods::{association_source, clusterer, MethodOptions};
+use pgm::scan::Scan;
 
 /// The scan with its beams in reverse order.
 fn reversed_scan(scan: &Scan) -> Scan {

@@ -9,7 +9,7 @@ use pgm::methods::{scan_matcher, MethodOptions};
 use pgm_datasets::builders::{relation_pairs, RelationPairOptions};
 use pgm_datasets::sim::{simulate_pairs, SimConfig};
 use pgm_datasets::{carmen, relations, testdata, ParamGuard, ScanPair};
-use pgm_features::Pose2;
+use pgm_scan::Pose2;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;

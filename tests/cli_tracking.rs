@@ -1,4 +1,4 @@
-//! `pgm eval clustering --track` (multi-scan tracking, `pgm_features::tracking`): its
+//! `pgm eval clustering --track` (multi-scan tracking, `pgm_tracking`): its
 //! options are checked, a simulated data set (independent scenes) scores exactly as
 //! without tracking, and on the datmo `overtake_ego` bag (real data, a car driven
 //! right behind and beside the robot) tracking finds the car in more pairs without

@@ -11,10 +11,10 @@
 //! CRF-Matching (issue 14): medians no worse than ICP's on both sets.
 
 use pgm_datasets::builders::{consecutive_pairs, relation_pairs, RelationPairOptions};
-use pgm_datasets::evaluation::evaluate_matching;
 use pgm_datasets::metrics::{motion_error, summarize_errors, ErrorSummary, MotionError};
 use pgm_datasets::{carmen, relations, testdata, ScanPair};
-use pgm_features::registration::IcpMatcher;
+use pgm_eval::evaluate_matching;
+use pgm_scan::registration::IcpMatcher;
 
 fn icp_errors(pairs: &[ScanPair]) -> ErrorSummary {
     let report = evaluate_matching(pairs, &IcpMatcher::default(), None).expect("pairs");

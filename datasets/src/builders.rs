@@ -97,7 +97,7 @@ use crate::leigh::{IndexedScan, LeighScans, PersonAnnotation};
 use crate::pair::{ClusterMotion, GroundTruth, ScanPair};
 use crate::relations::Relation;
 use nalgebra::Point2;
-use pgm_features::{Pose2, Scan};
+use pgm_scan::{Pose2, Scan};
 use std::collections::BTreeMap;
 use std::path::Path;
 

@@ -69,7 +69,7 @@
 
 use crate::error::{limits, Error, Result};
 use crate::text::{read_text, Fields};
-use pgm_features::{Pose2, Scan};
+use pgm_scan::{Pose2, Scan};
 use std::collections::BTreeMap;
 use std::path::Path;
 

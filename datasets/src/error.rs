@@ -143,7 +143,7 @@ pub enum Error {
         /// The method's name.
         method: String,
         /// The method's error.
-        source: Box<pgm_features::Error>,
+        source: Box<pgm_scan::Error>,
     },
 }
 
@@ -162,7 +162,7 @@ impl Error {
 
 /// The method error's message without a leading ``pair `NAME`: `` (the variant
 /// names the pair already).
-fn without_pair(source: &pgm_features::Error, pair: &str) -> String {
+fn without_pair(source: &pgm_scan::Error, pair: &str) -> String {
     let message = source.to_string();
     message
         .strip_prefix(&format!("pair `{pair}`: "))

@@ -46,7 +46,7 @@
 
 use crate::error::{limits, Error, Result};
 use crate::pair::{PairViolation, ScanPair};
-use pgm_features::Pose2;
+use pgm_scan::Pose2;
 use serde::{Deserialize, Serialize};
 use std::io::Write;
 use std::path::{Path, PathBuf};

@@ -27,7 +27,7 @@
 use crate::error::{limits, Error, Result};
 use crate::text::{read_text, Fields};
 use nalgebra::Point2;
-use pgm_features::{Pose2, Scan};
+use pgm_scan::{Pose2, Scan};
 use std::collections::BTreeMap;
 use std::path::Path;
 

@@ -7,13 +7,11 @@
 //! truth ([`builders`]; [`mocap`] for motion-capture truth), the on-disk
 //! pair format ([`format`](mod@format), specified in `datasets/FORMAT.md`), pair
 //! sources ([`source`]: a stored data set, a real log or a bag, loaded one way), the
-//! evaluation metrics of both papers ([`metrics`]), the one evaluation loop every
-//! method runs through ([`evaluation`], over the
-//! [`MotionClusterer`](pgm_features::MotionClusterer) and
-//! [`ScanMatcher`](pgm_features::ScanMatcher) traits), the urban laser simulator
-//! ([`sim`]) and the shared-data lookup for real-data tests ([`testdata`]). The
-//! scan-pair types themselves live in `pgm-features` (models depend on them, not on
-//! this crate) and are re-exported here.
+//! evaluation metrics of both papers as pure functions ([`metrics`]), the urban laser
+//! simulator ([`sim`]) and the shared-data lookup for real-data tests ([`testdata`]).
+//! The scan-pair types themselves live in the scan layer `pgm-scan` (models depend on
+//! them, not on this crate) and are re-exported here. The evaluation loops that run
+//! methods over pairs and score them with these metrics are the `pgm-eval` crate.
 //!
 //! ```no_run
 //! use pgm_datasets::{builders, carmen, relations};
@@ -33,7 +31,6 @@ pub mod bag;
 pub mod builders;
 pub mod carmen;
 pub mod error;
-pub mod evaluation;
 pub mod format;
 pub mod leigh;
 pub mod metrics;
@@ -48,4 +45,4 @@ mod text;
 pub use error::{Error, Result};
 pub use format::{read_chosen_pair, read_pairs, write_pairs};
 pub use pair::{Association, ClusterMotion, GroundTruth, PairViolation, ScanPair};
-pub use pgm_features::ParamGuard;
+pub use pgm_scan::ParamGuard;

@@ -52,8 +52,8 @@
 
 use crate::error::{Error, Result};
 use crate::pair::Association;
-use pgm_features::methods::JointCluster;
-use pgm_features::Pose2;
+use pgm_scan::methods::JointCluster;
+use pgm_scan::Pose2;
 use std::collections::{BTreeMap, HashMap};
 use std::hash::Hash;
 

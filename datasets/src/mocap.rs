@@ -20,7 +20,7 @@
 //!
 //! ```
 //! use pgm_datasets::mocap::{Footprint, PoseTrack};
-//! use pgm_features::Pose2;
+//! use pgm_scan::Pose2;
 //! use nalgebra::Point2;
 //!
 //! let track = PoseTrack::new(vec![(0.0, Pose2::new(0.0, 0.0, 3.1)), (1.0, Pose2::new(2.0, 0.0, -3.1))]);
@@ -34,7 +34,7 @@
 
 use crate::pair::{ClusterMotion, GroundTruth, ScanPair};
 use nalgebra::{Point2, Vector2};
-use pgm_features::{Pose2, Scan};
+use pgm_scan::{Pose2, Scan};
 use std::f64::consts::PI;
 
 /// A time series of planar poses, interpolated linearly (x, y, and the heading the

@@ -10,7 +10,7 @@
 
 use crate::error::Result;
 use crate::text::{read_text, Fields};
-use pgm_features::Pose2;
+use pgm_scan::Pose2;
 use std::path::Path;
 
 /// One ground-truth relation between two time stamps.

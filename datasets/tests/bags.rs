@@ -13,7 +13,7 @@ use pgm_datasets::mocap::{Footprint, MocapOptions};
 use pgm_datasets::source::PairSource;
 use pgm_datasets::testdata::shared_data_dir;
 use pgm_datasets::{Error, ScanPair};
-use pgm_features::Pose2;
+use pgm_scan::Pose2;
 use std::path::{Path, PathBuf};
 
 fn temp_dir(name: &str) -> PathBuf {
@@ -592,8 +592,8 @@ fn datmo_bags_give_motion_capture_truth_that_scan_matching_agrees_with() {
         object_pose: Some("/red_pose".into()),
         ..BagTopics::new("/scan")
     };
-    let matcher = pgm_features::registration::IcpParams::default();
-    let matcher = pgm_features::ParamGuard::check(matcher).unwrap();
+    let matcher = pgm_scan::registration::IcpParams::default();
+    let matcher = pgm_scan::ParamGuard::check(matcher).unwrap();
     for (bag, scans, pairs_k3, mover_pairs_at_least) in
         [("intersection", 85, 81, 30), ("overtake_ego", 135, 132, 70)]
     {

@@ -4,7 +4,7 @@ use pgm_datasets::format::{read_pair, INDEX_FILE};
 use pgm_datasets::{
     read_pairs, write_pairs, Association, ClusterMotion, Error, GroundTruth, ScanPair,
 };
-use pgm_features::{Pose2, Scan};
+use pgm_scan::{Pose2, Scan};
 use std::path::PathBuf;
 
 fn temp_dir(name: &str) -> PathBuf {

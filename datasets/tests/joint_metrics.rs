@@ -4,7 +4,7 @@
 
 use pgm_datasets::metrics::*;
 use pgm_datasets::Association;
-use pgm_features::methods::JointCluster::{self, Object, Outlier};
+use pgm_scan::methods::JointCluster::{self, Object, Outlier};
 
 fn some(c: &[JointCluster]) -> Vec<Option<JointCluster>> {
     c.iter().copied().map(Some).collect()

@@ -9,7 +9,7 @@
 
 use pgm_datasets::metrics::*;
 use pgm_datasets::{Association, Error};
-use pgm_features::Pose2;
+use pgm_scan::Pose2;
 
 fn check(truth: &[u32], predicted: &[u32], beta: f64, expected: [f64; 3]) {
     let v = homogeneity_completeness_v_measure(truth, predicted, beta).unwrap();

@@ -295,7 +295,7 @@ fn leigh_tracks_tell_standing_from_walking_people() {
         .map(|i| {
             (
                 i,
-                pgm_features::Pose2::new(0.1 * i as f64, 0.0, 0.02 * i as f64),
+                pgm_scan::Pose2::new(0.1 * i as f64, 0.0, 0.02 * i as f64),
             )
         })
         .collect();
@@ -324,7 +324,7 @@ fn leigh_tracks_tell_standing_from_walking_people() {
     // Without odometry: an error naming the person, the scan and the line.
     let mut bare = scans.clone();
     for s in &mut bare.scans {
-        s.scan.odometry = Some(pgm_features::Pose2::identity());
+        s.scan.odometry = Some(pgm_scan::Pose2::identity());
     }
     let people = annotations(&bare);
     let err = leigh_track_displacements(&scans, &people, 5).unwrap_err();

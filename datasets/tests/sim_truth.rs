@@ -9,7 +9,7 @@ use pgm_datasets::sim::{
 };
 use pgm_datasets::ParamGuard;
 use pgm_datasets::{Association, ScanPair};
-use pgm_features::Pose2;
+use pgm_scan::Pose2;
 use std::collections::BTreeSet;
 
 fn config(preset: Preset) -> ValidSimConfig {

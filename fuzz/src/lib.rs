@@ -154,10 +154,10 @@ pub fn pair_json(data: &[u8]) {
     assert_eq!(pair.validate(), Ok(()));
     let written = serde_json::to_string(&pair).expect("a valid pair serialises");
     let again = parse_pair(Path::new("pair.json"), &written).expect("written pair reads");
-    let same_pose = |a: &pgm_features::Pose2, b: &pgm_features::Pose2| {
+    let same_pose = |a: &pgm_scan::Pose2, b: &pgm_scan::Pose2| {
         a.translation() == b.translation() && a.rotation_error(b) <= 1e-15
     };
-    let same_scan = |a: &pgm_features::Scan, b: &pgm_features::Scan| {
+    let same_scan = |a: &pgm_scan::Scan, b: &pgm_scan::Scan| {
         let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
         a.timestamp.to_bits() == b.timestamp.to_bits()
             && bits(&a.angles) == bits(&b.angles)

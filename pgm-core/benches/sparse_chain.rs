@@ -9,7 +9,7 @@
 //! messages; the tables hold random values with the default below most listed ones.
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use pgm_core::exact::{FlatChain, PairPattern};
+use pgm_core::hybrid::{FlatChain, PairPattern};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::hint::black_box;

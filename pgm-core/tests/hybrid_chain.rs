@@ -3,11 +3,12 @@
 //! properties on one and two chains with positions of varying state counts, and
 //! sparse pairwise tables (`PairPattern`) against the same model written densely.
 
-use pgm_core::exact::{brute_force, BruteForceLimit, PairPattern};
+use pgm_core::exact::{brute_force, BruteForceLimit};
 use pgm_core::hybrid::chain::{
     chain_instance, ChainUpdate, Convergence, FeatureSink, HybridChainModel, HybridChainParams,
     WeightedTable,
 };
+use pgm_core::hybrid::PairPattern;
 use pgm_core::hybrid::{ClusterMeans, HybridInference, UpdatePolicy};
 use pgm_core::learning::{FeatureSet, LabelledInstance};
 use pgm_core::{BeliefPropagation, FactorGraph, Mode, ParamGuard, Sequential, TableFactor};

@@ -24,8 +24,8 @@
 //! stump's "above" side.
 //!
 //! ```
-//! use pgm_features::boosting::{BoosterParams, TrainingSet};
-//! use pgm_features::ParamGuard;
+//! use crate::boosting::{BoosterParams, TrainingSet};
+//! use pgm_scan::ParamGuard;
 //!
 //! // Positive when x0 < 0.5 or x1 > 2.
 //! let mut data = TrainingSet::new(2);
@@ -38,8 +38,8 @@
 //! assert!(booster.score(&[0.9, 0.5]) < 0.0);
 //! ```
 
-use crate::{Error, Result};
 use pgm_core::param::{InvalidParameter, ParamGuard};
+use pgm_scan::{Error, Result};
 use serde::{Deserialize, Serialize};
 
 /// One decision stump: `+1` when `feature` is below `threshold` (or above, with

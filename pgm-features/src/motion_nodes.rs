@@ -15,11 +15,11 @@
 //! (eq. 2, the distance feature); extra states beyond the clusters (for example an
 //! outlier state) get a fixed log-potential.
 
-use crate::alignment::RigidAlignment;
-use crate::pose::Pose2;
 use nalgebra::Point2;
 use pgm_core::hybrid::{ContinuousModel, DiscreteSummary, VariableState};
 use pgm_core::{Error, FactorId, Potentials, Result, TableFactor, VariableId};
+use pgm_scan::alignment::RigidAlignment;
+use pgm_scan::pose::Pose2;
 
 /// Solves every cluster's motion from its statistics (eq. 3); an empty cluster keeps
 /// its motion. Returns the largest change of a motion (metres or radians).

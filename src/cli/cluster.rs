@@ -21,7 +21,7 @@ use pgm::plot::PairPicture;
 use pgm_crf_clustering::{Clustering, UpdateSchedule};
 use pgm_datasets::format::StagedFile;
 use pgm_datasets::{builders, leigh, ClusterMotion, ScanPair};
-use pgm_features::ParamGuard;
+use pgm_scan::ParamGuard;
 use serde::Serialize;
 use std::path::PathBuf;
 use std::process::ExitCode;

@@ -37,7 +37,7 @@ use pgm_datasets::builders::{
 use pgm_datasets::mocap::{Footprint, MocapOptions};
 use pgm_datasets::source::{read_leigh, LoadedPairs, PairSource};
 use pgm_datasets::{carmen, leigh};
-use pgm_features::Pose2;
+use pgm_scan::Pose2;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 

@@ -3,7 +3,7 @@
 //!
 //! Simulates `--pairs` urban pairs (preset `mixed`, seed `--seed`, disjoint from the
 //! training seed 1000 of the shipped weights) and runs, through the common evaluation
-//! ([`pgm_datasets::evaluation`]):
+//! ([`pgm_eval`]):
 //!
 //! 1. CRF-Clustering with true and with automatic associations and the two baselines:
 //!    mean homogeneity, completeness, V-measure and sweeps;
@@ -24,9 +24,9 @@ use clap::Args;
 use pgm::methods::{
     association_source, clusterer, joint_estimator, MethodOptions, JOINT_PAPER_KMEANS_K,
 };
-use pgm_datasets::evaluation::{evaluate_association, evaluate_clustering, evaluate_joint};
 use pgm_datasets::sim::{simulate_pairs, SimConfig};
-use pgm_features::ParamGuard;
+use pgm_eval::{evaluate_association, evaluate_clustering, evaluate_joint};
+use pgm_scan::ParamGuard;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -169,7 +169,7 @@ pub fn run(args: DemoArgs) -> CliResult {
     let outliers = estimate
         .clusters
         .iter()
-        .filter(|c| **c == Some(pgm_features::methods::JointCluster::Outlier))
+        .filter(|c| **c == Some(pgm_scan::methods::JointCluster::Outlier))
         .count();
     draw_joint(
         pair,

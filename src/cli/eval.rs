@@ -12,7 +12,7 @@
 //! Methods (see [`pgm::methods::SCAN_MATCHERS`]): `odometry` returns the pair's
 //! odometry prior (the identity when the pair has none, as for intel-lab, whose log has
 //! no independent odometry); `icp` runs point-to-point ICP
-//! ([`pgm_features::registration`]) started from the same prior. A pair where the
+//! ([`pgm_scan::registration`]) started from the same prior. A pair where the
 //! method does not converge (too few correspondences: the estimate is the prior) or
 //! cannot run is counted in `not_converged` and in a note on stderr.
 
@@ -21,10 +21,10 @@ use super::{CliError, CliResult};
 use clap::builder::{PossibleValue, PossibleValuesParser};
 use clap::{Args, Subcommand};
 use pgm::methods::{scan_matcher, MethodOptions, SCAN_MATCHERS};
-use pgm_datasets::evaluation::evaluate_matching;
 use pgm_datasets::metrics::ErrorSummary;
 use pgm_datasets::source::SourceKind;
-use pgm_features::registration::IcpParams;
+use pgm_eval::evaluate_matching;
+use pgm_scan::registration::IcpParams;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -199,7 +199,7 @@ fn run_matching(args: MatchingArgs) -> CliResult {
         struct WithData<'a> {
             data: String,
             #[serde(flatten)]
-            report: &'a pgm_datasets::evaluation::MatchingReport,
+            report: &'a pgm_eval::MatchingReport,
         }
         let json = WithData {
             data: format!("{source}; every pair scored"),

@@ -4,19 +4,19 @@
 //! `pgm eval clustering --method NAME (--pairs DIR | --scans FILE --people FILE
 //! [--odometry FILE] --k K [--moving-threshold M]) [--associations NAME] [--weights
 //! FILE] [--json]` scores every pair with ground-truth labels
-//! ([`pgm_datasets::evaluation::evaluate_clustering`]) and prints the mean and standard
+//! ([`pgm_eval::evaluate_clustering`]) and prints the mean and standard
 //! deviation over pairs, and the detection metrics
-//! ([`pgm_datasets::evaluation::DetectionSummary`]; `--min-object-returns N`, default
+//! ([`pgm_eval::DetectionSummary`]; `--min-object-returns N`, default
 //! 5). The text output says what each object count counts: `detection (true movers
 //! with >= N returns in the current scan): D of C detected` (JSON `objects_detected`,
 //! `objects_counted`) and, for methods that estimate motions, `motion errors (every
 //! true mover with a known motion, any number of returns): F of T found` (JSON
 //! `objects_found`, `objects_total`; the stricter "found" rule of the motion errors,
-//! [`pgm_datasets::evaluation`]). The data may also come from a bag (`--bag FILE
+//! [`pgm_eval`]). The data may also come from a bag (`--bag FILE
 //! --scan-topic T …`, see `pgm data pairs`). The methods and association sources are those of [`pgm::methods`];
 //! `--method joint` scores the joint model's clusters (a return of the outlier
 //! cluster takes the moving cluster of its surface, else the background,
-//! [`pgm_features::methods::JointClusters`]; `--joint-weights FILE`).
+//! [`pgm_scan::methods::JointClusters`]; `--joint-weights FILE`).
 //! `--json` prints one object `{"method", "associations", "data", "pair_sets",
 //! "weights", "pairs",
 //! "homogeneity_mean", "homogeneity_std", "completeness_mean", "completeness_std",
@@ -28,7 +28,7 @@
 //! "object_rotation_error_median", "mover_pairs", "v_measure_mover_pairs",
 //! "tracking"}` (`null` where a figure has nothing to be computed from). `--track`
 //! tracks the method's moving objects over the sequence of current scans
-//! ([`pgm_features::tracking`]; `--track-min-evidence N`, `--track-min-speed V`) and
+//! ([`pgm_tracking`]; `--track-min-evidence N`, `--track-min-speed V`) and
 //! scores the tracked output; `tracking` is then `{"min_evidence", "min_speed",
 //! "sequences", "tracks", "tracked_objects", "dropped", "backward", "backward_objects"}`. Without
 //! odometry the ego-motion comes from the model itself (the largest cluster) or from
@@ -46,11 +46,11 @@ use pgm::methods::{
     association_source, clusterer, clusterer_needs_associations, default_association,
     MethodOptions, CLUSTERERS,
 };
-use pgm_datasets::evaluation::{
+use pgm_eval::{
     evaluate_clustering_with, scorable_for_clustering, DetectionOptions, DetectionSummary,
 };
-use pgm_features::methods::MotionClusterer;
-use pgm_features::tracking::TrackingParams;
+use pgm_scan::methods::MotionClusterer;
+use pgm_tracking::TrackingParams;
 use serde::Serialize;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -121,7 +121,7 @@ impl MethodArgs {
     pub fn build(
         &self,
         options: &MethodOptions,
-        pairs: &[pgm_features::ScanPair],
+        pairs: &[pgm_scan::ScanPair],
     ) -> Result<BuiltMethod, CliError> {
         if let (Some(a), false) = (
             &self.associations,
@@ -192,7 +192,7 @@ pub struct ClusteringEvalArgs {
     #[arg(long, default_value_t = DetectionOptions::default().min_object_returns)]
     pub min_object_returns: usize,
     /// Track the method's moving objects over the sequence of current scans
-    /// (pgm_features::tracking): pairs of one log or bag (or of `pgm sim --sequence`) in
+    /// (pgm_tracking): pairs of one log or bag (or of `pgm sim --sequence`) in
     /// time order; each pair of independent simulated scenes is a sequence of its own
     /// and gets the method's output.
     #[arg(long)]
@@ -228,7 +228,7 @@ struct Report<'a> {
     pair_sets: Vec<String>,
     weights: String,
     #[serde(flatten)]
-    summary: &'a pgm_datasets::evaluation::ClusteringSummary,
+    summary: &'a pgm_eval::ClusteringSummary,
     objects_found: usize,
     objects_total: usize,
     centroid_error_median: Option<f64>,
@@ -445,7 +445,7 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
         show(d.v_measure_mover_pairs, 3)
     );
     // Two object counts with different rules (module docs of
-    // pgm_datasets::evaluation): the detection metrics count the true movers with at
+    // pgm_eval): the detection metrics count the true movers with at
     // least --min-object-returns returns; the found objects of the motion errors are
     // every true mover with a known motion. Each line says which.
     println!(

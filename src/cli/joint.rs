@@ -16,7 +16,7 @@
 //!
 //! `pgm eval joint --method joint|icp+kmeans|crf-matching+kmeans|separate (--pairs DIR
 //! | log or bag options as pgm eval clustering) [--json]` runs the method on every pair
-//! with ground truth ([`pgm_datasets::evaluation::evaluate_joint`]) and prints the
+//! with ground truth ([`pgm_eval::evaluate_joint`]) and prints the
 //! data, the pair sets (simulator preset and seed) and the weights it ran with, then
 //! the association, clustering, object-motion and ego-motion figures. `--json` prints
 //! one object `{"method", "data", "pair_sets", "weights", "pairs",
@@ -38,13 +38,11 @@ use clap::Args;
 use pgm::methods::{joint_estimator, MethodOptions, JOINT_ESTIMATORS, JOINT_PAPER_KMEANS_K};
 use pgm::plot::PairPicture;
 use pgm_crf_matching::StateSpace;
-use pgm_datasets::evaluation::{
-    evaluate_joint, scorable_for_joint, JointOutcome, JointReport, JointSummary,
-};
 use pgm_datasets::ClusterMotion;
-use pgm_features::methods::{JointCluster, JointEstimate, OutlierReturns};
-use pgm_features::{Association, ParamGuard, Pose2};
+use pgm_eval::{evaluate_joint, scorable_for_joint, JointOutcome, JointReport, JointSummary};
 use pgm_joint::{Clusters, JointParams, JointResult};
+use pgm_scan::methods::{JointCluster, JointEstimate, OutlierReturns};
+use pgm_scan::{Association, ParamGuard, Pose2};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -321,7 +319,7 @@ pub struct JointEvalArgs {
     #[arg(long, default_value_t = JOINT_PAPER_KMEANS_K)]
     pub kmeans_k: usize,
     /// Also print every pair's outcome (JSON: an `outcomes` array of
-    /// [`pgm_datasets::evaluation::JointOutcome`]).
+    /// [`pgm_eval::JointOutcome`]).
     #[arg(long)]
     pub per_pair: bool,
     /// Print one JSON object.

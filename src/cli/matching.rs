@@ -14,7 +14,7 @@
 //! outlier), accuracy within one beam, string edit distance, and the outlier
 //! percentages (predicted, true, and the share of true outliers found, over the pairs
 //! with a true outlier; `null` without one), through
-//! [`pgm_datasets::evaluation::evaluate_association`].
+//! [`pgm_eval::evaluate_association`].
 
 use super::cluster::{association_names, OnePairArgs};
 use super::data::{load_pairs, pair_source, LeighArgs, SourceArgs};
@@ -23,8 +23,8 @@ use clap::Args;
 use pgm::methods::{association_source, MethodOptions};
 use pgm::plot::PairPicture;
 use pgm_crf_matching::StateSpace;
-use pgm_datasets::evaluation::{evaluate_association, AssociationSummary};
-use pgm_features::ParamGuard;
+use pgm_eval::{evaluate_association, AssociationSummary};
+use pgm_scan::ParamGuard;
 use serde::Serialize;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -53,7 +53,7 @@ pub struct MatchingOptionArgs {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum MotionFit {
     /// Eq. 6, then the point-to-line refinement
-    /// (`pgm_features::alignment::refine_point_to_line`, point-to-point weight 0.1).
+    /// (`pgm_scan::alignment::refine_point_to_line`, point-to-point weight 0.1).
     PointToLine,
     /// Eq. 6 alone (the paper's).
     PointToPoint,
@@ -71,7 +71,7 @@ impl MotionFit {
     /// The `point_to_line` parameter of `MatchingParams` and `JointParams`.
     pub fn point_to_line(self) -> Option<f64> {
         match self {
-            MotionFit::PointToLine => Some(pgm_features::alignment::POINT_TO_POINT_WEIGHT),
+            MotionFit::PointToLine => Some(pgm_scan::alignment::POINT_TO_POINT_WEIGHT),
             MotionFit::PointToPoint => None,
         }
     }
@@ -171,7 +171,7 @@ pub fn run_match(args: MatchArgs) -> CliResult {
                 matching
                     .associations
                     .iter()
-                    .filter(|a| **a == Some(pgm_features::Association::Outlier))
+                    .filter(|a| **a == Some(pgm_scan::Association::Outlier))
                     .count()
             );
             let svg = picture.to_svg_string().map_err(CliError::from_display)?;

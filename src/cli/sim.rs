@@ -7,8 +7,8 @@ use pgm::datasets::format::StagedFile;
 use pgm::datasets::sim::{
     simulate_pairs_report, simulate_sequence, DatasetStats, Preset, SimConfig, SCENE_ATTEMPTS,
 };
-use pgm::features::ParamGuard;
 use pgm::plot::PairPicture;
+use pgm::scan::ParamGuard;
 use std::path::PathBuf;
 use std::process::ExitCode;
 

@@ -5,7 +5,7 @@
 //! [--odom-topic T] | --scans FILE --people FILE [--odometry FILE] | --log FILE |
 //! --pairs DIR) [--k K] [--min-evidence N] [--min-speed V] [--forward-only] [--out FILE]` runs the
 //! clustering method on every pair of scans `k` apart and tracks its moving objects
-//! over the current scans ([`pgm_features::tracking`]). It prints (or writes to
+//! over the current scans ([`pgm_tracking`]). It prints (or writes to
 //! `--out`, atomically) one JSON object `{"method", "associations", "data",
 //! "weights", "tracking": {"min_evidence", "min_speed", "backward", "sequences",
 //! "tracks", "tracked_objects", "dropped", "backward_objects"}, "scans": [{"pair",
@@ -25,8 +25,8 @@ use super::{check_not_an_input, check_output_file, resolved_output, CliError, Cl
 use clap::Args;
 use nalgebra::Point2;
 use pgm::plot::{TrackPicture, TrackedScan};
-use pgm_features::tracking::{time_order, TrackedObject, TrackingCounts, TrackingParams};
-use pgm_features::{ParamGuard, Pose2};
+use pgm_scan::{ParamGuard, Pose2};
+use pgm_tracking::{time_order, TrackedObject, TrackingCounts, TrackingParams};
 use serde::Serialize;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -188,7 +188,7 @@ pub(super) fn tracker(
     (min_evidence, evidence_flag): (usize, &str),
     (min_speed, speed_flag): (f64, &str),
     backward: bool,
-) -> Result<pgm_features::tracking::Tracker, CliError> {
+) -> Result<pgm_tracking::Tracker, CliError> {
     if min_evidence == 0 {
         return Err(CliError(format!(
             "{evidence_flag} 0: a track needs at least 1 step of evidence of motion"

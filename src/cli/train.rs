@@ -14,7 +14,7 @@ use pgm::methods::association_source;
 use pgm_crf_clustering::learning::{learn, training_instances};
 use pgm_crf_matching::learning::{train as train_matching, TrainingOptions};
 use pgm_datasets::sim::{simulate_pairs, Preset, SimConfig};
-use pgm_features::ParamGuard;
+use pgm_scan::ParamGuard;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -165,7 +165,7 @@ fn run_clustering(args: TrainClusteringArgs) -> CliResult {
         .map(|n| association_source(n, &options))
         .collect::<Result<Vec<_>, _>>()
         .map_err(CliError::from_display)?;
-    let sources: Vec<&dyn pgm_features::AssociationSource> =
+    let sources: Vec<&dyn pgm_scan::AssociationSource> =
         sources.iter().map(|s| s.as_ref()).collect();
     let instances = training_instances(&pairs, &sources, clusterer.params())
         .map_err(|e| in_data(&args.data, e))?;

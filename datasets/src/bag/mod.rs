@@ -47,7 +47,7 @@ use container::{read_container, BagFormat, RawMessage, ReadError, TopicInfo};
 use decode::{Decoder, Value};
 use msgdef::Definitions;
 use nalgebra::Point2;
-use pgm_features::{Pose2, Scan};
+use pgm_scan::{Pose2, Scan};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 

@@ -27,7 +27,7 @@ use crate::error::{Error, Result};
 use crate::leigh::{IndexedScan, LeighScans, PersonAnnotation};
 use crate::mocap::{mocap_pair, Footprint, MocapOptions, PoseTrack, TrackedObject};
 use crate::pair::ScanPair;
-use pgm_features::Pose2;
+use pgm_scan::Pose2;
 use std::collections::BTreeMap;
 
 /// Options of [`bag_pairs`].

@@ -64,8 +64,8 @@ pub use stats::DatasetStats;
 pub use truth::association_tolerance;
 
 use crate::pair::ScanPair;
-use pgm_features::ParamGuard;
-use pgm_features::Pose2;
+use pgm_scan::ParamGuard;
+use pgm_scan::Pose2;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
@@ -458,7 +458,7 @@ pub fn try_simulate_pairs(config: &ValidSimConfig, seed: u64, n: usize) -> Resul
 /// as a pair of [`simulate_pair`] does), and the pairs `(a, a + k)` for every `a` in
 /// `0..scans - k`, each with its complete ground truth. Pairs are named
 /// `sim:PRESET:SEED:INDEX:A-B`; their scans carry time stamps `1000 · INDEX + t` (s), so
-/// that the sequences of one data set never join (`pgm_features::tracking` ends a
+/// that the sequences of one data set never join (`pgm_tracking` ends a
 /// sequence at a gap above 1 s). The scene is drawn from stream `index` of `seed` like
 /// [`simulate_pair`]'s, without its pair selection; the noise of each pair is drawn
 /// after it, pair by pair, so one scan is simulated once per pair it belongs to (with
@@ -516,7 +516,7 @@ pub fn simulate_sequence(
 /// builds the pair with its ground truth and odometry prior. The preset in `config`
 /// is ignored; the laser, noise and odometry parameters are used.
 ///
-/// Each scan's [`pgm_features::Scan::odometry`] is set consistently with the pair's
+/// Each scan's [`pgm_scan::Scan::odometry`] is set consistently with the pair's
 /// prior: the reference scan carries the true world pose of the ego vehicle, the
 /// current scan that pose composed with the noisy odometry.
 pub fn simulate_scene<R: Rng>(

@@ -28,7 +28,7 @@
 use super::scene::{heading, polygon, rectangle, MovingObject, Primitive, Scene, Trajectory};
 use super::{uniform, SimError, ValidSimConfig};
 use nalgebra::{Point2, Vector2};
-use pgm_features::Pose2;
+use pgm_scan::Pose2;
 use rand::Rng;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::{FRAC_PI_2, PI};
@@ -835,7 +835,7 @@ impl<'a, R: Rng> Builder<'a, R> {
 mod tests {
     use super::*;
     use crate::sim::{pair_rng, SimConfig};
-    use pgm_features::ParamGuard;
+    use pgm_scan::ParamGuard;
 
     #[test]
     fn names_round_trip() {

@@ -6,7 +6,7 @@
 
 use super::scene::{Primitive, Scene};
 use nalgebra::{Point2, Vector2};
-use pgm_features::Pose2;
+use pgm_scan::Pose2;
 use std::f64::consts::{PI, TAU};
 
 /// The first surface a ray meets.

@@ -8,7 +8,7 @@
 //! ground truth by [`crate::sim::simulate_scene`].
 
 use nalgebra::{Point2, Vector2};
-use pgm_features::Pose2;
+use pgm_scan::Pose2;
 use serde::{Deserialize, Serialize};
 
 /// One surface element the laser can hit, in some frame (world or body).

@@ -5,7 +5,7 @@ use super::raycast::Raycaster;
 use super::scene::Scene;
 use super::ValidSimConfig;
 use nalgebra::Point2;
-use pgm_features::{Pose2, Scan};
+use pgm_scan::{Pose2, Scan};
 use rand::Rng;
 use rand_distr::StandardNormal;
 

@@ -30,7 +30,7 @@ use super::scene::Scene;
 use super::sensor::{beam_spacing, SimulatedScan};
 use super::ValidSimConfig;
 use crate::pair::{Association, ClusterMotion, GroundTruth};
-use pgm_features::Pose2;
+use pgm_scan::Pose2;
 
 /// Incidence angles beyond 80° count as 80° in [`association_tolerance`], which keeps
 /// the tolerance finite for surfaces seen edge-on.

@@ -3,7 +3,7 @@
 //! V-B): static objects are consistent about free space, moving ones are not.
 //!
 //! 1. The ego-motion comes from the odometry prior, or from ICP
-//!    ([`pgm_features::registration`], started at the identity) when the pair has no
+//!    ([`pgm_scan::registration`], started at the identity) when the pair has no
 //!    odometry.
 //! 2. Every current return is moved into the reference sensor frame with the
 //!    ego-motion; at its bearing the reference scan's beams within
@@ -20,10 +20,10 @@
 
 use crate::{Error, Result};
 use pgm_core::param::{InvalidParameter, ParamGuard};
-use pgm_features::methods::{MotionClusterer, MotionClustering};
-use pgm_features::registration::IcpParams;
-use pgm_features::scan::{segment_by_gap, segment_ranges};
-use pgm_features::{Pose2, ScanPair};
+use pgm_scan::methods::{MotionClusterer, MotionClustering};
+use pgm_scan::registration::IcpParams;
+use pgm_scan::scan::{segment_by_gap, segment_ranges};
+use pgm_scan::{Pose2, ScanPair};
 
 /// Parameters of [`ConsistencyDetector`], unchecked.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -94,7 +94,7 @@ impl MotionClusterer for ConsistencyDetector {
         "cbd".into()
     }
 
-    fn cluster(&self, pair: &ScanPair) -> pgm_features::Result<MotionClustering> {
+    fn cluster(&self, pair: &ScanPair) -> pgm_scan::Result<MotionClustering> {
         let r = self.detect(pair)?;
         Ok(MotionClustering {
             labels: r.labels,

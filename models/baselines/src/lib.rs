@@ -3,16 +3,16 @@
 //! The motion-clustering methods the CRF-Clustering paper compares against,
 //! implemented on the same scan types as the CRF models (`pgm-features`) so that
 //! comparisons run on identical inputs, and behind the same interface
-//! ([`MotionClusterer`](pgm_features::MotionClusterer)). The scan-matching baseline,
+//! ([`MotionClusterer`](pgm_scan::MotionClusterer)). The scan-matching baseline,
 //! ICP, is shared by every model and lives in
-//! [`pgm_features::registration`].
+//! [`pgm_scan::registration`].
 //!
 //! - [`motion_kmeans`]: the motion K-Means of the CRF-Clustering paper (eq. 10).
 //! - [`consistency`]: the consistency-based detector (CBD) of moving objects.
 //!
 //! ```
 //! use pgm_baselines::consistency::ConsistencyParams;
-//! use pgm_features::{MotionClusterer, ParamGuard};
+//! use pgm_scan::{MotionClusterer, ParamGuard};
 //!
 //! let cbd = ConsistencyParams::default().check().unwrap();
 //! assert_eq!(cbd.name(), "cbd");
@@ -36,7 +36,7 @@ pub enum Error {
     },
     /// An error of the shared scan code (registration, geometry).
     #[error(transparent)]
-    Features(#[from] pgm_features::Error),
+    Features(#[from] pgm_scan::Error),
 }
 
 impl From<pgm_core::InvalidParameter> for Error {
@@ -49,14 +49,14 @@ impl From<pgm_core::InvalidParameter> for Error {
     }
 }
 
-impl From<Error> for pgm_features::Error {
+impl From<Error> for pgm_scan::Error {
     fn from(e: Error) -> Self {
         match e {
             Error::InvalidParameter {
                 name,
                 value,
                 expected,
-            } => pgm_features::Error::InvalidParameter {
+            } => pgm_scan::Error::InvalidParameter {
                 name,
                 value,
                 expected,

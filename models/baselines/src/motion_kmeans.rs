@@ -20,9 +20,9 @@
 use crate::{Error, Result};
 use nalgebra::Point2;
 use pgm_core::param::{InvalidParameter, ParamGuard};
-use pgm_features::methods::{ClusterWithAssociations, MotionClustering};
-use pgm_features::scan::segment_by_gap;
-use pgm_features::{
+use pgm_scan::methods::{ClusterWithAssociations, MotionClustering};
+use pgm_scan::scan::segment_by_gap;
+use pgm_scan::{
     wrap_angle, Association, ClusterMotion, PointAssociations, Pose2, RigidAlignment, ScanPair,
 };
 
@@ -77,8 +77,8 @@ impl ParamGuard for MotionKMeansParams {
 }
 
 /// Motion K-Means with checked parameters (see the module docs); with an association
-/// source it is a [`MotionClusterer`](pgm_features::MotionClusterer)
-/// ([`pgm_features::methods::Associated`]).
+/// source it is a [`MotionClusterer`](pgm_scan::MotionClusterer)
+/// ([`pgm_scan::methods::Associated`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MotionKMeans {
     params: MotionKMeansParams,
@@ -99,7 +99,7 @@ impl ClusterWithAssociations for MotionKMeans {
         &self,
         pair: &ScanPair,
         associations: &PointAssociations,
-    ) -> pgm_features::Result<MotionClustering> {
+    ) -> pgm_scan::Result<MotionClustering> {
         let r = self.run(pair, &associations.associations)?;
         Ok(MotionClustering {
             motions: r
@@ -152,7 +152,7 @@ impl MotionKMeans {
         associations: &[Option<Association>],
     ) -> Result<MotionKMeansResult> {
         if associations.len() != pair.current.len() {
-            return Err(Error::Features(pgm_features::Error::AssociationCount {
+            return Err(Error::Features(pgm_scan::Error::AssociationCount {
                 pair: pair.name.clone(),
                 associations: associations.len(),
                 beams: pair.current.len(),

@@ -6,15 +6,15 @@
 //! Run: `cargo run --release -p pgm-crf-clustering --example analyse -- [seed] [pairs] [true|icp|segment] [preset]`.
 
 use pgm_crf_clustering::{ClusteringParams, DetectionParams};
-use pgm_datasets::evaluation::evaluate_clustering_pair;
 use pgm_datasets::metrics::clustering_v_measure;
 use pgm_datasets::sim::{simulate_pairs, SimConfig};
 use pgm_datasets::Association;
-use pgm_features::association::{
+use pgm_eval::evaluate_clustering_pair;
+use pgm_scan::association::{
     AssociationSource, GroundTruthAssociations, NearestAfterIcp, SegmentIcp,
 };
-use pgm_features::methods::Associated;
-use pgm_features::ParamGuard;
+use pgm_scan::methods::Associated;
+use pgm_scan::ParamGuard;
 use std::sync::Arc;
 
 fn main() {

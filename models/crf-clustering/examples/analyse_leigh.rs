@@ -18,13 +18,13 @@
 use pgm_baselines::consistency::ConsistencyDetector;
 use pgm_crf_clustering::{ClusteringParams, DetectionParams};
 use pgm_datasets::builders::{leigh_pairs, LeighPairOptions};
-use pgm_datasets::evaluation::evaluate_clustering_pair;
 use pgm_datasets::leigh;
-use pgm_features::association::{
+use pgm_eval::evaluate_clustering_pair;
+use pgm_scan::association::{
     AssociationSource, GroundTruthAssociations, NearestParams, SegmentIcp,
 };
-use pgm_features::methods::Associated;
-use pgm_features::ParamGuard;
+use pgm_scan::methods::Associated;
+use pgm_scan::ParamGuard;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::sync::Arc;

@@ -24,7 +24,7 @@
 use crate::input::ClusteringInput;
 use crate::params::{ClusteringParams, DetectionParams};
 use crate::BackgroundChoice;
-use pgm_features::{wrap_angle, Pose2};
+use pgm_scan::{wrap_angle, Pose2};
 
 /// Median of the χ² distribution with 2 degrees of freedom (`2 ln 2`).
 const CHI2_2_MEDIAN: f64 = 2.0 * std::f64::consts::LN_2;

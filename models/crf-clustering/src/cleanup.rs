@@ -19,8 +19,8 @@
 use crate::clusterer::Cluster;
 use crate::input::ClusteringInput;
 use crate::params::{ClusteringParams, DetectionParams};
-use pgm_features::scan::{segment_by_gap, segment_ranges};
-use pgm_features::Pose2;
+use pgm_scan::scan::{segment_by_gap, segment_ranges};
+use pgm_scan::Pose2;
 
 /// See the module docs. `k` is the number of clusters (labels `≥ k` are the outlier
 /// state and stay as they are).

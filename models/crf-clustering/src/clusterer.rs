@@ -27,8 +27,8 @@ use crate::params::ClusteringParams;
 use crate::segmentation::initial_clusters;
 use crate::Result;
 use pgm_core::ParamGuard;
-use pgm_features::methods::{ClusterWithAssociations, MotionClustering};
-use pgm_features::{ClusterMotion, PointAssociations, Pose2, RigidAlignment, ScanPair};
+use pgm_scan::methods::{ClusterWithAssociations, MotionClustering};
+use pgm_scan::{ClusterMotion, PointAssociations, Pose2, RigidAlignment, ScanPair};
 use serde::Serialize;
 
 /// How the background cluster was chosen.
@@ -49,7 +49,7 @@ pub enum BackgroundChoice {
 }
 
 /// Fewest background points with a partner for the background motion to be solved
-/// from them (as ICP's default [`pgm_features::registration::IcpParams`]
+/// from them (as ICP's default [`pgm_scan::registration::IcpParams`]
 /// `min_correspondences`); with fewer the prior is kept ([`BackgroundChoice::PriorKept`]).
 pub const MIN_BACKGROUND_SUPPORT: usize = 10;
 
@@ -308,7 +308,7 @@ impl ClusterWithAssociations for Clusterer {
         &self,
         pair: &ScanPair,
         associations: &PointAssociations,
-    ) -> pgm_features::Result<MotionClustering> {
+    ) -> pgm_scan::Result<MotionClustering> {
         Ok(self.cluster_pair(pair, associations)?.into())
     }
 }

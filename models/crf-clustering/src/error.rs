@@ -24,7 +24,7 @@ pub enum Error {
     },
     /// An error of the shared scan code (geometry, registration, associations).
     #[error(transparent)]
-    Features(#[from] pgm_features::Error),
+    Features(#[from] pgm_scan::Error),
     /// An error of the inference or learning core.
     #[error(transparent)]
     Core(#[from] pgm_core::Error),
@@ -40,21 +40,21 @@ impl From<pgm_core::InvalidParameter> for Error {
     }
 }
 
-impl From<Error> for pgm_features::Error {
+impl From<Error> for pgm_scan::Error {
     fn from(e: Error) -> Self {
         match e {
             Error::InvalidParameter {
                 name,
                 value,
                 expected,
-            } => pgm_features::Error::InvalidParameter {
+            } => pgm_scan::Error::InvalidParameter {
                 name,
                 value,
                 expected,
             },
-            Error::BadPair { pair, problem } => pgm_features::Error::BadPair { pair, problem },
+            Error::BadPair { pair, problem } => pgm_scan::Error::BadPair { pair, problem },
             Error::Features(e) => e,
-            Error::Core(e) => pgm_features::Error::Core(e),
+            Error::Core(e) => pgm_scan::Error::Core(e),
         }
     }
 }

@@ -26,7 +26,7 @@ use crate::Result;
 use pgm_core::hybrid::chain::{ChainUpdate, HybridChainParams};
 use pgm_core::hybrid::{HybridInference, UpdatePolicy};
 use pgm_core::{BeliefPropagation, Mode, ParamGuard, Sequential, VariableId};
-use pgm_features::Pose2;
+use pgm_scan::Pose2;
 
 /// The end state of the inference rounds.
 #[derive(Clone, Debug, PartialEq)]

@@ -3,8 +3,8 @@
 use crate::{Error, Result};
 use nalgebra::Point2;
 use pgm_core::param::InvalidParameter;
-use pgm_features::clustering::association_variance;
-use pgm_features::{Association, PointAssociations, Pose2, Scan, ScanPair};
+use pgm_features::clustering_features::association_variance;
+use pgm_scan::{Association, PointAssociations, Pose2, Scan, ScanPair};
 
 /// The points of one pair as the model sees them.
 #[derive(Clone, Debug, PartialEq)]
@@ -41,7 +41,7 @@ impl ClusteringInput {
     pub fn from_pair(pair: &ScanPair, associations: &PointAssociations) -> Result<Self> {
         let a = &associations.associations;
         if a.len() != pair.current.len() {
-            return Err(Error::Features(pgm_features::Error::AssociationCount {
+            return Err(Error::Features(pgm_scan::Error::AssociationCount {
                 pair: pair.name.clone(),
                 associations: a.len(),
                 beams: pair.current.len(),

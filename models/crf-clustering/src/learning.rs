@@ -26,7 +26,7 @@ use crate::{Error, Result};
 use pgm_core::hybrid::chain::{add_feature_cliques, chain_instance, FeatureTable};
 use pgm_core::learning::{LabelledInstance, LearnerParams, LearningObserver, LearningResult};
 use pgm_core::{ParamGuard, VariableId};
-use pgm_features::{AssociationSource, PointAssociations, Pose2, ScanPair};
+use pgm_scan::{AssociationSource, PointAssociations, Pose2, ScanPair};
 use rayon::prelude::*;
 
 /// The labelled instance of one pair, or `None` when the pair has no ground-truth

@@ -16,14 +16,14 @@
 //! parameters (the paper's, and the moving-object thresholds it does not have), and
 //! [`weights`] and [`learning`] the named weights, the shipped defaults and
 //! pseudo-likelihood training. With an association source a [`Clusterer`] is a
-//! [`MotionClusterer`](pgm_features::MotionClusterer)
-//! ([`Associated`](pgm_features::methods::Associated)), the interface evaluation uses.
+//! [`MotionClusterer`](pgm_scan::MotionClusterer)
+//! ([`Associated`](pgm_scan::methods::Associated)), the interface evaluation uses.
 //!
 //! ```
 //! use pgm_crf_clustering::Clusterer;
-//! use pgm_features::association::{AssociationSource, GroundTruthAssociations};
+//! use pgm_scan::association::{AssociationSource, GroundTruthAssociations};
 //! use pgm_datasets::sim::{simulate_pair, SimConfig};
-//! use pgm_features::ParamGuard;
+//! use pgm_scan::ParamGuard;
 //!
 //! let pair = simulate_pair(&SimConfig::default().check().unwrap(), 1, 0);
 //! let associations = GroundTruthAssociations.associate(&pair).unwrap();
@@ -34,7 +34,7 @@
 //! ```
 //!
 //! **Current state.** Model, inference, merging and learning are complete; any
-//! [`AssociationSource`](pgm_features::AssociationSource) feeds it (ground truth,
+//! [`AssociationSource`](pgm_scan::AssociationSource) feeds it (ground truth,
 //! nearest neighbour after ICP, segment-wise ICP, CRF-Matching).
 
 pub mod background;

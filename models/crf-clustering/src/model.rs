@@ -30,8 +30,9 @@ use pgm_core::hybrid::chain::{FeatureSink, HybridChainModel, WeightedTable};
 use pgm_core::hybrid::{ContinuousModel, DiscreteSummary, VariableState};
 use pgm_core::param::InvalidParameter;
 use pgm_core::{FactorGraph, FactorId, Potentials, TableFactor, VariableId};
-use pgm_features::clustering::inverse_neighbour_distance;
-use pgm_features::{ClusterMotions, Pose2};
+use pgm_features::clustering_features::inverse_neighbour_distance;
+use pgm_features::ClusterMotions;
+use pgm_scan::Pose2;
 
 /// Largest number of cluster states the model supports.
 pub const MAX_CLUSTERS: usize = 32;

@@ -134,7 +134,7 @@ pub struct ClusteringParams {
     /// The reported motion of every moving object is solved once more from its
     /// cluster's associations with a prior on its rotation, `θ ~ N(θ_background, σ²)`
     /// (the object's own turn between two scans is small;
-    /// [`pgm_features::RigidAlignment::solve_with_rotation_prior`], closed form), as the
+    /// [`pgm_scan::RigidAlignment::solve_with_rotation_prior`], closed form), as the
     /// joint model's (`pgm_joint::JointParams::object_rotation_sigma`). `Some(σ)` in
     /// rad (default 0.05: a car turning at 0.5 rad/s seen 0.1 s apart); `None`
     /// reports eq. 3 alone. Labels, the background and its motion are unchanged.

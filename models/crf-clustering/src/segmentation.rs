@@ -16,8 +16,8 @@
 //! The cluster ids returned are `0..K` in order of first appearance.
 
 use nalgebra::Point2;
-use pgm_features::scan::segment_by_gap;
-use pgm_features::RigidAlignment;
+use pgm_scan::scan::segment_by_gap;
+use pgm_scan::RigidAlignment;
 
 /// Renames labels `0..` in order of first appearance.
 pub fn relabel_by_first_appearance(labels: &mut [usize]) -> usize {

@@ -83,7 +83,7 @@ impl ClusteringWeights {
     /// Checks that every weight is finite and that the distance weights penalise
     /// distance at every range: the coefficient `w_sq + w_norm / σ_i²` of eq. (2) is
     /// negative for every association variance `σ_i² ≥ σ0²`
-    /// ([`pgm_features::clustering::ASSOCIATION_NOISE`]), that is `w_sq ≤ 0` and
+    /// ([`pgm_features::clustering_features::ASSOCIATION_NOISE`]), that is `w_sq ≤ 0` and
     /// `w_sq + w_norm / σ0² < 0` (the coefficient is linear in `1/σ_i²`). Otherwise a
     /// far partner would attract a point to a cluster.
     pub fn check_ref(&self) -> Result<()> {
@@ -91,7 +91,7 @@ impl ClusteringWeights {
             return Err(InvalidParameter::new("weights", self, "finite weights").into());
         }
         let [d0, d1] = self.distance;
-        let smallest = pgm_features::clustering::ASSOCIATION_NOISE.powi(2);
+        let smallest = pgm_features::clustering_features::ASSOCIATION_NOISE.powi(2);
         if d0 > 0.0 || d0 + d1 / smallest >= 0.0 {
             return Err(InvalidParameter::new(
                 "weights.distance",

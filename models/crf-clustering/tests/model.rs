@@ -8,11 +8,11 @@ use pgm_crf_clustering::{
     BackgroundChoice, Clusterer, ClusteringInput, ClusteringParams, ClusteringWeights,
     DetectionParams,
 };
-use pgm_features::clustering::{
+use pgm_features::clustering_features::{
     association_variance, distance_feature, stiffness_feature, weighted_neighbour_feature,
 };
-use pgm_features::scan::segment_by_gap;
-use pgm_features::{ParamGuard, Pose2};
+use pgm_scan::scan::segment_by_gap;
+use pgm_scan::{ParamGuard, Pose2};
 
 /// Points on a wall at y = 5 (x from -6 to 6, 5 cm apart) and a 0.6 m object at
 /// x in [1, 1.6], y = 3, as current-scan points; the wall moves with `ego`, the object

@@ -13,10 +13,10 @@ use pgm_baselines::consistency::ConsistencyDetector;
 use pgm_baselines::motion_kmeans::MotionKMeans;
 use pgm_crf_clustering::Clusterer;
 use pgm_datasets::builders::{leigh_pairs, LeighPairOptions};
-use pgm_datasets::evaluation::{evaluate_clustering, ClusteringSummary};
 use pgm_datasets::{leigh, testdata, ScanPair};
-use pgm_features::association::NearestAfterIcp;
-use pgm_features::methods::{Associated, MotionClusterer, OneCluster};
+use pgm_eval::{evaluate_clustering, ClusteringSummary};
+use pgm_scan::association::NearestAfterIcp;
+use pgm_scan::methods::{Associated, MotionClusterer, OneCluster};
 use std::sync::Arc;
 
 /// The methods of the test: CRF-Clustering and K-Means with ICP associations, CBD

@@ -12,14 +12,14 @@ use pgm_baselines::consistency::ConsistencyDetector;
 use pgm_baselines::motion_kmeans::MotionKMeans;
 use pgm_crf_clustering::learning::{learn, training_instances};
 use pgm_crf_clustering::{Clusterer, ClusteringParams};
-use pgm_datasets::evaluation::{evaluate_clustering, ClusteringSummary};
 use pgm_datasets::sim::{simulate_pairs, SimConfig};
 use pgm_datasets::ScanPair;
-use pgm_features::association::{
+use pgm_eval::{evaluate_clustering, ClusteringSummary};
+use pgm_scan::association::{
     AssociationSource, GroundTruthAssociations, NearestAfterIcp, SegmentIcp,
 };
-use pgm_features::methods::{Associated, MotionClusterer};
-use pgm_features::ParamGuard;
+use pgm_scan::methods::{Associated, MotionClusterer};
+use pgm_scan::ParamGuard;
 use std::sync::Arc;
 
 fn score(pairs: &[ScanPair], method: &dyn MotionClusterer) -> ClusteringSummary {

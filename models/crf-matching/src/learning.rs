@@ -25,10 +25,10 @@ use pgm_core::hybrid::chain::chain_instance;
 use pgm_core::learning::{LabelledInstance, LearnerParams, LearningObserver, LearningResult};
 use pgm_core::param::InvalidParameter;
 use pgm_core::ParamGuard;
-use pgm_features::association_chain::{AssociationBoosters, AssociationProblem, StateSpace};
 use pgm_features::boosting::{Booster, BoosterParams, TrainingSet};
-use pgm_features::matching::{ASSOCIATION_FEATURES, OUTLIER_FEATURES};
-use pgm_features::{Pose2, ScanPair};
+use pgm_features::matching_features::{AssociationBoosters, AssociationProblem, StateSpace};
+use pgm_features::shape_features::{ASSOCIATION_FEATURES, OUTLIER_FEATURES};
+use pgm_scan::{Pose2, ScanPair};
 use rayon::prelude::*;
 
 /// Options of [`train`].

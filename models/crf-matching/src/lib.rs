@@ -12,19 +12,19 @@
 //!
 //! **Big picture.** The association chain itself (candidates, the 18 features written
 //! as CRF tables for inference and learning) lives in
-//! [`pgm_features::association_chain`], shared with the joint model; [`model`] adds
+//! [`pgm_features::matching_features`], shared with the joint model; [`model`] adds
 //! the motion groups and makes it a model of the core's hybrid chain solver; [`matcher`] runs it on a pair (motion
 //! hypotheses, rounds of candidates and exact chain sweeps on the core's hybrid chain
 //! solver); [`weights`] names the 18 weights and holds the boosters; [`learning`]
 //! trains both from labelled pairs. A [`Matcher`] is an
-//! [`AssociationSource`](pgm_features::AssociationSource) (it feeds CRF-Clustering) and
-//! a [`ScanMatcher`](pgm_features::ScanMatcher) (its ego-motion is evaluated like
+//! [`AssociationSource`](pgm_scan::AssociationSource) (it feeds CRF-Clustering) and
+//! a [`ScanMatcher`](pgm_scan::ScanMatcher) (its ego-motion is evaluated like
 //! ICP's).
 //!
 //! ```
 //! use pgm_crf_matching::Matcher;
 //! use pgm_datasets::sim::{simulate_pair, SimConfig};
-//! use pgm_features::ParamGuard;
+//! use pgm_scan::ParamGuard;
 //!
 //! let pair = simulate_pair(&SimConfig::default().check().unwrap(), 1, 0);
 //! let matching = Matcher::default().match_pair(&pair).unwrap();
@@ -43,6 +43,6 @@ pub mod weights;
 
 pub use error::{Error, Result};
 pub use matcher::{Matcher, Matching, MatchingParams};
-pub use pgm_features::association::SegmentMotions;
-pub use pgm_features::association_chain::StateSpace;
+pub use pgm_features::matching_features::StateSpace;
+pub use pgm_scan::association::SegmentMotions;
 pub use weights::MatchingWeights;

@@ -2,7 +2,7 @@
 //!
 //! 1. **Motion hypotheses.** The ego-motion starts from the pair's odometry prior (the
 //!    identity without one), refined by ICP; segment-wise ICP
-//!    ([`pgm_features::association::segment_motions`]) proposes a motion for every gap
+//!    ([`pgm_scan::association::segment_motions`]) proposes a motion for every gap
 //!    segment of the current scan that does not follow the ego-motion and that free
 //!    space shows moved. Each such segment is a motion group of its own (see
 //!    [`crate::model`]).
@@ -22,13 +22,13 @@ use crate::weights::MatchingWeights;
 use crate::{Error, Result};
 use pgm_core::hybrid::chain::{ChainUpdate, HybridChainParams};
 use pgm_core::param::{InvalidParameter, ParamGuard};
-use pgm_features::association::{
+use pgm_features::matching_features::{AssociationProblem, StateSpace};
+use pgm_scan::association::{
     segment_motions, AssociationSource, SegmentIcp, SegmentMotions, SegmentParams,
 };
-use pgm_features::association_chain::{AssociationProblem, StateSpace};
-use pgm_features::methods::{EgoMotionEstimate, ScanMatcher};
-use pgm_features::registration::IcpStatus;
-use pgm_features::{Association, PointAssociations, Pose2, ScanPair};
+use pgm_scan::methods::{EgoMotionEstimate, ScanMatcher};
+use pgm_scan::registration::IcpStatus;
+use pgm_scan::{Association, PointAssociations, Pose2, ScanPair};
 use serde::Serialize;
 
 /// Parameters of CRF-Matching, unchecked; [`ParamGuard::check`] makes a [`Matcher`].
@@ -78,7 +78,7 @@ pub struct MatchingParams {
     /// mm per preset (notes/issue14.md, where a point-to-line polish is measured too).
     pub polish_ego: bool,
     /// Weight of the point-to-point term of the point-to-line refinement that ends
-    /// every motion solve (`Some(0.1)`, [`pgm_features::alignment::POINT_TO_POINT_WEIGHT`];
+    /// every motion solve (`Some(0.1)`, [`pgm_scan::alignment::POINT_TO_POINT_WEIGHT`];
     /// `None`: eq. 6 alone, as the paper). See [`MatchingModel::solve_motions`]; on the
     /// design seed every weight from 0.01 to 0.3 gave the same mean exact accuracy
     /// within 0.11 point (notes/issue14.md).
@@ -101,7 +101,7 @@ impl Default for MatchingParams {
             max_rounds: 5,
             segment_motions: true,
             polish_ego: true,
-            point_to_line: Some(pgm_features::alignment::POINT_TO_POINT_WEIGHT),
+            point_to_line: Some(pgm_scan::alignment::POINT_TO_POINT_WEIGHT),
             segments: SegmentParams::default(),
             weights: MatchingWeights::default(),
         }
@@ -227,8 +227,8 @@ impl Matcher {
     /// ```
     /// use pgm_crf_matching::Matcher;
     /// use pgm_datasets::sim::{simulate_pair, SimConfig};
-    /// use pgm_features::association::segment_motions;
-    /// use pgm_features::{ParamGuard, Pose2};
+    /// use pgm_scan::association::segment_motions;
+    /// use pgm_scan::{ParamGuard, Pose2};
     ///
     /// let pair = simulate_pair(&SimConfig::default().check()?, 1, 0);
     /// let matcher = Matcher::default();
@@ -436,7 +436,7 @@ impl AssociationSource for Matcher {
         "crf-matching"
     }
 
-    fn associate(&self, pair: &ScanPair) -> pgm_features::Result<PointAssociations> {
+    fn associate(&self, pair: &ScanPair) -> pgm_scan::Result<PointAssociations> {
         let m = self.match_pair(pair)?;
         Ok(PointAssociations {
             associations: m.associations,
@@ -450,7 +450,7 @@ impl ScanMatcher for Matcher {
         "crf-matching"
     }
 
-    fn estimate(&self, pair: &ScanPair) -> pgm_features::Result<EgoMotionEstimate> {
+    fn estimate(&self, pair: &ScanPair) -> pgm_scan::Result<EgoMotionEstimate> {
         let m = self.match_pair(pair)?;
         Ok(EgoMotionEstimate {
             motion: m.motion,

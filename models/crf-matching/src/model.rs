@@ -1,5 +1,5 @@
 //! The CRF of one scan pair: the association chain of
-//! [`pgm_features::association_chain`] (a chain over the current scan's returns in
+//! [`pgm_features::matching_features`] (a chain over the current scan's returns in
 //! beam order whose states are candidate partners in the reference scan plus an
 //! outlier state, with its 18 features) and its rigid-motion continuous nodes.
 //!
@@ -16,11 +16,11 @@
 //! each solve ends with a point-to-line refinement on the same pairs (Censi 2008;
 //! [`MatchingModel::solve_motions`]).
 
-use pgm_core::exact::PairPattern;
 use pgm_core::hybrid::chain::{FeatureSink, HybridChainModel};
-use pgm_features::alignment::{fit_trimmed, POINT_TO_POINT_WEIGHT};
-use pgm_features::association_chain::{AssociationProblem, AssociationTables};
-use pgm_features::{Pose2, RigidAlignment, TrimmedFitParams};
+use pgm_core::hybrid::PairPattern;
+use pgm_features::matching_features::{AssociationProblem, AssociationTables};
+use pgm_scan::alignment::{fit_trimmed, POINT_TO_POINT_WEIGHT};
+use pgm_scan::{Pose2, RigidAlignment, TrimmedFitParams};
 use std::sync::Arc;
 
 /// The CRF of one pair with its motion groups (see the module docs): a
@@ -159,7 +159,7 @@ impl<'a> MatchingModel<'a> {
     /// unmodelled mover, a wrong partner) does not pull the motion. A group with fewer
     /// than [`MIN_GROUP_POINTS`] kept pairs keeps its motion. The solution is then
     /// refined on the kept pairs by the point-to-line objective (each return against
-    /// the line through its partner's surface; [`pgm_features::alignment::refine_point_to_line`],
+    /// the line through its partner's surface; [`pgm_scan::alignment::refine_point_to_line`],
     /// see [`MatchingModel::with_point_to_line`]): eq. 6 on one-to-one partners carries
     /// the sampling of the surfaces, and with the motion off by a fraction of a beam
     /// spacing the nearest candidates are the wrong beams. Measured on simulated pairs

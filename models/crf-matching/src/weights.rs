@@ -17,7 +17,7 @@
 
 use crate::{Error, Result};
 use pgm_core::learning::{FeatureSet, Weights};
-use pgm_features::association_chain::{
+use pgm_features::matching_features::{
     check_association_weights, read_boosted_weights, write_boosted_weights, AssociationBoosters,
     ASSOCIATION_TEMPLATES, ASSOCIATION_WEIGHTS,
 };

@@ -6,8 +6,8 @@ use pgm_crf_matching::learning::{train, TrainingOptions};
 use pgm_crf_matching::{Matcher, MatchingParams, MatchingWeights, StateSpace};
 use pgm_datasets::metrics::association_accuracy_within;
 use pgm_datasets::sim::{simulate_pairs, SimConfig};
-use pgm_features::association::{AssociationSource, NearestAfterIcp};
-use pgm_features::{Association, ParamGuard, ScanMatcher};
+use pgm_scan::association::{AssociationSource, NearestAfterIcp};
+use pgm_scan::{Association, ParamGuard, ScanMatcher};
 
 fn accuracy(pairs: &[pgm_datasets::ScanPair], source: &dyn AssociationSource) -> f64 {
     pairs
@@ -132,7 +132,7 @@ fn coarse_pair(seed: u64) -> pgm_datasets::ScanPair {
 fn full_state_space_sparse_tables_solve_like_dense_ones() {
     use pgm_core::hybrid::chain::HybridChainParams;
     use pgm_crf_matching::model::MatchingModel;
-    use pgm_features::association_chain::AssociationProblem;
+    use pgm_features::matching_features::AssociationProblem;
     let weights = MatchingWeights::default();
     for seed in [3, 4] {
         let pair = coarse_pair(seed);
@@ -190,13 +190,13 @@ fn full_state_space_matches_about_as_well_as_pruned() {
 fn next_round_tables_are_fresh_tables() {
     use pgm_core::hybrid::chain::{FeatureTable, HybridChainModel};
     use pgm_crf_matching::model::MatchingModel;
-    use pgm_features::association_chain::AssociationProblem;
+    use pgm_features::matching_features::AssociationProblem;
     let weights = MatchingWeights::default();
     let pair = coarse_pair(5);
     let problem = AssociationProblem::new(&pair, &weights.boosters).unwrap();
     let n = problem.len();
     let ego = pair.odometry.unwrap();
-    let moved = pgm_features::Pose2::new(ego.x() + 0.4, ego.y() - 0.2, ego.theta() + 0.05);
+    let moved = pgm_scan::Pose2::new(ego.x() + 0.4, ego.y() - 0.2, ego.theta() + 0.05);
     let first = problem.candidates(StateSpace::Pruned(6), &vec![ego; n], &vec![ego; n], 1.0);
     let second = problem.candidates(StateSpace::Pruned(6), &vec![moved; n], &vec![moved; n], 1.0);
     assert_ne!(
@@ -249,8 +249,8 @@ fn next_round_tables_are_fresh_tables() {
 #[test]
 fn given_hypotheses_are_the_ones_used_and_bad_ones_are_refused() {
     use pgm_datasets::sim::Preset;
-    use pgm_features::association::segment_motions;
-    use pgm_features::Pose2;
+    use pgm_scan::association::segment_motions;
+    use pgm_scan::Pose2;
     let config = SimConfig {
         preset: Preset::Overtaking,
         ..SimConfig::default()
@@ -346,8 +346,8 @@ fn given_hypotheses_are_the_ones_used_and_bad_ones_are_refused() {
 #[test]
 fn association_tables_are_the_same_on_one_thread_and_on_four() {
     use pgm_core::hybrid::chain::FeatureSink;
-    use pgm_features::association_chain::{AssociationProblem, AssociationTables};
-    use pgm_features::Pose2;
+    use pgm_features::matching_features::{AssociationProblem, AssociationTables};
+    use pgm_scan::Pose2;
     struct Record(Vec<(usize, usize, u64)>);
     impl FeatureSink for Record {
         fn add(&mut self, entry: usize, feature: usize, value: f64) {

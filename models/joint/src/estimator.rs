@@ -2,7 +2,7 @@
 //!
 //! 1. **Motion hypotheses** (`InitialiseRT`, Algorithm 1 line 1): the ego-motion and
 //!    the motions of moving gap segments from segment-wise ICP
-//!    ([`pgm_features::association::segment_motions`], which starts from the
+//!    ([`pgm_scan::association::segment_motions`], which starts from the
 //!    odometry prior, a tight ICP schedule and a correlative search around the
 //!    prior). Cluster 0 takes the ego-motion and each moving segment starts a motion
 //!    cluster of its own, the largest first while there are motion clusters
@@ -36,11 +36,11 @@ use crate::weights::JointWeights;
 use crate::{Error, Result};
 use pgm_core::hybrid::chain::{ChainUpdate, Convergence, HybridChainParams};
 use pgm_core::param::{InvalidParameter, ParamGuard};
-use pgm_features::association::{segment_motions, SegmentIcp, SegmentMotions, SegmentParams};
-use pgm_features::association_chain::{AssociationProblem, StateSpace};
-use pgm_features::clustering_chain::MAX_MOTION_CLUSTERS;
-use pgm_features::registration::IcpStatus;
-use pgm_features::{Association, Pose2, ScanPair};
+use pgm_features::joint_clustering_features::MAX_MOTION_CLUSTERS;
+use pgm_features::matching_features::{AssociationProblem, StateSpace};
+use pgm_scan::association::{segment_motions, SegmentIcp, SegmentMotions, SegmentParams};
+use pgm_scan::registration::IcpStatus;
+use pgm_scan::{Association, Pose2, ScanPair};
 use serde::Serialize;
 
 /// How many clusters the clustering chain has.
@@ -97,7 +97,7 @@ pub struct JointParams {
     /// from the final associations with a prior on its rotation: the object's own
     /// turn between the two scans is small, so its motion in the sensor frame turns
     /// about as much as the background's, `θ ~ N(θ_background, σ²)`
-    /// ([`pgm_features::RigidAlignment::solve_with_rotation_prior`], closed form).
+    /// ([`pgm_scan::RigidAlignment::solve_with_rotation_prior`], closed form).
     /// `Some(σ)` in rad (default 0.05: a car turning at 0.5 rad/s seen 0.1 s apart);
     /// `None` reports eq. 6 alone. A few returns of a person's legs hardly observe
     /// their rotation (eq. 6 then follows the range noise); a car's side observes it
@@ -113,8 +113,8 @@ pub struct JointParams {
     pub object_rotation_sigma: Option<f64>,
     /// Weight of the point-to-point term of the point-to-line refinement that ends
     /// the background cluster's motion solve (`Some(0.1)`,
-    /// [`pgm_features::alignment::POINT_TO_POINT_WEIGHT`]; `None`: eq. 6 alone, as the
-    /// paper). As CRF-Matching's (`pgm_features::alignment::refine_point_to_line`):
+    /// [`pgm_scan::alignment::POINT_TO_POINT_WEIGHT`]; `None`: eq. 6 alone, as the
+    /// paper). As CRF-Matching's (`pgm_scan::alignment::refine_point_to_line`):
     /// eq. 6 on one-to-one partners carries the sampling of the surfaces. The other
     /// clusters keep eq. 6: their motions decide which returns join them, and along a
     /// small object's own straight side the point-to-line term leaves the motion to
@@ -148,7 +148,7 @@ impl Default for JointParams {
             max_rounds: 5,
             polish_ego: true,
             object_rotation_sigma: Some(0.05),
-            point_to_line: Some(pgm_features::alignment::POINT_TO_POINT_WEIGHT),
+            point_to_line: Some(pgm_scan::alignment::POINT_TO_POINT_WEIGHT),
             segments: SegmentParams::default(),
             weights: JointWeights::default(),
         }
@@ -231,7 +231,7 @@ impl Default for Joint {
 /// A return's cluster in a [`JointResult`]: a motion cluster (an index into
 /// [`JointResult::motions`]) or the outlier cluster; serialised as the index, `-1` for
 /// the outlier cluster.
-pub use pgm_features::methods::JointCluster as ClusterLabel;
+pub use pgm_scan::methods::JointCluster as ClusterLabel;
 
 /// The result of the joint model on one pair.
 #[derive(Clone, Debug, PartialEq, Serialize)]

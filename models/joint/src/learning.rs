@@ -26,12 +26,12 @@ use pgm_core::hybrid::chain::{chain_instance, HybridChainModel};
 use pgm_core::learning::{LabelledInstance, LearnerParams, LearningObserver, LearningResult};
 use pgm_core::param::InvalidParameter;
 use pgm_core::ParamGuard;
-use pgm_features::association_chain::{
+use pgm_features::boosting::{BoosterParams, TrainingSet};
+use pgm_features::matching_features::{
     AssociationBoosters, AssociationProblem, StateSpace, ASSOCIATION_WEIGHTS,
 };
-use pgm_features::boosting::{BoosterParams, TrainingSet};
-use pgm_features::matching::{ASSOCIATION_FEATURES, OUTLIER_FEATURES};
-use pgm_features::{Pose2, ScanPair};
+use pgm_features::shape_features::{ASSOCIATION_FEATURES, OUTLIER_FEATURES};
+use pgm_scan::{Pose2, ScanPair};
 use rayon::prelude::*;
 
 /// Options of [`train`].
@@ -311,7 +311,7 @@ fn train_with(
     }
     options.check()?;
     if let Some(a) = association {
-        pgm_features::association_chain::check_association_weights(&a.weights)?;
+        pgm_features::matching_features::check_association_weights(&a.weights)?;
         a.boosters.check_ref()?;
     }
     let half = if pairs.len() >= 2 { pairs.len() / 2 } else { 1 };

@@ -9,7 +9,7 @@
 //! scans.
 //!
 //! **Big picture.** The two chains' features come from `pgm-features`
-//! ([`pgm_features::association_chain`], [`pgm_features::clustering_chain`]) and the
+//! ([`pgm_features::matching_features`], [`pgm_features::joint_clustering_features`]) and the
 //! inference from the core's hybrid chain solver ([`pgm_core::hybrid::chain`]): this
 //! crate composes them. [`model`] is the two-chain CRF and its motions, [`estimator`]
 //! runs it on a pair (motion hypotheses, rounds of candidates and sweeps, vacuous
@@ -19,7 +19,7 @@
 //! ```
 //! use pgm_joint::Joint;
 //! use pgm_datasets::sim::{simulate_pair, SimConfig};
-//! use pgm_features::ParamGuard;
+//! use pgm_scan::ParamGuard;
 //!
 //! let pair = simulate_pair(&SimConfig::default().check().unwrap(), 1, 0);
 //! let result = Joint::default().estimate(&pair).unwrap();
@@ -36,5 +36,5 @@ pub mod weights;
 
 pub use error::{Error, Result};
 pub use estimator::{ClusterLabel, Clusters, Joint, JointParams, JointResult};
-pub use pgm_features::association::SegmentMotions;
+pub use pgm_scan::association::SegmentMotions;
 pub use weights::{AssociationPart, JointWeights};

@@ -1,10 +1,10 @@
 //! The joint model as a [`JointEstimator`], the interface through which evaluation,
 //! the command-line tool and the examples run it next to the two-step pipelines
-//! (`pgm_datasets::evaluation::evaluate_joint`, `pgm eval joint`).
+//! (`pgm_eval::evaluate_joint`, `pgm eval joint`).
 
 use crate::Joint;
-use pgm_features::methods::{JointEstimate, JointEstimator};
-use pgm_features::ScanPair;
+use pgm_scan::methods::{JointEstimate, JointEstimator};
+use pgm_scan::ScanPair;
 
 impl JointEstimator for Joint {
     /// `joint`, as typed on the command line.
@@ -15,7 +15,7 @@ impl JointEstimator for Joint {
     /// [`Joint::estimate`] as a [`JointEstimate`]: the same associations, clusters,
     /// motions, background and ego-motion; `iterations` are the sweeps over all rounds
     /// (one sweep is a forward-backward pass over both chains). Errors name the pair.
-    fn estimate(&self, pair: &ScanPair) -> pgm_features::Result<JointEstimate> {
+    fn estimate(&self, pair: &ScanPair) -> pgm_scan::Result<JointEstimate> {
         let r = Joint::estimate(self, pair)?;
         Ok(JointEstimate {
             associations: r.associations,
@@ -33,7 +33,7 @@ impl JointEstimator for Joint {
 mod tests {
     use super::*;
     use pgm_datasets::sim::{simulate_pair, SimConfig};
-    use pgm_features::ParamGuard;
+    use pgm_scan::ParamGuard;
 
     #[test]
     fn the_estimate_is_the_models_result() {

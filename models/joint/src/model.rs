@@ -5,7 +5,7 @@
 //! - Chain 0, association (`x^a`): node `i` takes a candidate partner among the
 //!   reference returns or the outlier state ([`AssociationTables`]).
 //! - Chain 1, clustering (`x^c`): node `i` takes one of `D` clusters, the last one the
-//!   outlier cluster ([`pgm_features::clustering_chain`]).
+//!   outlier cluster ([`pgm_features::joint_clustering_features`]).
 //! - `x^RT`: one rigid motion per motion cluster (`D − 1`), observed-continuous:
 //!   re-solved in closed form (eq. 6, each pair weighted by `1 / σ_i²`) from the
 //!   current associations of the cluster's returns.
@@ -26,13 +26,13 @@
 //! alternation cannot move a return into the outlier state of either chain first.)
 
 use crate::weights::{ASSOCIATION_BASE, CLUSTERING_BASE};
-use pgm_core::exact::PairPattern;
 use pgm_core::hybrid::chain::{FeatureSink, HybridChainModel};
-use pgm_features::alignment::{fit_trimmed, POINT_TO_POINT_WEIGHT};
-use pgm_features::association_chain::{AssociationProblem, AssociationTables};
-use pgm_features::clustering_chain;
-use pgm_features::scan::segment_by_gap;
-use pgm_features::{Pose2, RigidAlignment, SurfacePair, TrimmedFitParams};
+use pgm_core::hybrid::PairPattern;
+use pgm_features::joint_clustering_features;
+use pgm_features::matching_features::{AssociationProblem, AssociationTables};
+use pgm_scan::alignment::{fit_trimmed, POINT_TO_POINT_WEIGHT};
+use pgm_scan::scan::segment_by_gap;
+use pgm_scan::{Pose2, RigidAlignment, SurfacePair, TrimmedFitParams};
 use std::sync::Arc;
 
 /// The association chain's index.
@@ -94,7 +94,7 @@ impl<'a> JointModel<'a> {
     ///
     /// # Panics
     /// If a starting cluster is out of range, or there are more than
-    /// [`clustering_chain::MAX_MOTION_CLUSTERS`] motions.
+    /// [`joint_clustering_features::MAX_MOTION_CLUSTERS`] motions.
     pub fn new(
         problem: &'a AssociationProblem,
         candidates: Vec<Vec<usize>>,
@@ -104,7 +104,7 @@ impl<'a> JointModel<'a> {
         band: usize,
         clusters: &[usize],
     ) -> Self {
-        assert!(motions.len() <= clustering_chain::MAX_MOTION_CLUSTERS);
+        assert!(motions.len() <= joint_clustering_features::MAX_MOTION_CLUSTERS);
         let surface = segment_by_gap(&problem.current.points, CARRIER_GAP);
         let per_node = node_motions(problem, clusters, &motions, background);
         let tables = AssociationTables::new(problem, candidates, band, &per_node);
@@ -145,7 +145,7 @@ impl<'a> JointModel<'a> {
         motions: Vec<Pose2>,
         per_node: &[Pose2],
     ) -> Self {
-        assert!(motions.len() <= clustering_chain::MAX_MOTION_CLUSTERS);
+        assert!(motions.len() <= joint_clustering_features::MAX_MOTION_CLUSTERS);
         let n = self.cluster.len();
         Self {
             tables: self.tables.next_round(candidates, per_node),
@@ -248,7 +248,7 @@ impl<'a> JointModel<'a> {
     /// leave and the rest are solved again (eq. 6, weights `1/σ²`), at most
     /// [`TRIM_ITERATIONS`] times; fewer than [`MIN_CLUSTER_POINTS`] pairs keep the
     /// motion; then, for the background cluster, the point-to-line refinement on the
-    /// kept pairs ([`pgm_features::alignment::fit_trimmed`]). `prior`: `(θ₀, κ)` of a
+    /// kept pairs ([`pgm_scan::alignment::fit_trimmed`]). `prior`: `(θ₀, κ)` of a
     /// rotation prior. `pairs` is scratch space.
     fn fit_cluster(
         &mut self,
@@ -304,7 +304,7 @@ impl HybridChainModel for JointModel<'_> {
             self.tables
                 .write_local(i, self.node_motion(i), ASSOCIATION_BASE, sink);
         } else {
-            clustering_chain::write_local(
+            joint_clustering_features::write_local(
                 &p.current.surface[i],
                 p.variances[i],
                 self.partner(i),
@@ -321,7 +321,7 @@ impl HybridChainModel for JointModel<'_> {
                 .write_pair(i, self.node_motion(i), ASSOCIATION_BASE, sink);
         } else {
             let p = self.tables.problem();
-            clustering_chain::write_pair(
+            joint_clustering_features::write_pair(
                 [&p.current.surface[i], &p.current.surface[i + 1]],
                 [self.partner(i), self.partner(i + 1)],
                 &self.motions,

@@ -1,9 +1,9 @@
 //! The joint model's 30 named weights and its two boosters.
 //!
 //! Weights 0-17 are the association chain's
-//! ([`pgm_features::association_chain`]: data and outlier boosting, registered
+//! ([`pgm_features::matching_features`]: data and outlier boosting, registered
 //! translation, sequence, pairwise outlier, pairwise distance, pairwise translation),
-//! weights 18-29 the clustering chain's ([`pgm_features::clustering_chain`]: cluster
+//! weights 18-29 the clustering chain's ([`pgm_features::joint_clustering_features`]: cluster
 //! distance, cluster outlier, cluster inlier, cluster sequence, neighbour weight,
 //! neighbour stiffness, neighbour distance, cluster pairwise outlier); the module
 //! docs of those two name every weight. The paper counts 18 + 12 = 30 as well.
@@ -18,11 +18,11 @@
 use crate::{Error, Result};
 use pgm_core::learning::{FeatureSet, Weights};
 use pgm_core::param::InvalidParameter;
-use pgm_features::association_chain::{
+use pgm_features::joint_clustering_features::{CLUSTERING_TEMPLATES, CLUSTERING_WEIGHTS};
+use pgm_features::matching_features::{
     read_boosted_weights, write_boosted_weights, AssociationBoosters, ASSOCIATION_TEMPLATES,
     ASSOCIATION_WEIGHTS,
 };
-use pgm_features::clustering_chain::{CLUSTERING_TEMPLATES, CLUSTERING_WEIGHTS};
 
 use std::path::Path;
 use std::sync::Arc;
@@ -105,7 +105,7 @@ impl AssociationPart {
             read_boosted_weights(Arc::new(features), json, "a CRF-Matching weight file")
                 .map_err(in_file)?;
         let part = Self { weights, boosters };
-        pgm_features::association_chain::check_association_weights(&part.weights)
+        pgm_features::matching_features::check_association_weights(&part.weights)
             .map_err(|e| in_file(e.to_string()))?;
         part.boosters
             .check_ref()

@@ -3,9 +3,9 @@
 //! parameters are refused, training runs and refuses unlabelled pairs.
 
 use pgm_datasets::sim::{simulate_pairs, SimConfig};
-use pgm_features::{Association, ParamGuard};
 use pgm_joint::learning::{train, TrainingOptions};
 use pgm_joint::{ClusterLabel, Clusters, Joint, JointParams, JointWeights};
+use pgm_scan::{Association, ParamGuard};
 
 #[test]
 fn outputs_fit_the_pair() {
@@ -166,8 +166,8 @@ fn piecewise_training_keeps_the_association_part() {
 /// brings the median rotation error of correctly clustered objects down.
 #[test]
 fn rotation_prior_changes_only_the_object_motions_and_helps_small_objects() {
-    use pgm_datasets::evaluation::evaluate_joint;
     use pgm_datasets::sim::Preset;
+    use pgm_eval::evaluate_joint;
     let config = SimConfig {
         preset: Preset::Pedestrians,
         ..SimConfig::default()
@@ -218,8 +218,8 @@ fn rotation_prior_changes_only_the_object_motions_and_helps_small_objects() {
 #[test]
 fn given_hypotheses_are_the_ones_used_and_bad_ones_are_refused() {
     use pgm_datasets::sim::Preset;
-    use pgm_features::association::segment_motions;
-    use pgm_features::Pose2;
+    use pgm_scan::association::segment_motions;
+    use pgm_scan::Pose2;
     let config = SimConfig {
         preset: Preset::Overtaking,
         ..SimConfig::default()

@@ -1,21 +1,15 @@
 //! Exact references: brute-force enumeration for small graphs, Viterbi and
-//! forward-backward on chains, and two-pass elimination on trees; [`FlatChain`], the
-//! chain MAP on flat tables with reusable buffers, for models that rerun it many times,
-//! with dense pairwise tables or sparse ones ("a default plus listed exceptions", a
-//! [`PairPattern`]). They share no code with the loopy engine, so tests can hold the
-//! engine to them.
+//! forward-backward on chains, and two-pass elimination on trees. They share no code
+//! with the loopy engine or with the hybrid chain solver
+//! ([`FlatChain`](crate::hybrid::FlatChain)), so tests can hold both to them.
 
 mod brute_force;
 mod chain;
-mod flat_chain;
-mod pair_pattern;
 mod sample;
 mod tree;
 
 pub use brute_force::{brute_force, BruteForceLimit};
 pub use chain::{chain_order, forward_backward, viterbi};
-pub use flat_chain::FlatChain;
-pub use pair_pattern::PairPattern;
 pub use sample::{sample_chain, ChainSampler};
 pub use tree::{tree_map, tree_marginals};
 

@@ -84,8 +84,8 @@
 //! assert!(result.converged);
 //! ```
 
+use super::{FlatChain, PairPattern};
 use crate::error::{Error, Result};
-use crate::exact::{FlatChain, PairPattern};
 use crate::graph::VariableId;
 use crate::learning::{DenseFeatures, FeatureSet, LabelledInstance, LogLinearModel, TemplateId};
 use crate::param::{InvalidParameter, ParamGuard};

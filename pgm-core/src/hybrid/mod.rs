@@ -24,9 +24,13 @@
 //! tests; `examples/hybrid_motions.rs` couples a chain CRF to several rigid motions.
 
 pub mod chain;
+mod flat_chain;
 mod means;
+mod pair_pattern;
 
+pub use flat_chain::FlatChain;
 pub use means::ClusterMeans;
+pub use pair_pattern::PairPattern;
 
 use crate::bp::{decode_map, first_argmax, BeliefPropagation, BpResult, Messages};
 use crate::error::Result;

@@ -33,7 +33,7 @@ use std::ops::Range;
 /// O(rows · columns) calls of [`PairPattern::from_fn`]).
 ///
 /// ```
-/// use pgm_core::exact::PairPattern;
+/// use pgm_core::hybrid::PairPattern;
 ///
 /// // A 3 × 4 table listing the diagonal and the last column.
 /// let pattern = PairPattern::from_fn(3, 4, |a, b| a == b || b == 3);

@@ -1,10 +1,10 @@
-//! Detection metrics of `pgm_datasets::evaluation` (issue 18) on hand-made pairs and
+//! Detection metrics of `pgm_eval` (issue 18) on hand-made pairs and
 //! labellings whose figures are worked out by hand.
 
-use pgm_datasets::evaluation::{evaluate_clustering_with, DetectionOptions};
 use pgm_datasets::{ClusterMotion, GroundTruth, ScanPair};
-use pgm_features::methods::{MotionClusterer, MotionClustering};
-use pgm_features::{Pose2, Scan};
+use pgm_eval::{evaluate_clustering_with, DetectionOptions};
+use pgm_scan::methods::{MotionClusterer, MotionClustering};
+use pgm_scan::{Pose2, Scan};
 use std::collections::HashMap;
 
 /// A pair of `n` returns on a line, with the given true labels and true motions.
@@ -32,7 +32,7 @@ impl MotionClusterer for Fixed {
     fn name(&self) -> String {
         "fixed".into()
     }
-    fn cluster(&self, pair: &ScanPair) -> pgm_features::Result<MotionClustering> {
+    fn cluster(&self, pair: &ScanPair) -> pgm_scan::Result<MotionClustering> {
         let (labels, motions) = self.0[&pair.name].clone();
         Ok(MotionClustering {
             labels,

@@ -3,14 +3,12 @@
 //! object rules and the motion errors; nothing to score is `None`, never a perfect
 //! score; errors name the pair.
 
-use pgm_datasets::evaluation::{
-    evaluate_association, evaluate_joint, scorable_for_joint, JointReport,
-};
 use pgm_datasets::sim::{simulate_pairs, SimConfig};
 use pgm_datasets::{Association, ClusterMotion, GroundTruth, ParamGuard, ScanPair};
-use pgm_features::association::GroundTruthAssociations;
-use pgm_features::methods::{JointCluster, JointEstimate, JointEstimator};
-use pgm_features::{Pose2, Scan};
+use pgm_eval::{evaluate_association, evaluate_joint, scorable_for_joint, JointReport};
+use pgm_scan::association::GroundTruthAssociations;
+use pgm_scan::methods::{JointCluster, JointEstimate, JointEstimator};
+use pgm_scan::{Pose2, Scan};
 
 /// Returns the pair's ground truth as its estimate: true associations, one cluster per
 /// true label (the background first), true outliers in the outlier cluster, true
@@ -22,7 +20,7 @@ impl JointEstimator for Oracle {
         "oracle"
     }
 
-    fn estimate(&self, pair: &ScanPair) -> pgm_features::Result<JointEstimate> {
+    fn estimate(&self, pair: &ScanPair) -> pgm_scan::Result<JointEstimate> {
         let truth = pair.truth.as_ref().expect("simulated pairs have truth");
         let labels = truth.labels.as_ref().expect("labels");
         let associations = truth.associations.clone().expect("associations");
@@ -103,7 +101,7 @@ impl JointEstimator for OffByOne {
         "off-by-one"
     }
 
-    fn estimate(&self, pair: &ScanPair) -> pgm_features::Result<JointEstimate> {
+    fn estimate(&self, pair: &ScanPair) -> pgm_scan::Result<JointEstimate> {
         let mut e = Oracle.estimate(pair)?;
         for a in e.associations.iter_mut().flatten() {
             if let Association::Point(b) = a {
@@ -171,7 +169,7 @@ impl JointEstimator for Fixed {
     fn name(&self) -> &str {
         "fixed"
     }
-    fn estimate(&self, _: &ScanPair) -> pgm_features::Result<JointEstimate> {
+    fn estimate(&self, _: &ScanPair) -> pgm_scan::Result<JointEstimate> {
         Ok(self.0.clone())
     }
 }
@@ -283,8 +281,8 @@ fn bad_pairs_and_failing_methods_are_named_errors() {
         fn name(&self) -> &str {
             "failing"
         }
-        fn estimate(&self, pair: &ScanPair) -> pgm_features::Result<JointEstimate> {
-            Err(pgm_features::Error::BadPair {
+        fn estimate(&self, pair: &ScanPair) -> pgm_scan::Result<JointEstimate> {
+            Err(pgm_scan::Error::BadPair {
                 pair: pair.name.clone(),
                 problem: "no luck".into(),
             })

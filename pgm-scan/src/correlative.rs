@@ -93,8 +93,8 @@
 //! a [`ScanMatcher`] (`icp+csm`).
 //!
 //! ```
-//! use pgm_features::correlative::CorrelativeParams;
-//! use pgm_features::{ParamGuard, Pose2, Scan};
+//! use pgm_scan::correlative::CorrelativeParams;
+//! use pgm_scan::{ParamGuard, Pose2, Scan};
 //!
 //! // A room 8 m × 5 m seen from the origin and from a pose 0.3 m and 0.2 rad away.
 //! let room = |pose: Pose2| -> Scan {

@@ -22,10 +22,10 @@
 //! `cluster_distance` and `cluster_inlier` read the return's current association as
 //! evidence (the chains are linked through the motions, as the paper's Fig. 1).
 
-use crate::clustering::MIN_NEIGHBOUR_DISTANCE;
-use crate::Pose2;
+use crate::clustering_features::MIN_NEIGHBOUR_DISTANCE;
 use nalgebra::Point2;
 use pgm_core::hybrid::chain::FeatureSink;
+use pgm_scan::Pose2;
 
 /// Index of each clustering weight, relative to the model's base index for them.
 pub mod index {

@@ -38,8 +38,8 @@
 //! 100 000-beam scans).
 //!
 //! ```
-//! use pgm_features::registration::IcpParams;
-//! use pgm_features::{ParamGuard, Pose2, Scan};
+//! use pgm_scan::registration::IcpParams;
+//! use pgm_scan::{ParamGuard, Pose2, Scan};
 //!
 //! // A wall of returns seen from two poses 0.2 m apart.
 //! let wall = |dx: f64| -> Scan {

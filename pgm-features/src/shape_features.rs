@@ -46,9 +46,9 @@
 //! features; these are the evidence that decides whether the reference scan could
 //! have seen the surface point.
 
-use crate::pose::Pose2;
-use crate::scan::Scan;
 use nalgebra::{Point2, Vector2};
+use pgm_scan::pose::Pose2;
+use pgm_scan::scan::Scan;
 
 /// Neighbour orders of the shape descriptors (the paper's 1st, 3rd and 5th).
 pub const NEIGHBOURS: [usize; 3] = [1, 3, 5];
@@ -104,13 +104,13 @@ pub struct ScanShape {
     /// The valid returns (sensor frame).
     pub points: Vec<Point2<f64>>,
     /// The valid returns with their range noise reduced
-    /// ([`surface_points`](crate::scan::surface_points)): the positions the registered
+    /// ([`surface_points`](pgm_scan::scan::surface_points)): the positions the registered
     /// features, the pairwise geometry and the motion fits use.
     pub surface: Vec<Point2<f64>>,
     /// Unit normal of each surface point's line, `None` where the return keeps its
-    /// measured position ([`surface_model`](crate::scan::surface_model)): the
+    /// measured position ([`surface_model`](pgm_scan::scan::surface_model)): the
     /// point-to-line terms of the motion fits
-    /// ([`refine_point_to_line`](crate::alignment::refine_point_to_line)).
+    /// ([`refine_point_to_line`](pgm_scan::alignment::refine_point_to_line)).
     pub normals: Vec<Option<Vector2<f64>>>,
     /// Beam index of each return.
     pub beams: Vec<usize>,
@@ -172,7 +172,7 @@ impl ScanShape {
             descriptors.push(p.coords.norm());
         }
         let angles = beams.iter().map(|&b| scan.angles[b]).collect();
-        let (surface, normals) = crate::scan::surface_model(&points, scan.angle_increment())
+        let (surface, normals) = pgm_scan::scan::surface_model(&points, scan.angle_increment())
             .into_iter()
             .map(|s| (s.point, s.normal))
             .unzip();
@@ -238,7 +238,7 @@ pub fn registered_bearing(q: &Point2<f64>, angle: f64, increment: f64) -> f64 {
 /// point with many beams.
 #[inline]
 pub fn bearing_offset(bearing: f64, angle: f64, increment: f64) -> f64 {
-    let d = crate::pose::wrap_angle(bearing - angle).abs();
+    let d = pgm_scan::pose::wrap_angle(bearing - angle).abs();
     if increment > 0.0 {
         d / increment
     } else {
@@ -254,7 +254,7 @@ pub trait NearestReference {
     fn nearest_distance(&self, q: &Point2<f64>, max_distance: f64) -> Option<f64>;
 }
 
-impl NearestReference for crate::registration::Icp {
+impl NearestReference for pgm_scan::registration::Icp {
     fn nearest_distance(&self, q: &Point2<f64>, max_distance: f64) -> Option<f64> {
         self.nearest_reference(q, max_distance)
             .map(|(_, d2)| d2.sqrt())

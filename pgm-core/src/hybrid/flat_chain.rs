@@ -10,7 +10,7 @@ use std::sync::Arc;
 /// Buffers for exact max-product on a chain of `n` positions, with dense or sparse
 /// ([`PairPattern`]) pairwise tables.
 ///
-/// [`viterbi`](super::viterbi) works on a [`FactorGraph`](crate::FactorGraph) and
+/// [`viterbi`](crate::exact::viterbi) works on a [`FactorGraph`](crate::FactorGraph) and
 /// allocates per call. Models that alternate a chain MAP with a continuous update
 /// (the hybrid motion nodes of CRF-Clustering, the association chain of CRF-Matching;
 /// see [`crate::hybrid::chain`]) rebuild the tables and rerun the recursion many times
@@ -59,7 +59,7 @@ use std::sync::Arc;
 /// edges alike and a sparse chain decodes exactly as its dense twin.
 ///
 /// ```
-/// use pgm_core::exact::{FlatChain, PairPattern};
+/// use pgm_core::hybrid::{FlatChain, PairPattern};
 /// use std::sync::Arc;
 ///
 /// // Three positions of three states; both pairs reward staying (the diagonal, 1.0)
@@ -297,7 +297,7 @@ impl FlatChain {
     /// The messages carry no back-pointers: decoding walks back from the best last
     /// state and recomputes, for each position, the column of the pairwise table it
     /// needs (O(s_i + nnz of the column) per position). Ties go to the lowest state,
-    /// as in [`viterbi`](super::viterbi), on dense and sparse edges alike: a sparse
+    /// as in [`viterbi`](crate::exact::viterbi), on dense and sparse edges alike: a sparse
     /// chain decodes exactly as its dense twin.
     ///
     /// # Panics

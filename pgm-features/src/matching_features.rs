@@ -39,15 +39,15 @@
 //! bearing) are re-evaluated whenever a node's motion changes.
 
 use crate::boosting::{Booster, StepFunction, TrainingSet};
-use crate::clustering::association_variance;
-use crate::matching::{
+use crate::clustering_features::association_variance;
+use crate::shape_features::{
     association_features, bearing_offset, outlier_features, ScanShape, ASSOCIATION_FEATURES,
     MOTION_FEATURES, OUTLIER_FEATURES,
 };
-use crate::registration::Icp;
-use crate::{Association, Error, InvalidParameter, Pose2, Result, Scan, ScanPair};
-use pgm_core::exact::PairPattern;
 use pgm_core::hybrid::chain::FeatureSink;
+use pgm_core::hybrid::PairPattern;
+use pgm_scan::registration::Icp;
+use pgm_scan::{Association, Error, InvalidParameter, Pose2, Result, Scan, ScanPair};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::cell::RefCell;
@@ -316,11 +316,11 @@ impl AssociationProblem {
     }
 
     /// The pair of current return `i` and reference return `j` (indices among the
-    /// valid returns) for a motion solve ([`crate::alignment::fit_trimmed`]): their
+    /// valid returns) for a motion solve ([`pgm_scan::alignment::fit_trimmed`]): their
     /// surface points, the partner's surface normal and the association variance of
     /// `i`.
-    pub fn surface_pair(&self, i: usize, j: usize) -> crate::SurfacePair {
-        crate::SurfacePair {
+    pub fn surface_pair(&self, i: usize, j: usize) -> pgm_scan::SurfacePair {
+        pgm_scan::SurfacePair {
             source: self.current.surface[i],
             target: self.reference.surface[j],
             normal: self.reference.normals[j],

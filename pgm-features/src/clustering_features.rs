@@ -4,7 +4,7 @@
 //! The model labels every point `s_i` of the **current** scan with a cluster `x_i`;
 //! each cluster `l` has a rigid motion `m_l = (R_l, T_l)` mapping current points onto
 //! their associated **reference** points `g_i` (the project convention of
-//! [`crate::pose`]). A clique's log-potential is `w · f` with learned weights `w`:
+//! [`pgm_scan::pose`]). A clique's log-potential is `w · f` with learned weights `w`:
 //!
 //! - [`distance_feature`], eq. (2): `‖T_{x_i} + R_{x_i} s_i − g_i‖²`, the local
 //!   feature;
@@ -31,8 +31,8 @@
 //!
 //! ```
 //! use nalgebra::Point2;
-//! use pgm_features::clustering::{distance_feature, stiffness_feature};
-//! use pgm_features::Pose2;
+//! use crate::clustering_features::{distance_feature, stiffness_feature};
+//! use pgm_scan::Pose2;
 //!
 //! let motion = Pose2::new(1.0, 0.0, 0.0);
 //! let s = Point2::new(2.0, 0.0);
@@ -42,8 +42,8 @@
 //! assert_eq!(stiffness_feature(&motion, &motion, &s, &t), 0.0);
 //! ```
 
-use crate::pose::Pose2;
 use nalgebra::Point2;
+use pgm_scan::pose::Pose2;
 
 /// Distances between neighbouring points below this (metres) count as this in the
 /// weighted-neighbour feature (eq. 5), keeping `1/Δ` finite.

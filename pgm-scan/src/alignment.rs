@@ -48,8 +48,8 @@
 //!
 //! ```
 //! use nalgebra::Point2;
-//! use pgm_features::alignment::RigidAlignment;
-//! use pgm_features::Pose2;
+//! use pgm_scan::alignment::RigidAlignment;
+//! use pgm_scan::Pose2;
 //!
 //! let truth = Pose2::new(0.3, -0.2, 0.1);
 //! let mut stats = RigidAlignment::new();

@@ -5,12 +5,12 @@
 //! prior moved by up to 1 m and 30 degrees (100 pairs for the success rates). Also
 //! every kind of bad input.
 
-use pgm_features::correlative::{
+use pgm_scan::correlative::{
     CorrelativeGrid, CorrelativeIcpMatcher, CorrelativeMatcher, CorrelativeParams,
 };
-use pgm_features::methods::ScanMatcher;
-use pgm_features::registration::IcpMatcher;
-use pgm_features::{Error, ParamGuard, Pose2, Scan, ScanPair};
+use pgm_scan::methods::ScanMatcher;
+use pgm_scan::registration::IcpMatcher;
+use pgm_scan::{Error, ParamGuard, Pose2, Scan, ScanPair};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::f64::consts::{FRAC_PI_2, FRAC_PI_6, TAU};

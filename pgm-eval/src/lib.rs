@@ -50,23 +50,23 @@
 //! motions and ego-motion, scored together; see [`evaluate_joint`] for the rules.
 //!
 //! **Scan matching.** The translation and rotation error of the estimated ego-motion
-//! ([`crate::metrics::motion_error`]) summarised by median and 90th percentile
+//! ([`pgm_datasets::metrics::motion_error`]) summarised by median and 90th percentile
 //! ([`evaluate_matching`]); a pair the method cannot run on keeps the prior and, like
 //! a pair where the method did not converge (too few correspondences), is counted.
 
-use crate::error::{Error, Result};
-use crate::metrics::{
+use nalgebra::Point2;
+use pgm_datasets::error::{Error, Result};
+use pgm_datasets::metrics::{
     association_accuracy_within, association_edit_distance, cluster_outlier_stats, clustering_sed,
     clustering_v_measure, homogeneity_completeness_v_measure, joint_truth, match_clusterings,
     motion_error, outlier_stats, percentile, summarize_errors, ClusterMatching, ErrorSummary,
     MotionError, OutlierStats, VMeasure,
 };
-use nalgebra::Point2;
-use pgm_features::association::AssociationSource;
-use pgm_features::methods::{
+use pgm_scan::association::AssociationSource;
+use pgm_scan::methods::{
     JointCluster, JointEstimate, JointEstimator, MotionClusterer, ScanMatcher,
 };
-use pgm_features::{Association, Pose2, ScanPair};
+use pgm_scan::{Association, Pose2, ScanPair};
 use rayon::prelude::*;
 use serde::Serialize;
 use std::collections::{BTreeMap, HashMap};
@@ -915,15 +915,15 @@ pub struct JointClusteringScore {
     /// Returns with a ground-truth cluster.
     pub scored: usize,
     /// Clustering accuracy with the outlier cluster (0–1,
-    /// [`crate::metrics::clustering_accuracy_matched`]).
+    /// [`pgm_datasets::metrics::clustering_accuracy_matched`]).
     pub accuracy: f64,
-    /// Clustering string edit distance ([`crate::metrics::clustering_sed`]).
+    /// Clustering string edit distance ([`pgm_datasets::metrics::clustering_sed`]).
     pub sed: usize,
     /// Homogeneity, completeness and V-measure of the predicted clusters against the
     /// true ones of [`joint_truth`] (the true outliers a class of their own, the
     /// outlier cluster a cluster of its own).
     pub v_measure: VMeasure,
-    /// Outlier-cluster percentages ([`crate::metrics::cluster_outlier_stats`]).
+    /// Outlier-cluster percentages ([`pgm_datasets::metrics::cluster_outlier_stats`]).
     pub outliers: OutlierStats,
 }
 
@@ -1225,7 +1225,7 @@ fn joint_objects(
 /// Summaries in [`JointSummary`]. On pairs without true associations (real data)
 /// the association figures are `None`, no return is known to be an outlier, and the
 /// returns of the predicted outlier cluster are scored as the background's (as
-/// `pgm eval clustering` scores them, [`pgm_features::methods::JointClusters`]): the
+/// `pgm eval clustering` scores them, [`pgm_scan::methods::JointClusters`]): the
 /// truth cannot tell whether they are outliers, so they are neither rewarded nor
 /// counted as a cluster of their own. The outlier-cluster percentages
 /// ([`JointClusteringScore::outliers`]) still report how many returns the method

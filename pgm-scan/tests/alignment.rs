@@ -1,7 +1,7 @@
 //! Property tests of the closed-form weighted rigid alignment (eq. 3 of CRF-Clustering).
 
 use nalgebra::Point2;
-use pgm_features::{Pose2, RigidAlignment};
+use pgm_scan::{Pose2, RigidAlignment};
 use proptest::prelude::*;
 
 type RawPair = ((f64, f64), (f64, f64), f64);

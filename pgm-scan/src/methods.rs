@@ -5,14 +5,14 @@
 //! joint model, and the two-step pipelines it is compared with: [`TwoSteps`]);
 //! [`JointClusters`] and [`JointEgoMotion`] score a joint method's clusters and
 //! ego-motion through the clustering and matching evaluations.
-//! Evaluation (`pgm_datasets::evaluation`), the command-line tool, the
+//! Evaluation (`pgm_eval`), the command-line tool, the
 //! examples and the tests are generic over them, so adding a model means adding an
 //! implementation, not a branch in the tool.
 //!
 //! ```
-//! use pgm_features::methods::{Odometry, ScanMatcher};
-//! use pgm_features::pair::ScanPair;
-//! use pgm_features::{Pose2, Scan};
+//! use pgm_scan::methods::{Odometry, ScanMatcher};
+//! use pgm_scan::pair::ScanPair;
+//! use pgm_scan::{Pose2, Scan};
 //!
 //! let scan = Scan::from_ranges(vec![0.0], vec![1.0], 10.0);
 //! let pair = ScanPair { name: "p".into(), reference: scan.clone(), current: scan,
@@ -413,8 +413,8 @@ pub enum OutlierReturns {
 /// estimation), as the joint model does.
 ///
 /// ```
-/// use pgm_features::methods::{JointCluster, JointEstimate, JointEstimator, OutlierReturns};
-/// use pgm_features::{Association, Pose2, Result, Scan, ScanPair};
+/// use pgm_scan::methods::{JointCluster, JointEstimate, JointEstimator, OutlierReturns};
+/// use pgm_scan::{Association, Pose2, Result, Scan, ScanPair};
 ///
 /// /// Every return associated to the same beam, all in the background.
 /// struct Identity;
@@ -524,7 +524,7 @@ impl<C: ClusterWithAssociations> JointEstimator for TwoSteps<C> {
 /// 0.482 / 0.365 / 0.377, recall 9 → 10 of 31 at k = 1 and 8 → 9 of 27 at k = 5,
 /// false alarms the same; datmo intersection k = 3 V 0.737 → 0.755, overtake_ego
 /// 0.176 → 0.180. `pgm eval joint` scores the outlier cluster itself
-/// (`pgm_datasets::evaluation::evaluate_joint`).
+/// (`pgm_eval::evaluate_joint`).
 pub struct JointClusters<E>(pub E);
 
 impl<E: JointEstimator> MotionClusterer for JointClusters<E> {

@@ -33,7 +33,7 @@
 //! evidence; how a model treats them is the model's choice.
 //!
 //! ```
-//! use pgm_features::association::{AssociationSource, NearestAfterIcp};
+//! use pgm_scan::association::{AssociationSource, NearestAfterIcp};
 //! let source = NearestAfterIcp::default();
 //! assert_eq!(source.name(), "icp");
 //! ```
