@@ -98,3 +98,64 @@ fn quiet_on_closed_stdout() {
         report(info);
     }));
 }
+
+#[cfg(test)]
+mod tests {
+    use super::Cli;
+    use clap::CommandFactory;
+
+    /// The CLI reference in the book, generated from the clap definitions above.
+    fn reference() -> String {
+        let options = clap_markdown::MarkdownOptions::new()
+            .title("The `pgm` command line".to_string())
+            .show_footer(false);
+        let body = clap_markdown::help_markdown_custom::<Cli>(&options);
+        format!(
+            "<!-- Generated from the clap definitions by `PGM_BLESS=1 cargo test --release --bin pgm cli_reference`; do not edit. -->\n\n{body}"
+        )
+    }
+
+    /// docs/cli.md is the generated reference: a change to an option that is not
+    /// written there fails here (regenerate with `PGM_BLESS=1 cargo test --release
+    /// --bin pgm cli_reference`).
+    #[test]
+    fn cli_reference_is_current() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/docs/cli.md");
+        let expected = reference();
+        if std::env::var_os("PGM_BLESS").is_some() {
+            std::fs::write(path, &expected).unwrap();
+        }
+        let written = std::fs::read_to_string(path).unwrap_or_default();
+        assert!(
+            written == expected,
+            "docs/cli.md is stale: regenerate it with `PGM_BLESS=1 cargo test --release --bin pgm cli_reference`"
+        );
+    }
+
+    /// `pgm CMD -h` fits on a screen: at most 40 lines for every command and
+    /// subcommand (the long help, `--help`, says everything).
+    #[test]
+    fn short_help_fits_on_a_screen() {
+        fn walk(command: &mut clap::Command, path: &str, long: &mut Vec<String>) {
+            let text = command.render_help().to_string();
+            let lines = text.lines().count();
+            if lines > 40 {
+                long.push(format!("`{path} -h`: {lines} lines"));
+            }
+            let names: Vec<String> = command
+                .get_subcommands()
+                .map(|c| c.get_name().to_string())
+                .collect();
+            for name in names {
+                if let Some(sub) = command.find_subcommand_mut(&name) {
+                    walk(sub, &format!("{path} {name}"), long);
+                }
+            }
+        }
+        let mut command = Cli::command();
+        command.build();
+        let mut long = Vec::new();
+        walk(&mut command, "pgm", &mut long);
+        assert!(long.is_empty(), "short help too long: {}", long.join(", "));
+    }
+}

@@ -52,33 +52,38 @@ pub struct CrfArgs {
     #[arg(long)]
     pub weights: Option<PathBuf>,
     /// Largest number of clusters.
-    #[arg(long, default_value_t = MethodOptions::default().crf.max_clusters)]
+    #[arg(long, default_value_t = MethodOptions::default().crf.max_clusters, hide_short_help = true)]
     pub max_clusters: usize,
     /// Extra edges to each point's K nearest neighbours (0: chain only).
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, hide_short_help = true)]
     pub knn: usize,
     /// Add an outlier state at this partner distance (m).
-    #[arg(long)]
+    #[arg(long, hide_short_help = true)]
     pub outlier_distance: Option<f64>,
     /// Gap (m) that starts a new initial segment.
-    #[arg(long, default_value_t = MethodOptions::default().crf.segment_gap)]
+    #[arg(long, default_value_t = MethodOptions::default().crf.segment_gap, hide_short_help = true)]
     pub segment_gap: f64,
     /// Mean effective number of clusters above which a cluster is merged (eq. 8).
-    #[arg(long, default_value_t = MethodOptions::default().crf.merge_threshold)]
+    #[arg(long, default_value_t = MethodOptions::default().crf.merge_threshold, hide_short_help = true)]
     pub merge_threshold: f64,
     /// Smallest displacement (m) of a moving object relative to the background.
-    #[arg(long, default_value_t = MethodOptions::default().crf.detection.min_object_displacement)]
+    #[arg(long, default_value_t = MethodOptions::default().crf.detection.min_object_displacement, hide_short_help = true)]
     pub min_displacement: f64,
     /// Smallest fraction of a moving object's points that free space shows moved
     /// (0: no free-space test).
-    #[arg(long, default_value_t = MethodOptions::default().crf.detection.min_free_fraction)]
+    #[arg(long, default_value_t = MethodOptions::default().crf.detection.min_free_fraction, hide_short_help = true)]
     pub min_free_fraction: f64,
     /// When motions are re-solved during message passing.
-    #[arg(long, value_enum, default_value = "every-sweep")]
+    #[arg(
+        long,
+        value_enum,
+        default_value = "every-sweep",
+        hide_short_help = true
+    )]
     pub update: UpdateArg,
     /// ICP associations: gate (m) of the nearest-neighbour search (segment-icp: upper
     /// bound of its range-dependent gate).
-    #[arg(long, default_value_t = MethodOptions::default().nearest.gate)]
+    #[arg(long, default_value_t = MethodOptions::default().nearest.gate, hide_short_help = true)]
     pub gate: f64,
     /// CRF-Matching associations.
     #[command(flatten)]
@@ -127,10 +132,10 @@ pub struct OnePairArgs {
     #[arg(long, default_value = "0")]
     pub pair: String,
     /// leigh-gtm1 style scan log.
-    #[arg(long, requires_all = ["reference", "current"])]
+    #[arg(long, requires_all = ["reference", "current"], hide_short_help = true)]
     pub scans: Option<PathBuf>,
     /// Odometry per scan of the log (optional).
-    #[arg(long, requires = "scans")]
+    #[arg(long, requires = "scans", hide_short_help = true)]
     pub odometry: Option<PathBuf>,
     /// CARMEN log (FLASER / ROBOTLASER1 lines); the odometry prior comes from the
     /// poses on the laser lines.
@@ -145,13 +150,18 @@ pub struct OnePairArgs {
     pub current: Option<usize>,
     /// CARMEN FLASER lines: field of view of the laser in degrees (overrides the log's
     /// PARAM lines and CARMEN's rule for the beam count).
-    #[arg(long, requires = "carmen")]
+    #[arg(long, requires = "carmen", hide_short_help = true)]
     pub laser_fov: Option<f64>,
     /// CARMEN FLASER lines: angle between beams in degrees (overrides as --laser-fov).
-    #[arg(long, requires = "carmen")]
+    #[arg(long, requires = "carmen", hide_short_help = true)]
     pub laser_resolution: Option<f64>,
     /// CARMEN FLASER lines: angle of the first beam in degrees (default -90, CARMEN's).
-    #[arg(long, requires = "carmen", allow_negative_numbers = true)]
+    #[arg(
+        long,
+        requires = "carmen",
+        allow_negative_numbers = true,
+        hide_short_help = true
+    )]
     pub laser_start: Option<f64>,
 }
 

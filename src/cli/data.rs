@@ -74,19 +74,19 @@ pub struct BagArgs {
     pub odom_topic: Option<String>,
     /// Bag: topic of the annotated people (leigh-gtm1 leg_tracker/Person): labels by
     /// the leigh-gtm1 rules.
-    #[arg(long, requires = "bag")]
+    #[arg(long, requires = "bag", hide_short_help = true)]
     pub people_topic: Option<String>,
     /// Bag: topic of the robot's true pose (motion capture, geometry_msgs/PoseStamped):
     /// the true ego-motion.
-    #[arg(long, requires = "bag")]
+    #[arg(long, requires = "bag", hide_short_help = true)]
     pub ego_pose_topic: Option<String>,
     /// Bag: topic of a moving object's true pose (motion capture): its motion and
     /// per-point labels from --object-footprint.
-    #[arg(long, requires = "ego_pose_topic")]
+    #[arg(long, requires = "ego_pose_topic", hide_short_help = true)]
     pub object_pose_topic: Option<String>,
     /// Bag: the laser's pose X,Y,YAW (m, m, rad) in the robot frame that the odometry
     /// and the ego pose follow (default: the bag's tf, else the identity).
-    #[arg(long, requires = "bag", allow_hyphen_values = true, value_parser = parse_pose)]
+    #[arg(long, requires = "bag", allow_hyphen_values = true, value_parser = parse_pose, hide_short_help = true)]
     pub laser_mount: Option<Pose2>,
     /// Bag: the pose that matches a scan is read at its header stamp plus this many
     /// seconds.
@@ -94,19 +94,20 @@ pub struct BagArgs {
         long,
         requires = "bag",
         default_value_t = 0.0,
-        allow_hyphen_values = true
+        allow_hyphen_values = true,
+        hide_short_help = true
     )]
     pub pose_delay: f64,
     /// Bag: the object's footprint LENGTH,WIDTH,CENTRE_X,CENTRE_Y (m), a rectangle in
     /// its pose frame.
-    #[arg(long, requires = "object_pose_topic", allow_hyphen_values = true, value_parser = parse_footprint)]
+    #[arg(long, requires = "object_pose_topic", allow_hyphen_values = true, value_parser = parse_footprint, hide_short_help = true)]
     pub object_footprint: Option<Footprint>,
     /// Bag: returns within this distance (m) of the object's footprint are the object.
-    #[arg(long, requires = "bag", default_value_t = MocapOptions::default().label_margin)]
+    #[arg(long, requires = "bag", default_value_t = MocapOptions::default().label_margin, hide_short_help = true)]
     pub label_margin: f64,
     /// Bag: the object is a mover only when it moves at least this fast (m/s) between
     /// the two scans, else its returns are static background (0: always a mover).
-    #[arg(long, requires = "bag", default_value_t = MocapOptions::default().object_min_speed)]
+    #[arg(long, requires = "bag", default_value_t = MocapOptions::default().object_min_speed, hide_short_help = true)]
     pub object_min_speed: f64,
 }
 
@@ -234,14 +235,14 @@ pub struct LabelArgs {
     /// Who moves: `track` (the speed of a line fitted to the person's track, the data
     /// README's rule) or `displacement` (the older rule: the two annotated centres of
     /// the pair, --moving-threshold and --unannotated).
-    #[arg(long, default_value_t = LabelRule::Track)]
+    #[arg(long, default_value_t = LabelRule::Track, hide_short_help = true)]
     pub labels: LabelRule,
     /// Track rule: smallest speed (m/s) of a walking person; 0: every annotated person
     /// is a mover.
-    #[arg(long, default_value_t = LeighPairOptions::default().walking_speed)]
+    #[arg(long, default_value_t = LeighPairOptions::default().walking_speed, hide_short_help = true)]
     pub walking_speed: f64,
     /// Track rule: the line is fitted over the annotated scans from i - W to j + W.
-    #[arg(long, default_value_t = LeighPairOptions::default().track_window)]
+    #[arg(long, default_value_t = LeighPairOptions::default().track_window, hide_short_help = true)]
     pub track_window: usize,
 }
 
@@ -291,24 +292,24 @@ pub struct SourceArgs {
     #[arg(long)]
     pub log: Option<PathBuf>,
     /// leigh-gtm1 scan log (`SCAN idx …` lines).
-    #[arg(long, requires = "people")]
+    #[arg(long, requires = "people", hide_short_help = true)]
     pub scans: Option<PathBuf>,
     /// leigh-gtm1 person annotations (`PERSON scan_idx person_id x y`).
-    #[arg(long, requires = "scans")]
+    #[arg(long, requires = "scans", hide_short_help = true)]
     pub people: Option<PathBuf>,
     /// leigh-gtm1 odometry per scan (`ODOM idx stamp x y theta`).
-    #[arg(long, requires = "scans")]
+    #[arg(long, requires = "scans", hide_short_help = true)]
     pub odometry: Option<PathBuf>,
     /// CARMEN FLASER lines: field of view of the laser in degrees (overrides the log's
     /// PARAM lines and CARMEN's rule for the beam count).
-    #[arg(long)]
+    #[arg(long, hide_short_help = true)]
     pub laser_fov: Option<f64>,
     /// CARMEN FLASER lines: angle between beams in degrees (overrides the log's PARAM
     /// lines and CARMEN's rule for the beam count).
-    #[arg(long)]
+    #[arg(long, hide_short_help = true)]
     pub laser_resolution: Option<f64>,
     /// CARMEN FLASER lines: angle of the first beam in degrees (default -90, CARMEN's).
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, allow_negative_numbers = true, hide_short_help = true)]
     pub laser_start: Option<f64>,
 }
 
@@ -357,19 +358,30 @@ impl SourceArgs {
 pub struct LeighArgs {
     /// Moving threshold (m): people who moved less are background; 0 makes every
     /// annotated person its own cluster.
-    #[arg(long, default_value_t = 0.2)]
+    #[arg(long, default_value_t = 0.2, hide_short_help = true)]
     pub moving_threshold: f64,
     /// Returns within this distance (m) of an annotated centre belong to the person.
-    #[arg(long, default_value_t = 0.35)]
+    #[arg(long, default_value_t = 0.35, hide_short_help = true)]
     pub person_radius: f64,
     /// A person annotated in the current scan but not in the reference scan (unknown
     /// displacement) is `moving` (its own cluster) or `static` (background).
-    #[arg(long, default_value_t = Unannotated::Moving)]
+    #[arg(long, default_value_t = Unannotated::Moving, hide_short_help = true)]
     pub unannotated: Unannotated,
     /// Score only the sector of bearings where people were annotated (returns outside
     /// it get no label): the annotators marked people in front of the wheelchair only.
-    #[arg(long)]
+    #[arg(long, hide_short_help = true)]
     pub annotated_sector: bool,
+}
+
+impl Default for LeighArgs {
+    fn default() -> Self {
+        Self {
+            moving_threshold: 0.2,
+            person_radius: 0.35,
+            unannotated: Unannotated::Moving,
+            annotated_sector: false,
+        }
+    }
 }
 
 /// `pgm data pairs`.

@@ -75,29 +75,29 @@ pub struct MatchingArgs {
     #[arg(long, default_value_t = 1)]
     pub k: usize,
     /// Pairs less than this many seconds apart form the subset `near`, others `far`.
-    #[arg(long, default_value_t = 1.5)]
+    #[arg(long, default_value_t = 1.5, hide_short_help = true)]
     pub near_seconds: f64,
     /// ICP: correspondence distance of the first iteration (m).
-    #[arg(long, default_value_t = IcpParams::default().initial_max_distance)]
+    #[arg(long, default_value_t = IcpParams::default().initial_max_distance, hide_short_help = true)]
     pub icp_initial_distance: f64,
     /// ICP: correspondence distance the schedule ends at (m).
-    #[arg(long, default_value_t = IcpParams::default().final_max_distance)]
+    #[arg(long, default_value_t = IcpParams::default().final_max_distance, hide_short_help = true)]
     pub icp_final_distance: f64,
     /// ICP: factor applied to the correspondence distance per iteration.
-    #[arg(long, default_value_t = IcpParams::default().distance_decay)]
+    #[arg(long, default_value_t = IcpParams::default().distance_decay, hide_short_help = true)]
     pub icp_decay: f64,
     /// ICP: largest number of iterations.
-    #[arg(long, default_value_t = IcpParams::default().max_iterations)]
+    #[arg(long, default_value_t = IcpParams::default().max_iterations, hide_short_help = true)]
     pub icp_max_iterations: usize,
     /// ICP: convergence tolerance on the change per iteration (m and rad).
-    #[arg(long, default_value_t = IcpParams::default().translation_tolerance)]
+    #[arg(long, default_value_t = IcpParams::default().translation_tolerance, hide_short_help = true)]
     pub icp_tolerance: f64,
     /// ICP: match only every N-th return while the distance is coarse.
-    #[arg(long, default_value_t = IcpParams::default().coarse_stride)]
+    #[arg(long, default_value_t = IcpParams::default().coarse_stride, hide_short_help = true)]
     pub icp_coarse_stride: usize,
     /// ICP: fewest matched returns for a rigid fit, at least 2 (fewer: the prior is
     /// kept and the pair counts as not converged).
-    #[arg(long, default_value_t = IcpParams::default().min_correspondences)]
+    #[arg(long, default_value_t = IcpParams::default().min_correspondences, hide_short_help = true)]
     pub icp_min_correspondences: usize,
     /// CRF-Matching options.
     #[command(flatten)]

@@ -78,14 +78,14 @@ pub struct MethodArgs {
     #[command(flatten)]
     pub crf: CrfArgs,
     /// Motion K-Means: number of clusters.
-    #[arg(long, default_value_t = pgm::methods::MethodOptions::default().kmeans.k)]
+    #[arg(long, default_value_t = pgm::methods::MethodOptions::default().kmeans.k, hide_short_help = true)]
     pub kmeans_k: usize,
     /// CBD: how much closer (m) than the reference return a dynamic point is.
-    #[arg(long, default_value_t = pgm::methods::MethodOptions::default().cbd.margin)]
+    #[arg(long, default_value_t = pgm::methods::MethodOptions::default().cbd.margin, hide_short_help = true)]
     pub cbd_margin: f64,
     /// The joint model's weights and boosters for `--method joint`, written by `pgm
     /// train joint` (default: the shipped ones).
-    #[arg(long)]
+    #[arg(long, hide_short_help = true)]
     pub joint_weights: Option<PathBuf>,
 }
 
@@ -185,11 +185,11 @@ pub struct ClusteringEvalArgs {
     pub k: usize,
     /// Hide the pairs' odometry prior from the methods (the labels still use it): the
     /// methods run as on a log without odometry.
-    #[arg(long)]
+    #[arg(long, hide_short_help = true)]
     pub no_prior: bool,
     /// Detection metrics: objects with fewer returns in the current scan are left out
     /// of the object recall.
-    #[arg(long, default_value_t = DetectionOptions::default().min_object_returns)]
+    #[arg(long, default_value_t = DetectionOptions::default().min_object_returns, hide_short_help = true)]
     pub min_object_returns: usize,
     /// Track the method's moving objects over the sequence of current scans
     /// (pgm_tracking): pairs of one log or bag (or of `pgm sim --sequence`) in
@@ -200,14 +200,14 @@ pub struct ClusteringEvalArgs {
     /// Tracking: steps with evidence of motion a track needs for its objects to be
     /// reported (1 drops only the detections that the previous scan shows slower than
     /// the speed that counts).
-    #[arg(long, requires = "track", default_value_t = TrackingParams::default().min_evidence)]
+    #[arg(long, requires = "track", default_value_t = TrackingParams::default().min_evidence, hide_short_help = true)]
     pub track_min_evidence: usize,
     /// Tracking: slowest speed (m/s) that counts as moving.
-    #[arg(long, requires = "track", default_value_t = TrackingParams::default().min_speed)]
+    #[arg(long, requires = "track", default_value_t = TrackingParams::default().min_speed, hide_short_help = true)]
     pub track_min_speed: f64,
     /// Tracking: do not follow confirmed tracks backward in time (the scans before an
     /// object's first detection keep the method's output).
-    #[arg(long, requires = "track")]
+    #[arg(long, requires = "track", hide_short_help = true)]
     pub track_forward_only: bool,
     /// Print one JSON object.
     #[arg(long)]

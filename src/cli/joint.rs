@@ -113,13 +113,13 @@ pub struct JointArgs {
     /// The cluster states: `auto` (one per group of moving segments, at most 8 with the
     /// outlier cluster) or a fixed number `D` (2-32, the outlier cluster included; the
     /// paper's experiments use 5).
-    #[arg(long, default_value = "auto", value_parser = parse_clusters)]
+    #[arg(long, default_value = "auto", value_parser = parse_clusters, hide_short_help = true)]
     pub clusters: Clusters,
     /// The prior on the rotation of the reported object motions: a standard
     /// deviation in rad around the background's rotation (default 0.05, a car turning
     /// at 0.5 rad/s seen 0.1 s apart), or `none` for eq. 6 alone (inference is the
     /// same either way).
-    #[arg(long, default_value = "0.05", value_parser = parse_rotation_sigma)]
+    #[arg(long, default_value = "0.05", value_parser = parse_rotation_sigma, hide_short_help = true)]
     pub object_rotation_sigma: RotationSigma,
     /// Weights and boosters written by `pgm train joint` (default: the shipped ones).
     #[arg(long)]
@@ -300,23 +300,23 @@ pub struct JointEvalArgs {
     pub weights: Option<PathBuf>,
     /// The joint model's cluster states: `auto` or a fixed `D` (2-32, the outlier
     /// cluster included).
-    #[arg(long, default_value = "auto", value_parser = parse_clusters)]
+    #[arg(long, default_value = "auto", value_parser = parse_clusters, hide_short_help = true)]
     pub clusters: Clusters,
     /// The prior on the rotation of the reported object motions: a standard
     /// deviation in rad around the background's rotation (default 0.05, a car turning
     /// at 0.5 rad/s seen 0.1 s apart), or `none` for eq. 6 alone (inference is the
     /// same either way).
-    #[arg(long, default_value = "0.05", value_parser = parse_rotation_sigma)]
+    #[arg(long, default_value = "0.05", value_parser = parse_rotation_sigma, hide_short_help = true)]
     pub object_rotation_sigma: RotationSigma,
     /// CRF-Matching (crf-matching+kmeans, separate) and the joint model: `--candidates`
     /// sets the association states of both; `--matching-weights` CRF-Matching's.
     #[command(flatten)]
     pub matching: MatchingOptionArgs,
     /// CRF-Clustering's weights for `separate` (default: the shipped ones).
-    #[arg(long)]
+    #[arg(long, hide_short_help = true)]
     pub crf_weights: Option<PathBuf>,
     /// Motion K-Means: number of clusters (the joint paper's experiments: 4).
-    #[arg(long, default_value_t = JOINT_PAPER_KMEANS_K)]
+    #[arg(long, default_value_t = JOINT_PAPER_KMEANS_K, hide_short_help = true)]
     pub kmeans_k: usize,
     /// Also print every pair's outcome (JSON: an `outcomes` array of
     /// [`pgm_eval::JointOutcome`]).

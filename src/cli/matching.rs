@@ -34,7 +34,7 @@ use std::process::ExitCode;
 pub struct MatchingOptionArgs {
     /// CRF-Matching: weights and boosters written by `pgm train matching` (default:
     /// the shipped ones).
-    #[arg(long)]
+    #[arg(long, hide_short_help = true)]
     pub matching_weights: Option<PathBuf>,
     /// CRF-Matching (and the joint model): the states of a point: `K` (its K nearest
     /// reference returns under its motion estimate, plus the outlier state; 1-64) or
@@ -45,7 +45,7 @@ pub struct MatchingOptionArgs {
     /// `point-to-line` (eq. 6 on the MAP partners, then each return against the line
     /// through its partner's surface; the default) or `point-to-point` (eq. 6 alone,
     /// as the paper).
-    #[arg(long, value_enum, default_value_t = MotionFit::PointToLine)]
+    #[arg(long, value_enum, default_value_t = MotionFit::PointToLine, hide_short_help = true)]
     pub motion_fit: MotionFit,
 }
 

@@ -41,30 +41,30 @@ pub struct SimArgs {
     #[arg(long, default_value_t = 0)]
     pub svg_pair: usize,
     /// Number of laser beams over the 180° field of view.
-    #[arg(long, default_value_t = 361)]
+    #[arg(long, default_value_t = 361, hide_short_help = true)]
     pub beams: usize,
     /// Standard deviation of the range noise in metres.
-    #[arg(long, default_value_t = 0.03)]
+    #[arg(long, default_value_t = 0.03, hide_short_help = true)]
     pub range_noise: f64,
     /// Probability of a missing return.
-    #[arg(long, default_value_t = 0.01)]
+    #[arg(long, default_value_t = 0.01, hide_short_help = true)]
     pub dropout: f64,
     /// Smallest ego travel between the two scans of a pair, in metres.
-    #[arg(long, default_value_t = 2.0)]
+    #[arg(long, default_value_t = 2.0, hide_short_help = true)]
     pub min_distance: f64,
     /// Largest ego travel between the two scans of a pair, in metres.
-    #[arg(long, default_value_t = 4.0)]
+    #[arg(long, default_value_t = 4.0, hide_short_help = true)]
     pub max_distance: f64,
     /// Odometry noise: standard deviation of the x and y error per metre travelled.
-    #[arg(long, default_value_t = 0.02)]
+    #[arg(long, default_value_t = 0.02, hide_short_help = true)]
     pub odometry_translation_noise: f64,
     /// Odometry noise: standard deviation of the heading error (rad) per metre travelled.
-    #[arg(long, default_value_t = 0.003)]
+    #[arg(long, default_value_t = 0.003, hide_short_help = true)]
     pub odometry_rotation_noise: f64,
     /// Pair selection: every moving object in the current scan must have at least this
     /// many returns seen in the reference scan (true associations), else the scene is
     /// drawn again; 0 keeps every pair.
-    #[arg(long, default_value_t = 3)]
+    #[arg(long, default_value_t = 3, hide_short_help = true)]
     pub min_object_returns: usize,
     /// Sequences instead of independent pairs: each of the --pairs draws becomes a
     /// sequence of this many scans of one scene, written as the pairs --k scans apart

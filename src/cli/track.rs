@@ -19,7 +19,7 @@
 //! the reference scan). A summary goes to stderr. `--svg FILE` draws the
 //! longest sequence ([`pgm::plot::TrackPicture`]).
 
-use super::data::{load_pairs, pair_source, LeighArgs, SourceArgs};
+use super::data::{load_pairs, pair_source, parse_pose, BagArgs, LeighArgs, SourceArgs};
 use super::eval_clustering::MethodArgs;
 use super::{check_not_an_input, check_output_file, resolved_output, CliError, CliResult};
 use clap::Args;
@@ -38,14 +38,11 @@ pub struct TrackArgs {
     #[command(flatten)]
     pub method: MethodArgs,
     /// A stored scan-pair data set (pairs of one log in time order).
-    #[arg(long, conflicts_with_all = ["carmen", "log", "scans", "bag"])]
+    #[arg(long, conflicts_with_all = ["log", "scans", "bag"])]
     pub pairs: Option<PathBuf>,
     /// The log or bag.
     #[command(flatten)]
-    pub source: SourceArgs,
-    /// leigh-gtm1 options (used for its labels only).
-    #[command(flatten)]
-    pub leigh: LeighArgs,
+    pub source: SequenceSourceArgs,
     /// Scan distance of the pairs the detector runs on (bags and leigh-gtm1 logs;
     /// default 1). A stored data set has its pairs, a CARMEN `--log` gives consecutive
     /// scans.
@@ -54,14 +51,14 @@ pub struct TrackArgs {
     /// Steps with evidence of motion a track needs for its objects to be reported (1
     /// drops only the detections that the previous scan shows slower than the speed
     /// that counts).
-    #[arg(long, default_value_t = TrackingParams::default().min_evidence)]
+    #[arg(long, default_value_t = TrackingParams::default().min_evidence, hide_short_help = true)]
     pub min_evidence: usize,
     /// Slowest speed (m/s) that counts as moving.
-    #[arg(long, default_value_t = TrackingParams::default().min_speed)]
+    #[arg(long, default_value_t = TrackingParams::default().min_speed, hide_short_help = true)]
     pub min_speed: f64,
     /// Do not follow confirmed tracks backward in time (the scans before an object's
     /// first detection keep the method's output).
-    #[arg(long)]
+    #[arg(long, hide_short_help = true)]
     pub forward_only: bool,
     /// Write the JSON here (atomically) instead of printing it.
     #[arg(long)]
@@ -70,6 +67,75 @@ pub struct TrackArgs {
     /// first scan's frame, the sensor's path and each track's path.
     #[arg(long)]
     pub svg: Option<PathBuf>,
+}
+
+/// Where `pgm track`'s scans come from: a bag, a CARMEN log or a leigh-gtm1 scan log
+/// (or `--pairs`). Only what a sequence needs: no ground-truth labelling options, since
+/// `pgm track` reads no ground truth (`pgm eval clustering --track` scores tracks).
+#[derive(Args, Debug, Default, Clone)]
+pub struct SequenceSourceArgs {
+    /// ROS bag: a ROS 1 `.bag`, an MCAP file, a ROS 2 bag directory (MCAP storage), or
+    /// a `.zip` holding one bag.
+    #[arg(long)]
+    pub bag: Option<PathBuf>,
+    /// Bag: topic of the laser scans (sensor_msgs/LaserScan).
+    #[arg(long, requires = "bag")]
+    pub scan_topic: Option<String>,
+    /// Bag: topic of the wheel odometry (nav_msgs/Odometry), the prior.
+    #[arg(long, requires = "bag")]
+    pub odom_topic: Option<String>,
+    /// Bag: the laser's pose X,Y,YAW (m, m, rad) in the robot frame that the odometry
+    /// follows (default: the bag's tf, else the identity).
+    #[arg(long, requires = "bag", allow_hyphen_values = true, value_parser = parse_pose, hide_short_help = true)]
+    pub laser_mount: Option<Pose2>,
+    /// CARMEN log: pairs of consecutive laser scans.
+    #[arg(long)]
+    pub log: Option<PathBuf>,
+    /// leigh-gtm1 scan log (`SCAN idx …` lines).
+    #[arg(long, requires = "people")]
+    pub scans: Option<PathBuf>,
+    /// leigh-gtm1 person annotations (`PERSON scan_idx person_id x y`): the text log's
+    /// reader needs them; `pgm track` does not score against them.
+    #[arg(long, requires = "scans", hide_short_help = true)]
+    pub people: Option<PathBuf>,
+    /// leigh-gtm1 odometry per scan (`ODOM idx stamp x y theta`).
+    #[arg(long, requires = "scans", hide_short_help = true)]
+    pub odometry: Option<PathBuf>,
+    /// CARMEN FLASER lines: field of view of the laser in degrees (overrides the log's
+    /// PARAM lines and CARMEN's rule for the beam count).
+    #[arg(long, hide_short_help = true)]
+    pub laser_fov: Option<f64>,
+    /// CARMEN FLASER lines: angle between beams in degrees (overrides the log's PARAM
+    /// lines and CARMEN's rule for the beam count).
+    #[arg(long, hide_short_help = true)]
+    pub laser_resolution: Option<f64>,
+    /// CARMEN FLASER lines: angle of the first beam in degrees (default -90, CARMEN's).
+    #[arg(long, allow_negative_numbers = true, hide_short_help = true)]
+    pub laser_start: Option<f64>,
+}
+
+impl SequenceSourceArgs {
+    /// The general source options these stand for (every labelling option at its
+    /// default).
+    fn source(&self) -> SourceArgs {
+        SourceArgs {
+            bag: BagArgs {
+                bag: self.bag.clone(),
+                scan_topic: self.scan_topic.clone(),
+                odom_topic: self.odom_topic.clone(),
+                laser_mount: self.laser_mount,
+                ..BagArgs::default()
+            },
+            log: self.log.clone(),
+            scans: self.scans.clone(),
+            people: self.people.clone(),
+            odometry: self.odometry.clone(),
+            laser_fov: self.laser_fov,
+            laser_resolution: self.laser_resolution,
+            laser_start: self.laser_start,
+            ..SourceArgs::default()
+        }
+    }
 }
 
 #[derive(Serialize)]
@@ -109,55 +175,10 @@ struct Object {
     motion: Option<Pose2>,
 }
 
-/// Options that only decide ground-truth labels, which `pgm track` does not read: a
-/// value other than the default is refused, naming the option.
-fn refuse_labelling_options(args: &TrackArgs) -> Result<(), CliError> {
-    use pgm_datasets::builders::{LabelRule, LeighPairOptions, Unannotated};
-    use pgm_datasets::mocap::MocapOptions;
-    let bag = &args.source.bag;
-    let labels = &args.source.labels;
-    let leigh = &args.leigh;
-    let given = [
-        ("--people-topic", bag.people_topic.is_some()),
-        ("--ego-pose-topic", bag.ego_pose_topic.is_some()),
-        ("--object-pose-topic", bag.object_pose_topic.is_some()),
-        ("--object-footprint", bag.object_footprint.is_some()),
-        (
-            "--label-margin",
-            bag.label_margin != MocapOptions::default().label_margin,
-        ),
-        (
-            "--object-min-speed",
-            bag.object_min_speed != MocapOptions::default().object_min_speed,
-        ),
-        ("--labels", labels.labels != LabelRule::Track),
-        (
-            "--walking-speed",
-            labels.walking_speed != LeighPairOptions::default().walking_speed,
-        ),
-        (
-            "--track-window",
-            labels.track_window != LeighPairOptions::default().track_window,
-        ),
-        ("--moving-threshold", leigh.moving_threshold != 0.2),
-        ("--person-radius", leigh.person_radius != 0.35),
-        ("--unannotated", leigh.unannotated != Unannotated::Moving),
-        ("--annotated-sector", leigh.annotated_sector),
-        ("--pose-delay", bag.pose_delay != 0.0),
-    ];
-    if let Some((name, _)) = given.iter().find(|(_, g)| *g) {
-        return Err(CliError(format!(
-            "{name}: a ground-truth labelling option; pgm track reads no ground truth (use it \
-             with pgm eval clustering --track)"
-        )));
-    }
-    if args.source.carmen.is_some() {
-        return Err(CliError(
-            "--carmen with --relations: the pairs of a relations file are not a sequence of \
-             scans (loop closures minutes apart); track a CARMEN log with --log"
-                .into(),
-        ));
-    }
+/// Options that only make sense together: bag topics without a bag, and a scan
+/// distance for sources that have their pairs.
+fn refuse_inconsistent_options(args: &TrackArgs) -> Result<(), CliError> {
+    let bag = &args.source;
     if bag.bag.is_none() {
         let bag_only = [
             ("--scan-topic", bag.scan_topic.is_some()),
@@ -170,10 +191,7 @@ fn refuse_labelling_options(args: &TrackArgs) -> Result<(), CliError> {
             )));
         }
     }
-    if let (Some(k), true) = (
-        args.k,
-        args.pairs.is_some() || args.source.log.is_some() || args.source.carmen.is_some(),
-    ) {
+    if let (Some(k), true) = (args.k, args.pairs.is_some() || args.source.log.is_some()) {
         return Err(CliError(format!(
             "--k {k}: a stored data set has its pairs and a CARMEN log gives consecutive scans; \
              --k sets the scan distance of bag and leigh-gtm1 pairs only"
@@ -211,11 +229,11 @@ pub(super) fn tracker(
 
 /// Runs `pgm track`.
 pub fn run(args: TrackArgs) -> CliResult {
-    refuse_labelling_options(&args)?;
+    refuse_inconsistent_options(&args)?;
     let source = pair_source(
         args.pairs.as_deref(),
-        &args.source,
-        &args.leigh,
+        &args.source.source(),
+        &LeighArgs::default(),
         args.k.unwrap_or(1),
     )?;
     let options = args.method.options()?;
@@ -226,13 +244,11 @@ pub fn run(args: TrackArgs) -> CliResult {
     )?;
     let inputs: Vec<&std::path::Path> = [
         args.pairs.as_deref(),
-        args.source.bag.bag.as_deref(),
+        args.source.bag.as_deref(),
         args.source.scans.as_deref(),
         args.source.people.as_deref(),
         args.source.odometry.as_deref(),
         args.source.log.as_deref(),
-        args.source.carmen.as_deref(),
-        args.source.relations.as_deref(),
     ]
     .into_iter()
     .flatten()
