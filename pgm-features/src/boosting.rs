@@ -24,7 +24,7 @@
 //! stump's "above" side.
 //!
 //! ```
-//! use crate::boosting::{BoosterParams, TrainingSet};
+//! use pgm_features::boosting::{BoosterParams, TrainingSet};
 //! use pgm_scan::ParamGuard;
 //!
 //! // Positive when x0 < 0.5 or x1 > 2.

@@ -31,7 +31,7 @@
 //!
 //! ```
 //! use nalgebra::Point2;
-//! use crate::clustering_features::{distance_feature, stiffness_feature};
+//! use pgm_features::clustering_features::{distance_feature, stiffness_feature};
 //! use pgm_scan::Pose2;
 //!
 //! let motion = Pose2::new(1.0, 0.0, 0.0);
