@@ -29,10 +29,10 @@
 //! 3. **Real data** (`--data DIR`, default `$PGM_SHARED_DATA` or `../shared/data`;
 //!    skipped with a message when absent): ego-motion on mit-csail (relations; pairs
 //!    less than 1.5 s apart) and intel-lab (consecutive scans) for ICP, CRF-Matching and
-//!    the joint model; moving-object detection (notes/issue18.md's metrics) on
+//!    the joint model; moving-object detection (docs/decisions.md's metrics) on
 //!    leigh-gtm1 (text export, track labels, k = 1, 3, 5, odometry given) and the datmo
 //!    bags (`intersection`, `overtake_ego`, k = 3, motion capture, the options of
-//!    notes/issue18.md) for CRF-Clustering on ICP's and CRF-Matching's associations,
+//!    docs/decisions.md) for CRF-Clustering on ICP's and CRF-Matching's associations,
 //!    CBD, one cluster, the separate pipeline and the joint model.
 //!
 //! Run: `cargo run --release --example tables_joint [-- --pairs N --seed S --loo-pairs N
@@ -801,7 +801,7 @@ fn real_data(dir: &std::path::Path) -> Result<(), String> {
             println!("\ndatmo {bag} skipped: datmo/{bag}.bag not found");
             continue;
         };
-        // The options of notes/issue18.md (laser mount, pose delay, the red car's
+        // The options of docs/decisions.md (laser mount, pose delay, the red car's
         // footprint, label margin); standing cars are background (0.5 m/s).
         let source = PairSource::Bag {
             path,

@@ -257,7 +257,7 @@ pub fn association_source(
 
 /// The default association source for `pairs`: their ground truth when every pair has
 /// it, else nearest neighbour after ICP (segment-wise ICP is better on simulated
-/// street scenes but worse on leigh-gtm1; notes/issue7.md).
+/// street scenes but worse on leigh-gtm1; docs/decisions.md).
 pub fn default_association(pairs: &[ScanPair]) -> &'static str {
     if !pairs.is_empty()
         && pairs

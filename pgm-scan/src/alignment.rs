@@ -367,7 +367,7 @@ pub struct SurfacePair {
 /// does not observe the motion; this term holds it there (with one-to-one partners
 /// on a surface sampled at the beam spacing it is biased by up to half a spacing).
 /// Measured on simulated pairs (design seed 3, 30 per preset, CRF-Matching's exact
-/// association accuracy): see notes/issue14.md.
+/// association accuracy): see docs/decisions.md.
 pub const POINT_TO_POINT_WEIGHT: f64 = 0.1;
 
 /// Largest number of Gauss-Newton steps of [`refine_point_to_line`].

@@ -551,7 +551,7 @@ pub fn icp(
 /// [`CellGrid`] answering small-bound queries, is what makes queries cheap. Measured
 /// on mit-csail pairs (all returns matched, tolerance 1e-5, about 25 iterations):
 /// kiddo 6 trees 1.0–1.3 ms per pair, this tree unbounded about the same, with the
-/// bound and the grid 0.66–0.77 ms (see `notes/issue5.md`).
+/// bound and the grid 0.66–0.77 ms (see docs/decisions.md).
 ///
 /// Layout: points are stored in tree order in one array (the node of a range
 /// `[lo, hi)` is its middle element, split on the axis of larger spread), leaves of

@@ -6,7 +6,7 @@
 //! above the one-cluster labelling. The current model reaches 0.418 with the odometry
 //! prior and 0.405 without it (one cluster 0.500, CBD 0.378 / 0.345, K-Means 0.079 /
 //! 0.040; 19 of the 46 pairs with a labelled mover hold only people who stand, see
-//! notes/issue7.md), so this test pins the level it reaches and that it beats both
+//! docs/decisions.md), so this test pins the level it reaches and that it beats both
 //! baselines, with and without odometry; it does not (yet) meet the target.
 
 use pgm_baselines::consistency::ConsistencyDetector;

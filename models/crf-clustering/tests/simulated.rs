@@ -2,7 +2,7 @@
 //! trained on seed 1000) against the baselines.
 //!
 //! The issue's target for CRF with true associations is a mean V-measure of 0.95; the
-//! current model reaches about 0.89 on 50 pairs (notes/issue7.md), so this test pins
+//! current model reaches about 0.89 on 50 pairs (docs/decisions.md), so this test pins
 //! what it does reach on a handful of pairs and that it beats both baselines. With
 //! automatic associations the target is to beat both baselines: segment-wise ICP
 //! associations do on simulated pairs (about 0.74 against CBD 0.66 on 50 pairs),

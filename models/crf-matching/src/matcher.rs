@@ -75,13 +75,13 @@ pub struct MatchingParams {
     /// the CRF's estimate, and the polish helps less (measured 2026-11-30, without →
     /// with): mit-csail near 0.0216 / 0.00406 → 0.0213 / 0.00390, intel-lab 0.0210 /
     /// 0.00432 → 0.0207 / 0.00479, simulated dev seed 3 median 6.4-9.9 mm → 9.0-13.1
-    /// mm per preset (notes/issue14.md, where a point-to-line polish is measured too).
+    /// mm per preset (docs/decisions.md, where a point-to-line polish is measured too).
     pub polish_ego: bool,
     /// Weight of the point-to-point term of the point-to-line refinement that ends
     /// every motion solve (`Some(0.1)`, [`pgm_scan::alignment::POINT_TO_POINT_WEIGHT`];
     /// `None`: eq. 6 alone, as the paper). See [`MatchingModel::solve_motions`]; on the
     /// design seed every weight from 0.01 to 0.3 gave the same mean exact accuracy
-    /// within 0.11 point (notes/issue14.md).
+    /// within 0.11 point (docs/decisions.md).
     pub point_to_line: Option<f64>,
     /// Segment-wise ICP for the ego-motion and the motion hypotheses.
     pub segments: SegmentParams,

@@ -164,7 +164,7 @@ impl<'a> MatchingModel<'a> {
     /// the sampling of the surfaces, and with the motion off by a fraction of a beam
     /// spacing the nearest candidates are the wrong beams. Measured on simulated pairs
     /// (design seed 3, 30 per preset): exact association accuracy +1.7 to +3.9 points
-    /// on every preset (notes/issue14.md). Returns the largest change.
+    /// on every preset (docs/decisions.md). Returns the largest change.
     pub fn solve_motions(&mut self) -> f64 {
         let p = self.tables.problem();
         let mut change = 0.0f64;
