@@ -10,7 +10,7 @@ use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughpu
 use nalgebra::Point2;
 use pgm_core::hybrid::{HybridInference, UpdatePolicy};
 use pgm_core::{
-    BeliefPropagation, FactorGraph, Mode, PottsFactor, Sequential, TableFactor, VariableId,
+    BpParams, FactorGraph, Mode, ParamGuard, PottsFactor, Sequential, TableFactor, VariableId,
 };
 use pgm_features::RigidMotionNodes;
 use pgm_scan::Pose2;
@@ -67,7 +67,9 @@ fn per_visit(c: &mut Criterion) {
                 |(mut graph, mut nodes, initial)| {
                     let order = (0..n).map(VariableId).collect();
                     let r = HybridInference::new(
-                        BeliefPropagation::new(Mode::MaxProduct).max_iterations(1),
+                        BpParams::new(Mode::MaxProduct)
+                            .max_iterations(1)
+                            .check_unwrap(),
                         UpdatePolicy::EveryVisit,
                     )
                     .run(

@@ -11,8 +11,8 @@
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
 use pgm_core::{
-    BeliefPropagation, FactorGraph, Flooding, Messages, Mode, PottsFactor, Residual, Schedule,
-    Sequential, ShiftedIdentityFactor, TableFactor, TrwsParams, VariableId,
+    BeliefPropagation, BpParams, FactorGraph, Flooding, Messages, Mode, ParamGuard, PottsFactor,
+    Residual, Schedule, Sequential, ShiftedIdentityFactor, TableFactor, TrwsParams, VariableId,
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -100,9 +100,10 @@ fn iterations(
 fn grid(c: &mut Criterion) {
     for (label, dense) in [("potts_factors", false), ("dense_tables", true)] {
         let graph = potts_grid(100, 5, 1, dense);
-        let bp = BeliefPropagation::new(Mode::MaxProduct)
+        let bp = BpParams::new(Mode::MaxProduct)
             .tolerance(0.0)
-            .max_iterations(10);
+            .max_iterations(10)
+            .check_unwrap();
         let one = pool(1);
         let two = pool(2);
         let mut group = c.benchmark_group(format!(
@@ -156,9 +157,10 @@ fn grid(c: &mut Criterion) {
 }
 
 fn chains(c: &mut Criterion) {
-    let bp = BeliefPropagation::new(Mode::MaxProduct)
+    let bp = BpParams::new(Mode::MaxProduct)
         .tolerance(0.0)
-        .max_iterations(1);
+        .max_iterations(1)
+        .check_unwrap();
     let one = pool(1);
     let two = pool(2);
     let mut group = c.benchmark_group("chain_361x362_max_product_one_sweep");

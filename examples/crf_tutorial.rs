@@ -36,7 +36,7 @@ use pgm::core::learning::{
 };
 use pgm::core::observer::TrwsProgress;
 use pgm::core::trws::TrwsParams;
-use pgm::core::{BeliefPropagation, FactorGraph, Mode, ParamGuard, Sequential, VariableId};
+use pgm::core::{BpParams, FactorGraph, Mode, ParamGuard, Sequential, VariableId};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
@@ -235,10 +235,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "gap",
         "TRW-S ms"
     );
-    let bp = BeliefPropagation::new(Mode::MaxProduct).max_iterations(50);
-    let marginals = BeliefPropagation::new(Mode::SumProduct)
+    let bp = BpParams::new(Mode::MaxProduct)
         .max_iterations(50)
-        .damping(0.3);
+        .check_unwrap();
+    let marginals = BpParams::new(Mode::SumProduct)
+        .max_iterations(50)
+        .damping(0.3)
+        .check_unwrap();
     let trws = TrwsParams::default()
         .max_iterations(50)
         .tolerance(1e-9)

@@ -11,8 +11,8 @@
 //! Run: `cargo run --release --example custom_schedule`.
 
 use pgm_core::{
-    BeliefPropagation, FactorGraph, Flooding, MessagePasser, Mode, PottsFactor, Residual, Schedule,
-    Sequential, TableFactor, VariableId,
+    BpParams, FactorGraph, Flooding, MessagePasser, Mode, ParamGuard, PottsFactor, Residual,
+    Schedule, Sequential, TableFactor, VariableId,
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -74,10 +74,11 @@ fn grid(side: usize, k: usize, seed: u64) -> FactorGraph {
 fn main() {
     let side = 30;
     let graph = grid(side, 4, 3);
-    let bp = BeliefPropagation::new(Mode::MaxProduct)
+    let bp = BpParams::new(Mode::MaxProduct)
         .damping(0.2)
         .tolerance(1e-6)
-        .max_iterations(300);
+        .max_iterations(300)
+        .check_unwrap();
     let mut schedules: Vec<Box<dyn Schedule>> = vec![
         Box::new(Flooding),
         Box::new(Sequential::default()),

@@ -7,7 +7,7 @@
 //! distribution of `gen_models.py potts` (with our own draws).
 
 use pgm_core::{
-    BeliefPropagation, FactorGraph, Mode, PottsFactor, ScheduleKind, TableFactor, VariableId,
+    BpParams, FactorGraph, Mode, ParamGuard, PottsFactor, ScheduleKind, TableFactor, VariableId,
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -54,9 +54,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()?;
-    let bp = BeliefPropagation::new(Mode::MaxProduct)
+    let bp = BpParams::new(Mode::MaxProduct)
         .tolerance(0.0)
-        .max_iterations(iterations);
+        .max_iterations(iterations)
+        .check_unwrap();
     let mut schedule = kind.build();
     let start = Instant::now();
     let result = pool.install(|| bp.run(&g, &mut schedule))?;

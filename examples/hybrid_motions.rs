@@ -15,7 +15,7 @@
 use nalgebra::Point2;
 use pgm_core::hybrid::{HybridInference, UpdatePolicy};
 use pgm_core::{
-    BeliefPropagation, FactorGraph, Mode, PottsFactor, Sequential, TableFactor, VariableId,
+    BpParams, FactorGraph, Mode, ParamGuard, PottsFactor, Sequential, TableFactor, VariableId,
 };
 use pgm_features::RigidMotionNodes;
 use pgm_scan::{Pose2, RigidAlignment};
@@ -99,7 +99,9 @@ fn main() -> ExitCode {
 
     let order: Vec<VariableId> = (0..n).map(VariableId).collect();
     let inference = HybridInference::new(
-        BeliefPropagation::new(Mode::MaxProduct).max_iterations(50),
+        BpParams::new(Mode::MaxProduct)
+            .max_iterations(50)
+            .check_unwrap(),
         UpdatePolicy::EveryVisit,
     )
     .continuous_tolerance(1e-9);

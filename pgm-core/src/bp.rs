@@ -9,12 +9,12 @@
 //! converged merely because each step moves little.
 //!
 //! ```
-//! use pgm_core::{BeliefPropagation, FactorGraph, Mode, PottsFactor, Sequential, TableFactor, VariableId};
+//! use pgm_core::{BeliefPropagation, BpParams, ParamGuard, FactorGraph, Mode, PottsFactor, Sequential, TableFactor, VariableId};
 //! let mut g = FactorGraph::with_variables(&[2, 2, 2]).unwrap();
 //! g.add_factor(TableFactor::new(vec![VariableId(0)], vec![2], vec![0.0, 2.0]).unwrap()).unwrap();
 //! g.add_factor(PottsFactor::new(VariableId(0), VariableId(1), 2, 1.0, 0.0).unwrap()).unwrap();
 //! g.add_factor(PottsFactor::new(VariableId(1), VariableId(2), 2, 1.0, 0.0).unwrap()).unwrap();
-//! let result = BeliefPropagation::new(Mode::MaxProduct).run(&g, &mut Sequential::default()).unwrap();
+//! let result = BpParams::new(Mode::MaxProduct).check_unwrap().run(&g, &mut Sequential::default()).unwrap();
 //! assert_eq!(result.assignment, vec![1, 1, 1]);
 //! assert!(result.converged);
 //! ```
@@ -25,6 +25,7 @@ use crate::graph::{EdgeId, FactorGraph, FactorId, VariableId};
 use crate::hook::{Potentials, UpdateHook};
 use crate::logspace::{self, Normalisation};
 use crate::observer::{BpProgress, Observe};
+use crate::param::ParamGuard;
 use crate::schedule::{MessagePasser, Schedule, Visit};
 use rayon::prelude::*;
 use std::ops::ControlFlow;
@@ -169,9 +170,19 @@ impl Termination {
     }
 }
 
-/// Loopy belief propagation with a pluggable [`Schedule`].
-#[derive(Clone, Debug)]
-pub struct BeliefPropagation {
+/// Unchecked settings of loopy belief propagation; [`ParamGuard::check`] turns them
+/// into a [`BeliefPropagation`] (the workspace's checked-parameters pattern, as
+/// [`TrwsParams`](crate::TrwsParams)).
+///
+/// ```
+/// use pgm_core::{BpParams, Mode, ParamGuard};
+///
+/// let bp = BpParams::new(Mode::SumProduct).damping(0.5).max_iterations(200).check().unwrap();
+/// assert_eq!(bp.params().mode(), Mode::SumProduct);
+/// assert!(BpParams::new(Mode::MaxProduct).damping(1.0).check().is_err());
+/// ```
+#[derive(Clone, Debug, PartialEq)]
+pub struct BpParams {
     mode: Mode,
     damping: f64,
     tolerance: f64,
@@ -179,7 +190,7 @@ pub struct BeliefPropagation {
     time_budget: Option<Duration>,
 }
 
-impl BeliefPropagation {
+impl BpParams {
     /// Defaults: no damping, tolerance 1e-9, at most 100 iterations, no time budget.
     pub fn new(mode: Mode) -> Self {
         Self {
@@ -224,8 +235,16 @@ impl BeliefPropagation {
     pub fn tolerance_value(&self) -> f64 {
         self.tolerance
     }
+}
 
-    fn check(&self) -> Result<()> {
+impl ParamGuard for BpParams {
+    type Checked = BeliefPropagation;
+    type Error = Error;
+
+    /// # Errors
+    /// [`Error::InvalidParameter`] for a damping outside [0, 1), a tolerance that is
+    /// negative or not finite, or zero iterations.
+    fn check_ref(&self) -> Result<()> {
         if !(0.0..1.0).contains(&self.damping) {
             return Err(Error::InvalidParameter {
                 name: "damping",
@@ -250,115 +269,82 @@ impl BeliefPropagation {
         Ok(())
     }
 
-    /// Runs from uniform messages.
+    fn check(self) -> Result<BeliefPropagation> {
+        self.check_ref()?;
+        Ok(BeliefPropagation { params: self })
+    }
+}
+
+/// Loopy belief propagation with checked settings (build it with [`BpParams`]) and a
+/// pluggable [`Schedule`].
+///
+/// One entry point: [`run`](Self::run) from uniform messages, or a [`BpRun`] for
+/// everything else — [`on`](Self::on) a graph (with a warm start, an observer, or
+/// without decoding) or [`with_hook`](Self::with_hook) (a hook between updates, which
+/// may refresh potentials and so borrows the graph mutably).
+#[derive(Clone, Debug, PartialEq)]
+pub struct BeliefPropagation {
+    params: BpParams,
+}
+
+impl BeliefPropagation {
+    /// The settings.
+    pub fn params(&self) -> &BpParams {
+        &self.params
+    }
+
+    /// The semiring.
+    pub fn mode(&self) -> Mode {
+        self.params.mode
+    }
+
+    /// Runs from uniform messages on `graph` with `schedule` and decodes the result.
+    ///
+    /// # Errors
+    /// The schedule's errors ([`Schedule::prepare`]).
     pub fn run<S: Schedule + ?Sized>(
         &self,
         graph: &FactorGraph,
         schedule: &mut S,
     ) -> Result<BpResult> {
-        self.run_from(graph, schedule, Messages::uniform(graph, self.mode))
+        self.on(graph).run(schedule)
     }
 
-    /// Runs from the given messages (a warm start, e.g. `previous.messages`).
-    pub fn run_from<S: Schedule + ?Sized>(
-        &self,
-        graph: &FactorGraph,
-        schedule: &mut S,
-        messages: Messages,
-    ) -> Result<BpResult> {
-        let p = self.drive_messages(GraphRef::Shared(graph), None, schedule, messages, None)?;
-        Ok(self.finish(graph, p))
+    /// A run on `graph`: set a warm start or an observer, then
+    /// [`run`](BpRun::run) or [`propagate`](BpRun::propagate).
+    pub fn on<'r>(&'r self, graph: &'r FactorGraph) -> BpRun<'r> {
+        BpRun {
+            bp: self,
+            graph: GraphRef::Shared(graph),
+            hook: None,
+            start: None,
+            observer: None,
+        }
     }
 
-    /// Runs from `start` (uniform messages when `None`) and reports every iteration to
-    /// `observer`, which may stop the run (see [`Observe`]). Works with every schedule.
-    pub fn run_observed<S: Schedule + ?Sized>(
-        &self,
-        graph: &FactorGraph,
-        schedule: &mut S,
-        start: Option<Messages>,
-        observer: &mut dyn Observe<BpProgress>,
-    ) -> Result<BpResult> {
-        let messages = start.unwrap_or_else(|| Messages::uniform(graph, self.mode));
-        let p = self.drive_messages(
-            GraphRef::Shared(graph),
-            None,
-            schedule,
-            messages,
-            Some(observer),
-        )?;
-        Ok(self.finish(graph, p))
+    /// A run on `graph` with `hook` called between updates (see [`UpdateHook`]).
+    pub fn with_hook<'r>(
+        &'r self,
+        graph: &'r mut FactorGraph,
+        hook: &'r mut dyn UpdateHook,
+    ) -> BpRun<'r> {
+        BpRun {
+            bp: self,
+            graph: GraphRef::Exclusive(graph),
+            hook: Some(hook),
+            start: None,
+            observer: None,
+        }
     }
 
-    /// [`run_with_hook`](Self::run_with_hook) with an observer that sees every
-    /// iteration and may stop the run.
-    pub fn run_with_hook_observed<S: Schedule + ?Sized>(
+    fn drive_messages<'g, S: Schedule + ?Sized>(
         &self,
-        graph: &mut FactorGraph,
-        schedule: &mut S,
-        hook: &mut dyn UpdateHook,
-        start: Option<Messages>,
-        observer: &mut dyn Observe<BpProgress>,
-    ) -> Result<BpResult> {
-        let messages = match start {
-            Some(m) => m,
-            None => Messages::uniform(graph, self.mode),
-        };
-        let p = self.drive_messages(
-            GraphRef::Exclusive(graph),
-            Some(hook),
-            schedule,
-            messages,
-            Some(observer),
-        )?;
-        Ok(self.finish(graph, p))
-    }
-
-    /// Runs with a hook called between updates (see [`UpdateHook`]); `start` gives a
-    /// warm start. The hook may refresh potentials, so the graph is borrowed mutably.
-    pub fn run_with_hook<S: Schedule + ?Sized>(
-        &self,
-        graph: &mut FactorGraph,
-        schedule: &mut S,
-        hook: &mut dyn UpdateHook,
-        start: Option<Messages>,
-    ) -> Result<BpResult> {
-        let p = self.propagate_with_hook(graph, schedule, hook, start)?;
-        Ok(self.finish(graph, p))
-    }
-
-    /// [`run_with_hook`](Self::run_with_hook) without decoding (callers that refresh
-    /// potentials before decoding, like hybrid inference, decode with
-    /// [`finish`](Self::finish)).
-    pub fn propagate_with_hook<S: Schedule + ?Sized>(
-        &self,
-        graph: &mut FactorGraph,
-        schedule: &mut S,
-        hook: &mut dyn UpdateHook,
-        start: Option<Messages>,
-    ) -> Result<Propagation> {
-        let messages = match start {
-            Some(m) => m,
-            None => Messages::uniform(graph, self.mode),
-        };
-        self.drive_messages(
-            GraphRef::Exclusive(graph),
-            Some(hook),
-            schedule,
-            messages,
-            None,
-        )
-    }
-
-    fn drive_messages<S: Schedule + ?Sized>(
-        &self,
-        graph: GraphRef<'_>,
+        graph: GraphRef<'g>,
         hook: Option<&mut dyn UpdateHook>,
         schedule: &mut S,
         messages: Messages,
         mut observer: Option<&mut dyn Observe<BpProgress>>,
-    ) -> Result<Propagation> {
-        self.check()?;
+    ) -> Result<(Propagation, GraphRef<'g>)> {
         messages.check_layout(graph.get())?;
         schedule.prepare(graph.get())?;
         let start = Instant::now();
@@ -367,12 +353,12 @@ impl BeliefPropagation {
             graph,
             hook,
             state: PassState {
-                mode: self.mode,
-                normalisation: match self.mode {
+                mode: self.params.mode,
+                normalisation: match self.params.mode {
                     Mode::MaxProduct => Normalisation::Max,
                     Mode::SumProduct => Normalisation::Sum,
                 },
-                damping: self.damping,
+                damping: self.params.damping,
                 messages,
                 candidates: Vec::new(),
                 flood_buffer: Vec::new(),
@@ -380,21 +366,21 @@ impl BeliefPropagation {
                 residual: 0.0,
                 contradictions: 0,
             },
-            tolerance: self.tolerance,
-            deadline: self.time_budget.map(|b| start + b),
+            tolerance: self.params.tolerance,
+            deadline: self.params.time_budget.map(|b| start + b),
         };
         let mut iterations = 0;
         let mut converged = false;
         let mut residual = f64::INFINITY;
         let mut out_of_time = false;
         let mut stopped_by_observer = false;
-        while iterations < self.max_iterations {
+        while iterations < self.params.max_iterations {
             passer.state.residual = 0.0;
             let reported = schedule.iteration(&mut passer);
             iterations += 1;
             residual = reported.unwrap_or(passer.state.residual);
             let hook_stable = passer.after_iteration(iterations);
-            converged = residual <= self.tolerance && hook_stable;
+            converged = residual <= self.params.tolerance && hook_stable;
             if let Some(observer) = observer.as_deref_mut() {
                 let progress = BpProgress {
                     iteration: iterations,
@@ -416,7 +402,7 @@ impl BeliefPropagation {
                 break;
             }
         }
-        Ok(Propagation {
+        let propagation = Propagation {
             messages: passer.state.messages,
             iterations,
             converged,
@@ -424,24 +410,14 @@ impl BeliefPropagation {
             out_of_time,
             stopped_by_observer,
             contradictions: passer.state.contradictions,
-        })
-    }
-
-    /// Message passing only, without decoding: for callers that decode themselves or
-    /// continue later (and for benchmarks of the iterations alone).
-    pub fn propagate<S: Schedule + ?Sized>(
-        &self,
-        graph: &FactorGraph,
-        schedule: &mut S,
-        messages: Messages,
-    ) -> Result<Propagation> {
-        self.drive_messages(GraphRef::Shared(graph), None, schedule, messages, None)
+        };
+        Ok((propagation, passer.graph))
     }
 
     /// Decodes the assignment and beliefs of a finished propagation.
     pub fn finish(&self, graph: &FactorGraph, p: Propagation) -> BpResult {
         let messages = p.messages;
-        let assignment = match self.mode {
+        let assignment = match self.params.mode {
             Mode::MaxProduct => decode_map(graph, &messages),
             Mode::SumProduct => (0..graph.num_variables())
                 .map(|v| messages.argmax(graph, VariableId(v)))
@@ -451,7 +427,7 @@ impl BeliefPropagation {
             .map(|v| messages.belief(graph, VariableId(v)))
             .collect();
         BpResult {
-            mode: self.mode,
+            mode: self.params.mode,
             log_score: graph.log_score_unchecked(&assignment),
             assignment,
             beliefs,
@@ -463,6 +439,70 @@ impl BeliefPropagation {
             contradictions: p.contradictions,
             messages,
         }
+    }
+}
+
+/// One run of a [`BeliefPropagation`] (see [`BeliefPropagation::on`] and
+/// [`BeliefPropagation::with_hook`]): options, then [`run`](Self::run) or
+/// [`propagate`](Self::propagate) with a schedule.
+pub struct BpRun<'r> {
+    bp: &'r BeliefPropagation,
+    graph: GraphRef<'r>,
+    hook: Option<&'r mut dyn UpdateHook>,
+    start: Option<Messages>,
+    observer: Option<&'r mut dyn Observe<BpProgress>>,
+}
+
+impl<'r> BpRun<'r> {
+    /// Starts from `messages` instead of uniform ones (a warm start, e.g. a previous
+    /// result's `messages`).
+    pub fn warm_start(mut self, messages: Messages) -> Self {
+        self.start = Some(messages);
+        self
+    }
+
+    /// Starts from `messages` when given, else from uniform ones.
+    pub fn start(mut self, messages: Option<Messages>) -> Self {
+        self.start = messages;
+        self
+    }
+
+    /// Reports every iteration to `observer`, which may stop the run (see [`Observe`]).
+    pub fn observer(mut self, observer: &'r mut dyn Observe<BpProgress>) -> Self {
+        self.observer = Some(observer);
+        self
+    }
+
+    /// Passes messages with `schedule` and decodes the assignment and beliefs.
+    ///
+    /// # Errors
+    /// Messages whose layout does not fit the graph, and the schedule's errors.
+    pub fn run<S: Schedule + ?Sized>(self, schedule: &mut S) -> Result<BpResult> {
+        let bp = self.bp;
+        let (p, graph) = self.drive(schedule)?;
+        Ok(bp.finish(graph.get(), p))
+    }
+
+    /// Passes messages with `schedule` without decoding: for callers that decode
+    /// themselves ([`BeliefPropagation::finish`]) or continue later, and for
+    /// benchmarks of the iterations alone.
+    ///
+    /// # Errors
+    /// As [`run`](Self::run).
+    pub fn propagate<S: Schedule + ?Sized>(self, schedule: &mut S) -> Result<Propagation> {
+        self.drive(schedule).map(|(p, _)| p)
+    }
+
+    fn drive<S: Schedule + ?Sized>(self, schedule: &mut S) -> Result<(Propagation, GraphRef<'r>)> {
+        let BpRun {
+            bp,
+            graph,
+            hook,
+            start,
+            observer,
+        } = self;
+        let messages = start.unwrap_or_else(|| Messages::uniform(graph.get(), bp.params.mode));
+        bp.drive_messages(graph, hook, schedule, messages, observer)
     }
 }
 

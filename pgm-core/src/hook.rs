@@ -1,6 +1,6 @@
 //! Hooks between message updates: the extension point for hybrid continuous nodes.
 //!
-//! [`BeliefPropagation::run_with_hook`](crate::BeliefPropagation::run_with_hook) calls
+//! [`BeliefPropagation::with_hook`](crate::BeliefPropagation::with_hook) calls
 //! an [`UpdateHook`] before and after every update unit a schedule performs (variable
 //! visit, factor update, edge update, flood) and after every iteration. The hook may
 //! refresh factor potentials through [`Potentials`] (same scope and shape only, so the
@@ -43,7 +43,7 @@ impl<'a> Potentials<'a> {
 /// Called by the engine between updates. All methods default to doing nothing.
 ///
 /// ```
-/// use pgm_core::{BeliefPropagation, FactorGraph, Messages, Mode, Potentials, Sequential, TableFactor, UpdateHook, VariableId, Visit};
+/// use pgm_core::{BeliefPropagation, BpParams, ParamGuard, FactorGraph, Messages, Mode, Potentials, Sequential, TableFactor, UpdateHook, VariableId, Visit};
 ///
 /// /// Counts the variable visits of a run.
 /// #[derive(Default)]
@@ -61,7 +61,7 @@ impl<'a> Potentials<'a> {
 /// g.add_factor(TableFactor::new(vec![VariableId(0), VariableId(1)], vec![2, 2], vec![0.0, 1.0, 1.0, 0.0]).unwrap()).unwrap();
 /// let mut hook = CountVisits::default();
 /// let mut schedule = Sequential::variables(vec![VariableId(0), VariableId(1)]);
-/// let r = BeliefPropagation::new(Mode::MaxProduct).run_with_hook(&mut g, &mut schedule, &mut hook, None).unwrap();
+/// let r = BpParams::new(Mode::MaxProduct).check_unwrap().with_hook(&mut g, &mut hook).run(&mut schedule).unwrap();
 /// // Forward and backward over two variables, once per iteration.
 /// assert_eq!(hook.0, 4 * r.iterations);
 /// ```

@@ -30,7 +30,7 @@
 //! use std::ops::ControlFlow;
 //! use std::sync::Arc;
 //! use pgm_core::learning::{DenseFeatures, FeatureSet, LabelledInstance, LearnerParams, LogLinearModel};
-//! use pgm_core::{BeliefPropagation, Mode, ParamGuard, Sequential, TrwsParams, VariableId};
+//! use pgm_core::{BeliefPropagation, BpParams, Mode, ParamGuard, Sequential, TrwsParams, VariableId};
 //! use rand::{Rng, SeedableRng};
 //!
 //! const SIDE: usize = 16;
@@ -83,7 +83,7 @@
 //! // 3. Inference on a new image.
 //! let (truth, z) = image();
 //! let graph = crf(&z).to_factor_graph(learned.weights.values()).unwrap();
-//! let bp = BeliefPropagation::new(Mode::MaxProduct).max_iterations(50)
+//! let bp = BpParams::new(Mode::MaxProduct).max_iterations(50).check_unwrap()
 //!     .run(&graph, &mut Sequential::default()).unwrap();
 //! let trws = TrwsParams::default().max_iterations(50).check().unwrap().run(&graph).unwrap();
 //! assert!(trws.log_score <= trws.bound + 1e-9 * trws.bound.abs()); // the certificate
@@ -118,7 +118,7 @@
 //! follows, and [`uai`] reads and writes the UAI competition formats.
 //!
 //! ```
-//! use pgm_core::{BeliefPropagation, FactorGraph, Mode, PottsFactor, Residual, TableFactor, VariableId};
+//! use pgm_core::{BeliefPropagation, BpParams, ParamGuard, FactorGraph, Mode, PottsFactor, Residual, TableFactor, VariableId};
 //! use pgm_core::exact::{brute_force, BruteForceLimit};
 //!
 //! // A triangle (a loop) of binary variables that like to agree.
@@ -127,7 +127,7 @@
 //! for (a, b) in [(0, 1), (1, 2), (0, 2)] {
 //!     g.add_factor(PottsFactor::new(VariableId(a), VariableId(b), 2, 1.0, 0.0).unwrap()).unwrap();
 //! }
-//! let bp = BeliefPropagation::new(Mode::MaxProduct).tolerance(1e-10);
+//! let bp = BpParams::new(Mode::MaxProduct).tolerance(1e-10).check_unwrap();
 //! let result = bp.run(&g, &mut Residual::default()).unwrap();
 //! let exact = brute_force(&g, BruteForceLimit::default()).unwrap();
 //! assert_eq!(result.log_score, exact.map_log_score);
@@ -156,7 +156,9 @@ pub mod strategies;
 pub mod trws;
 pub mod uai;
 
-pub use bp::{decode_map, BeliefPropagation, BpResult, Messages, Propagation, Termination};
+pub use bp::{
+    decode_map, BeliefPropagation, BpParams, BpResult, BpRun, Messages, Propagation, Termination,
+};
 pub use error::{Error, Result};
 pub use factor::{Factor, Incoming, Mode, PottsFactor, ShiftedIdentityFactor, TableFactor};
 pub use graph::{EdgeId, FactorGraph, FactorId, VariableId};

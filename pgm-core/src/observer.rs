@@ -15,7 +15,7 @@
 //! ```
 //! use std::ops::ControlFlow;
 //! use pgm_core::observer::BpProgress;
-//! use pgm_core::{BeliefPropagation, FactorGraph, Flooding, Mode, PottsFactor, TableFactor, VariableId};
+//! use pgm_core::{BeliefPropagation, BpParams, ParamGuard, FactorGraph, Flooding, Mode, PottsFactor, TableFactor, VariableId};
 //!
 //! // A frustrated triangle: flooding max-product keeps changing its messages.
 //! let mut g = FactorGraph::with_variables(&[2, 2, 2]).unwrap();
@@ -29,8 +29,8 @@
 //!     residuals.push(p.residual);
 //!     if p.iteration == 5 { ControlFlow::Break(()) } else { ControlFlow::Continue(()) }
 //! };
-//! let bp = BeliefPropagation::new(Mode::MaxProduct).max_iterations(100);
-//! let result = bp.run_observed(&g, &mut Flooding, None, &mut observer).unwrap();
+//! let bp = BpParams::new(Mode::MaxProduct).max_iterations(100).check_unwrap();
+//! let result = bp.on(&g).observer(&mut observer).run(&mut Flooding).unwrap();
 //! assert_eq!(result.iterations, 5);
 //! assert!(result.stopped_by_observer && !result.converged);
 //! assert_eq!(residuals.len(), 5);
@@ -63,12 +63,12 @@ impl<P> Observe<P> for () {
 ///
 /// ```
 /// use pgm_core::observer::{BpProgress, History};
-/// use pgm_core::{BeliefPropagation, FactorGraph, Mode, PottsFactor, Sequential, VariableId};
+/// use pgm_core::{BeliefPropagation, BpParams, ParamGuard, FactorGraph, Mode, PottsFactor, Sequential, VariableId};
 /// let mut g = FactorGraph::with_variables(&[3, 3]).unwrap();
 /// g.add_factor(PottsFactor::new(VariableId(0), VariableId(1), 3, 1.0, 0.0).unwrap()).unwrap();
 /// let mut history = History::<BpProgress>::default();
-/// let r = BeliefPropagation::new(Mode::SumProduct)
-///     .run_observed(&g, &mut Sequential::default(), None, &mut history)
+/// let r = BpParams::new(Mode::SumProduct).check_unwrap()
+///     .on(&g).observer(&mut history).run(&mut Sequential::default())
 ///     .unwrap();
 /// assert_eq!(history.0.len(), r.iterations);
 /// assert_eq!(history.0.last().unwrap().residual, r.residual);

@@ -62,7 +62,7 @@
 //! ```
 //! use pgm_core::trws::{TrwsParams, TrwsTermination};
 //! use pgm_core::exact::brute_force;
-//! use pgm_core::{FactorGraph, PottsFactor, TableFactor, VariableId};
+//! use pgm_core::{FactorGraph, ParamGuard, PottsFactor, TableFactor, VariableId};
 //!
 //! // A 4-cycle with three labels: loopy, so max-product alone has no guarantee.
 //! let mut g = FactorGraph::with_variables(&[3; 4]).unwrap();
@@ -89,6 +89,7 @@ use crate::error::{Error, Result};
 use crate::factor::{Incoming, Mode};
 use crate::graph::{EdgeId, FactorGraph, FactorId, VariableId};
 use crate::observer::{Observe, TrwsProgress};
+use crate::param::ParamGuard;
 use std::ops::ControlFlow;
 use std::time::{Duration, Instant};
 
@@ -153,12 +154,17 @@ impl TrwsParams {
         self.decode_backward = decode;
         self
     }
+}
+
+impl ParamGuard for TrwsParams {
+    type Checked = Trws;
+    type Error = Error;
 
     /// Checks the settings.
     ///
     /// # Errors
     /// [`Error::InvalidParameter`] for zero iterations or a tolerance that is negative or not finite.
-    pub fn check(self) -> Result<Trws> {
+    fn check_ref(&self) -> Result<()> {
         if self.max_iterations == 0 {
             return Err(Error::InvalidParameter {
                 name: "max_iterations",
@@ -173,6 +179,11 @@ impl TrwsParams {
                 expected: "a finite number >= 0",
             });
         }
+        Ok(())
+    }
+
+    fn check(self) -> Result<Trws> {
+        self.check_ref()?;
         Ok(Trws { params: self })
     }
 }

@@ -1,7 +1,7 @@
 //! Tests of hybrid observed-continuous inference.
 
 use pgm_core::hybrid::{ClusterMeans, DiscreteSummary, HybridInference, UpdatePolicy};
-use pgm_core::{BeliefPropagation, Flooding, Mode, Residual, Schedule, Sequential};
+use pgm_core::{BpParams, Flooding, Mode, ParamGuard, Residual, Schedule, Sequential};
 use proptest::prelude::*;
 use proptest::test_runner::FileFailurePersistence;
 
@@ -36,7 +36,7 @@ proptest! {
             match s { 0 => Box::new(Flooding), 1 => Box::new(Sequential::default()), _ => Box::new(Residual::default()) }
         };
         let (mut graph, mut model) = ClusterMeans::chain(&y, &means, weight, coupling).unwrap();
-        let bp = BeliefPropagation::new(mode).max_iterations(50);
+        let bp = BpParams::new(mode).max_iterations(50).check_unwrap();
         let hybrid = HybridInference::new(bp.clone(), UpdatePolicy::Frozen)
             .run(&mut graph, &mut model, &mut make(schedule), None)
             .unwrap();
@@ -60,7 +60,7 @@ proptest! {
     ) {
         let (mut graph, mut model) = ClusterMeans::chain(&y, &means, weight, coupling).unwrap();
         let labels: Vec<usize> = (0..y.len()).map(|i| i % means.len()).collect();
-        let result = HybridInference::new(BeliefPropagation::new(Mode::MaxProduct).max_iterations(40), UpdatePolicy::EverySweep)
+        let result = HybridInference::new(BpParams::new(Mode::MaxProduct).max_iterations(40).check_unwrap(), UpdatePolicy::EverySweep)
             .trace_scores(true)
             .run(&mut graph, &mut model, &mut Sequential::default(), initial.then_some(&labels[..]))
             .unwrap();
@@ -109,15 +109,18 @@ fn every_visit_updates_recover_well_separated_means() {
                 DiscreteSummary::MapLabels => Mode::MaxProduct,
                 DiscreteSummary::Beliefs => Mode::SumProduct,
             };
-            let r = HybridInference::new(BeliefPropagation::new(mode).max_iterations(100), policy)
-                .continuous_tolerance(1e-6)
-                .run(
-                    &mut graph,
-                    &mut model,
-                    &mut Sequential::default(),
-                    Some(&initial),
-                )
-                .unwrap();
+            let r = HybridInference::new(
+                BpParams::new(mode).max_iterations(100).check_unwrap(),
+                policy,
+            )
+            .continuous_tolerance(1e-6)
+            .run(
+                &mut graph,
+                &mut model,
+                &mut Sequential::default(),
+                Some(&initial),
+            )
+            .unwrap();
             let mut m = model.means().to_vec();
             m.sort_by(|a, b| a.partial_cmp(b).unwrap());
             let truth = [-5.0, 0.0, 4.0];
@@ -185,7 +188,9 @@ fn schedules_can_drive_continuous_updates() {
     let (mut graph, mut model) = ClusterMeans::chain(&y, &[0.0, 3.0], 1.0, 1.0).unwrap();
     let mut schedule = EverySecondVisit { n: 40, requests: 0 };
     let r = HybridInference::new(
-        BeliefPropagation::new(Mode::MaxProduct).max_iterations(30),
+        BpParams::new(Mode::MaxProduct)
+            .max_iterations(30)
+            .check_unwrap(),
         UpdatePolicy::OnRequest,
     )
     .run(&mut graph, &mut model, &mut schedule, Some(&initial))

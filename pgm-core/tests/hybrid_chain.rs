@@ -11,7 +11,7 @@ use pgm_core::hybrid::chain::{
 use pgm_core::hybrid::PairPattern;
 use pgm_core::hybrid::{ClusterMeans, HybridInference, UpdatePolicy};
 use pgm_core::learning::{FeatureSet, LabelledInstance};
-use pgm_core::{BeliefPropagation, FactorGraph, Mode, ParamGuard, Sequential, TableFactor};
+use pgm_core::{BpParams, FactorGraph, Mode, ParamGuard, Sequential, TableFactor};
 use proptest::prelude::*;
 use proptest::test_runner::FileFailurePersistence;
 use std::sync::Arc;
@@ -289,7 +289,7 @@ proptest! {
         // decoders may break the tie differently.
         prop_assume!((0..k).all(|l| initial.iter().filter(|&&x| x == l).count() != 1));
         let (mut graph, mut reference) = ClusterMeans::chain(&y, &start_means, weight, coupling).unwrap();
-        let generic = HybridInference::new(BeliefPropagation::new(Mode::MaxProduct).max_iterations(200), UpdatePolicy::EverySweep)
+        let generic = HybridInference::new(BpParams::new(Mode::MaxProduct).max_iterations(200).check_unwrap(), UpdatePolicy::EverySweep)
             .continuous_tolerance(1e-12)
             .run(&mut graph, &mut reference, &mut Sequential::default(), Some(&initial))
             .unwrap();

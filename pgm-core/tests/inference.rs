@@ -4,7 +4,7 @@ use pgm_core::exact::{brute_force, forward_backward, tree_marginals, viterbi, Br
 use pgm_core::strategies::{self, GraphSpec};
 use pgm_core::uai::UaiModel;
 use pgm_core::{
-    BeliefPropagation, Factor, FactorGraph, Flooding, Incoming, Mode, PottsFactor, Residual,
+    BpParams, Factor, FactorGraph, Flooding, Incoming, Mode, ParamGuard, PottsFactor, Residual,
     Schedule, Sequential, ShiftedIdentityFactor, TableFactor, VariableId,
 };
 use proptest::prelude::*;
@@ -32,8 +32,9 @@ fn check_exact_on_tree(spec: &GraphSpec) -> Result<(), TestCaseError> {
         return Ok(());
     };
     // The default sequential schedule (two-pass edge order) is exact after one iteration.
-    let one = BeliefPropagation::new(Mode::SumProduct)
+    let one = BpParams::new(Mode::SumProduct)
         .max_iterations(1)
+        .check_unwrap()
         .run(&graph, &mut Sequential::default())
         .unwrap();
     for (b, e) in one.beliefs.iter().zip(&exact.marginals) {
@@ -44,15 +45,17 @@ fn check_exact_on_tree(spec: &GraphSpec) -> Result<(), TestCaseError> {
             );
         }
     }
-    let one = BeliefPropagation::new(Mode::MaxProduct)
+    let one = BpParams::new(Mode::MaxProduct)
         .max_iterations(1)
+        .check_unwrap()
         .run(&graph, &mut Sequential::default())
         .unwrap();
     prop_assert!(close(one.log_score, exact.map_log_score, 1e-9));
     let mut first_marginals: Option<Vec<Vec<f64>>> = None;
     for (name, mut schedule) in schedules() {
-        let map = BeliefPropagation::new(Mode::MaxProduct)
+        let map = BpParams::new(Mode::MaxProduct)
             .max_iterations(200)
+            .check_unwrap()
             .run(&graph, &mut schedule)
             .unwrap();
         prop_assert!(
@@ -66,8 +69,9 @@ fn check_exact_on_tree(spec: &GraphSpec) -> Result<(), TestCaseError> {
             map.log_score,
             exact.map_log_score
         );
-        let mar = BeliefPropagation::new(Mode::SumProduct)
+        let mar = BpParams::new(Mode::SumProduct)
             .max_iterations(200)
+            .check_unwrap()
             .run(&graph, &mut schedule)
             .unwrap();
         prop_assert!(mar.converged, "{name}: sum-product did not converge");
@@ -127,7 +131,7 @@ proptest! {
         let graph = spec.build();
         let Ok(exact) = brute_force(&graph, BruteForceLimit(MAX_STATES)) else { return Ok(()); };
         for (name, mut schedule) in schedules() {
-            let r = BeliefPropagation::new(Mode::MaxProduct).max_iterations(200).run(&graph, &mut schedule).unwrap();
+            let r = BpParams::new(Mode::MaxProduct).max_iterations(200).check_unwrap().run(&graph, &mut schedule).unwrap();
             prop_assert!(close(r.log_score, exact.map_log_score, 1e-12), "{name}: {} vs {}", r.log_score, exact.map_log_score);
         }
     }
@@ -170,7 +174,7 @@ proptest! {
         let graph = spec.build();
         for mode in [Mode::MaxProduct, Mode::SumProduct] {
             for (name, mut schedule) in schedules() {
-                let r = BeliefPropagation::new(mode).damping(damping).max_iterations(30)
+                let r = BpParams::new(mode).damping(damping).max_iterations(30).check_unwrap()
                     .run(&graph, &mut schedule).unwrap();
                 prop_assert!(!r.residual.is_nan(), "{name}: NaN residual");
                 for (v, b) in r.beliefs.iter().enumerate() {
@@ -188,7 +192,7 @@ proptest! {
     fn potts_grids_give_normalised_beliefs(spec in strategies::potts_grid(5, 4, 5.0)) {
         let graph = spec.build();
         for (_, mut schedule) in schedules() {
-            let r = BeliefPropagation::new(Mode::SumProduct).damping(0.3).max_iterations(50)
+            let r = BpParams::new(Mode::SumProduct).damping(0.3).max_iterations(50).check_unwrap()
                 .run(&graph, &mut schedule).unwrap();
             for b in &r.beliefs {
                 prop_assert!((b.iter().sum::<f64>() - 1.0).abs() < 1e-9);
@@ -220,7 +224,7 @@ proptest! {
         }
         let shifted = shifted_spec.build();
         for (name, mut schedule) in schedules() {
-            let bp = BeliefPropagation::new(Mode::MaxProduct).max_iterations(20);
+            let bp = BpParams::new(Mode::MaxProduct).max_iterations(20).check_unwrap();
             let a = bp.run(&base, &mut schedule).unwrap();
             let b = bp.run(&shifted, &mut schedule).unwrap();
             prop_assert_eq!(&a.assignment, &b.assignment, "{}", name);
@@ -232,7 +236,7 @@ proptest! {
             if name == "residual" {
                 continue;
             }
-            let sp = BeliefPropagation::new(Mode::SumProduct).max_iterations(20);
+            let sp = BpParams::new(Mode::SumProduct).max_iterations(20).check_unwrap();
             let a = sp.run(&base, &mut schedule).unwrap();
             let b = sp.run(&shifted, &mut schedule).unwrap();
             for (x, y) in a.beliefs.iter().flatten().zip(b.beliefs.iter().flatten()) {
@@ -304,13 +308,16 @@ fn warm_start_from_converged_messages_converges_at_once() {
         g.add_factor(PottsFactor::new(VariableId(a), VariableId(b), 3, 0.7, 0.0).unwrap())
             .unwrap();
     }
-    let bp = BeliefPropagation::new(Mode::SumProduct)
+    let bp = BpParams::new(Mode::SumProduct)
         .tolerance(1e-12)
-        .max_iterations(500);
+        .max_iterations(500)
+        .check_unwrap();
     let first = bp.run(&g, &mut Flooding).unwrap();
     assert!(first.converged && first.iterations > 2);
     let second = bp
-        .run_from(&g, &mut Flooding, first.messages.clone())
+        .on(&g)
+        .warm_start(first.messages.clone())
+        .run(&mut Flooding)
         .unwrap();
     assert!(second.converged);
     assert_eq!(second.iterations, 1);
@@ -326,7 +333,8 @@ fn ties_decode_to_one_consistent_map() {
             .unwrap();
     }
     for (_, mut s) in schedules() {
-        let r = BeliefPropagation::new(Mode::MaxProduct)
+        let r = BpParams::new(Mode::MaxProduct)
+            .check_unwrap()
             .run(&g, &mut s)
             .unwrap();
         assert_eq!(r.log_score, 4.0, "{:?}", r.assignment);
@@ -348,15 +356,17 @@ fn damping_slows_but_does_not_fake_convergence() {
             .unwrap();
     }
     let tol = 1e-10;
-    let undamped = BeliefPropagation::new(Mode::SumProduct)
+    let undamped = BpParams::new(Mode::SumProduct)
         .tolerance(tol)
         .max_iterations(1000)
+        .check_unwrap()
         .run(&g, &mut Flooding)
         .unwrap();
-    let damped = BeliefPropagation::new(Mode::SumProduct)
+    let damped = BpParams::new(Mode::SumProduct)
         .tolerance(tol)
         .damping(0.9)
         .max_iterations(1000)
+        .check_unwrap()
         .run(&g, &mut Flooding)
         .unwrap();
     assert!(undamped.converged && damped.converged);
@@ -374,11 +384,17 @@ fn damping_slows_but_does_not_fake_convergence() {
 #[test]
 fn invalid_parameters_are_errors() {
     let g = FactorGraph::with_variables(&[2]).unwrap();
-    let err = BeliefPropagation::new(Mode::MaxProduct)
-        .damping(1.0)
-        .run(&g, &mut Flooding)
-        .unwrap_err();
-    assert!(err.to_string().contains("damping = 1"), "{err}");
+    for (params, name) in [
+        (BpParams::new(Mode::MaxProduct).damping(1.0), "damping = 1"),
+        (BpParams::new(Mode::MaxProduct).damping(-0.1), "damping = -0.1"),
+        (BpParams::new(Mode::SumProduct).tolerance(f64::NAN), "tolerance = NaN"),
+        (BpParams::new(Mode::SumProduct).max_iterations(0), "max_iterations = 0"),
+    ] {
+        let err = params.check().unwrap_err();
+        assert!(err.to_string().contains(name), "{err}");
+    }
+    // A checked engine runs.
+    assert!(BpParams::new(Mode::MaxProduct).check().unwrap().run(&g, &mut Flooding).is_ok());
     let err = TableFactor::new(vec![VariableId(0)], vec![2], vec![0.0, f64::NAN]).unwrap_err();
     assert!(err.to_string().contains("NaN"), "{err}");
     let err = TableFactor::new(vec![VariableId(0)], vec![2], vec![0.0]).unwrap_err();
@@ -456,10 +472,11 @@ fn damping_never_changes_the_fixed_point_on_the_b15_star() {
     let exact = brute_force(&g, BruteForceLimit::default()).unwrap();
     for damping in [0.0, 0.5, 0.9] {
         for (name, mut schedule) in schedules() {
-            let r = BeliefPropagation::new(Mode::SumProduct)
+            let r = BpParams::new(Mode::SumProduct)
                 .damping(damping)
                 .tolerance(1e-12)
                 .max_iterations(10_000)
+                .check_unwrap()
                 .run(&g, &mut schedule)
                 .unwrap();
             assert!(r.converged, "{name}, damping {damping}: not converged");
@@ -495,10 +512,10 @@ proptest! {
         let graph = spec.build();
         let Ok(exact) = brute_force(&graph, BruteForceLimit(MAX_STATES)) else { return Ok(()); };
         for (name, mut schedule) in schedules() {
-            let mar = BeliefPropagation::new(Mode::SumProduct)
+            let mar = BpParams::new(Mode::SumProduct)
                 .damping(damping)
                 .tolerance(1e-12)
-                .max_iterations(20_000)
+                .max_iterations(20_000).check_unwrap()
                 .run(&graph, &mut schedule)
                 .unwrap();
             prop_assert!(mar.converged, "{name}, damping {damping}: sum-product not converged");
@@ -507,10 +524,10 @@ proptest! {
                     prop_assert!((p - q).abs() < 1e-8, "{name}, damping {damping}: P(x{v}) = {b:?}, exact {e:?}");
                 }
             }
-            let map = BeliefPropagation::new(Mode::MaxProduct)
+            let map = BpParams::new(Mode::MaxProduct)
                 .damping(damping)
                 .tolerance(1e-12)
-                .max_iterations(20_000)
+                .max_iterations(20_000).check_unwrap()
                 .run(&graph, &mut schedule)
                 .unwrap();
             prop_assert!(map.converged, "{name}, damping {damping}: max-product not converged");
@@ -525,11 +542,14 @@ fn observer_sees_every_iteration_of_every_schedule() {
     let g = star_with_evidence();
     for (name, mut schedule) in schedules() {
         let mut history = History::<BpProgress>::default();
-        let r = BeliefPropagation::new(Mode::SumProduct)
+        let r = BpParams::new(Mode::SumProduct)
             .damping(0.5)
             .tolerance(1e-12)
             .max_iterations(10_000)
-            .run_observed(&g, &mut schedule, None, &mut history)
+            .check_unwrap()
+            .on(&g)
+            .observer(&mut history)
+            .run(&mut schedule)
             .unwrap();
         assert_eq!(history.0.len(), r.iterations, "{name}");
         let last = history.0.last().unwrap();
@@ -557,10 +577,13 @@ fn observer_sees_every_iteration_of_every_schedule() {
                 std::ops::ControlFlow::Continue(())
             }
         };
-        let r = BeliefPropagation::new(Mode::SumProduct)
+        let r = BpParams::new(Mode::SumProduct)
             .damping(0.5)
             .tolerance(1e-12)
-            .run_observed(&g, &mut schedule, None, &mut stop)
+            .check_unwrap()
+            .on(&g)
+            .observer(&mut stop)
+            .run(&mut schedule)
             .unwrap();
         assert_eq!(r.iterations, 3, "{name}");
         assert!(r.stopped_by_observer && !r.converged, "{name}");
@@ -594,12 +617,12 @@ proptest! {
         let k = spec.cardinalities[0];
         prop_assert_eq!(specialised.specialise_factors(), if k >= 2 { pairs } else { 0 });
         for (name, mut schedule) in schedules() {
-            let bp = BeliefPropagation::new(Mode::MaxProduct).max_iterations(15);
+            let bp = BpParams::new(Mode::MaxProduct).max_iterations(15).check_unwrap();
             let a = bp.run(&dense, &mut schedule).unwrap();
             let b = bp.run(&specialised, &mut schedule).unwrap();
             prop_assert_eq!(&a.assignment, &b.assignment, "{}", name);
             prop_assert_eq!(a.messages.as_slice(), b.messages.as_slice(), "{}", name);
-            let sp = BeliefPropagation::new(Mode::SumProduct).max_iterations(15);
+            let sp = BpParams::new(Mode::SumProduct).max_iterations(15).check_unwrap();
             let a = sp.run(&dense, &mut schedule).unwrap();
             let b = sp.run(&specialised, &mut schedule).unwrap();
             if name != "residual" {

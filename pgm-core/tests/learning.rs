@@ -7,7 +7,7 @@ use pgm_core::learning::{
     CliqueFeatures, DenseFeatures, FeatureSet, LabelledInstance, LearnerParams, LogLinearModel,
     Progress, PseudoLikelihood, TemplateId, Weights, DEFAULT_FEATURE_CACHE_BYTES,
 };
-use pgm_core::{BeliefPropagation, Error, Mode, ParamGuard, Sequential, VariableId};
+use pgm_core::{BpParams, Error, Mode, ParamGuard, Sequential, VariableId};
 use proptest::prelude::*;
 use proptest::test_runner::FileFailurePersistence;
 use rand::{Rng, SeedableRng};
@@ -498,7 +498,7 @@ fn learned_model_runs_belief_propagation() {
         .map(|(f, w)| f * w)
         .sum();
     assert!((graph.log_score(&data[0].labels).unwrap() - dot).abs() < 1e-9);
-    let bp = BeliefPropagation::new(Mode::MaxProduct).tolerance(1e-10);
+    let bp = BpParams::new(Mode::MaxProduct).tolerance(1e-10).check_unwrap();
     let map = bp.run(&graph, &mut Sequential::default()).unwrap();
     let exact = brute_force(&graph, BruteForceLimit::default()).unwrap();
     assert!((map.log_score - exact.map_log_score).abs() < 1e-9);

@@ -6,7 +6,7 @@ use pgm_core::exact::{brute_force, BruteForceLimit};
 use pgm_core::observer::{History, TrwsProgress};
 use pgm_core::strategies::{self, GraphSpec};
 use pgm_core::trws::{TrwsParams, TrwsTermination};
-use pgm_core::{FactorGraph, PottsFactor, TableFactor, VariableId};
+use pgm_core::{FactorGraph, ParamGuard, PottsFactor, TableFactor, VariableId};
 use proptest::prelude::*;
 use proptest::test_runner::FileFailurePersistence;
 use std::ops::ControlFlow;

@@ -4,7 +4,9 @@
 use super::{CliError, CliResult};
 use clap::Args;
 use pgm_core::uai::{mar_result, mpe_result, Evidence, UaiModel};
-use pgm_core::{BeliefPropagation, FactorGraph, Mode, ScheduleKind, TrwsParams, TrwsTermination};
+use pgm_core::{
+    BpParams, FactorGraph, Mode, ParamGuard, ScheduleKind, TrwsParams, TrwsTermination,
+};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
@@ -83,10 +85,12 @@ pub fn run(args: InferArgs, task: Task) -> CliResult {
         Task::Map => Mode::MaxProduct,
         Task::Marginals => Mode::SumProduct,
     };
-    let bp = BeliefPropagation::new(mode)
+    let bp = BpParams::new(mode)
         .damping(args.damping)
         .tolerance(args.tolerance)
-        .max_iterations(args.max_iters);
+        .max_iterations(args.max_iters)
+        .check()
+        .map_err(CliError::from_display)?;
     let mut schedule = kind.build();
     let started = Instant::now();
     let mut result = bp

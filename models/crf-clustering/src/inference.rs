@@ -25,7 +25,7 @@ use crate::params::{ClusteringParams, UpdateSchedule};
 use crate::Result;
 use pgm_core::hybrid::chain::{ChainUpdate, HybridChainParams};
 use pgm_core::hybrid::{HybridInference, UpdatePolicy};
-use pgm_core::{BeliefPropagation, Mode, ParamGuard, Sequential, VariableId};
+use pgm_core::{BpParams, Mode, ParamGuard, Sequential, VariableId};
 use pgm_scan::Pose2;
 
 /// The end state of the inference rounds.
@@ -141,9 +141,10 @@ fn run_round(
         });
     }
     let mut graph = model.build_graph()?;
-    let bp = BeliefPropagation::new(Mode::MaxProduct)
+    let bp = BpParams::new(Mode::MaxProduct)
         .max_iterations(params.max_sweeps)
-        .tolerance(1e-6);
+        .tolerance(1e-6)
+        .check()?;
     let policy = match params.update {
         UpdateSchedule::EverySweep => UpdatePolicy::EverySweep,
         UpdateSchedule::EveryVisit => UpdatePolicy::EveryVisit,

@@ -61,7 +61,7 @@ impl<'a> Incoming<'a> {
 /// has structure that makes messages cheaper than enumerating its joint states.
 ///
 /// ```
-/// use pgm_core::{Factor, FactorGraph, VariableId, BeliefPropagation, Mode, Sequential};
+/// use pgm_core::{Factor, FactorGraph, VariableId, BpParams, ParamGuard, Mode, Sequential};
 ///
 /// /// A factor that rewards two variables for differing by exactly one.
 /// #[derive(Debug)]
@@ -77,7 +77,7 @@ impl<'a> Incoming<'a> {
 ///
 /// let mut g = FactorGraph::with_variables(&[3, 3]).unwrap();
 /// g.add_factor(NextTo { scope: [VariableId(0), VariableId(1)], shape: [3, 3] }).unwrap();
-/// let result = BeliefPropagation::new(Mode::MaxProduct)
+/// let result = BpParams::new(Mode::MaxProduct).check_unwrap()
 ///     .run(&g, &mut Sequential::default())
 ///     .unwrap();
 /// assert_eq!(result.log_score, 2.0);

@@ -139,13 +139,13 @@ pub struct HybridResult {
 ///
 /// ```
 /// use pgm_core::hybrid::{ClusterMeans, HybridInference, UpdatePolicy};
-/// use pgm_core::{BeliefPropagation, Mode, Sequential};
+/// use pgm_core::{BpParams, Mode, ParamGuard, Sequential};
 ///
 /// // Twelve observations from two clusters, a chain CRF that likes equal neighbours,
 /// // and the two cluster means as continuous nodes initialised badly.
 /// let y = [0.1, -0.2, 0.0, 0.2, 0.1, -0.1, 5.1, 4.9, 5.0, 5.2, 4.8, 5.0];
 /// let (mut graph, mut means) = ClusterMeans::chain(&y, &[1.0, 2.0], 2.0, 1.0).unwrap();
-/// let result = HybridInference::new(BeliefPropagation::new(Mode::MaxProduct), UpdatePolicy::EverySweep)
+/// let result = HybridInference::new(BpParams::new(Mode::MaxProduct).check().unwrap(), UpdatePolicy::EverySweep)
 ///     .run(&mut graph, &mut means, &mut Sequential::default(), None)
 ///     .unwrap();
 /// assert_eq!(result.discrete.assignment, vec![0, 0, 0, 0, 0, 0, 1, 1, 1, 1, 1, 1]);
@@ -235,9 +235,7 @@ impl HybridInference {
                 hook.refresh(a, &mut p);
             }
         }
-        let propagation = self
-            .bp
-            .propagate_with_hook(graph, schedule, &mut hook, None)?;
+        let propagation = self.bp.with_hook(graph, &mut hook).propagate(schedule)?;
         if let Some(e) = hook.error.take() {
             return Err(e);
         }
@@ -289,7 +287,7 @@ impl HybridInference {
     }
 
     fn bp_tolerance(&self) -> f64 {
-        self.bp.tolerance_value()
+        self.bp.params().tolerance_value()
     }
 }
 

@@ -94,7 +94,7 @@ pub trait MessagePasser {
 /// A message schedule. Schedules are `Send` so a run can move into a thread pool.
 ///
 /// ```
-/// use pgm_core::{BeliefPropagation, FactorGraph, MessagePasser, Mode, PottsFactor, Schedule, VariableId};
+/// use pgm_core::{BeliefPropagation, BpParams, ParamGuard, FactorGraph, MessagePasser, Mode, PottsFactor, Schedule, VariableId};
 ///
 /// /// Visits the variables in reverse index order, once per iteration.
 /// struct Backwards;
@@ -114,7 +114,7 @@ pub trait MessagePasser {
 /// let mut g = FactorGraph::with_variables(&[2, 2, 2]).unwrap();
 /// g.add_factor(PottsFactor::new(VariableId(0), VariableId(1), 2, 1.0, 0.0).unwrap()).unwrap();
 /// g.add_factor(PottsFactor::new(VariableId(1), VariableId(2), 2, 1.0, 0.0).unwrap()).unwrap();
-/// let r = BeliefPropagation::new(Mode::SumProduct).run(&g, &mut Backwards).unwrap();
+/// let r = BpParams::new(Mode::SumProduct).check_unwrap().run(&g, &mut Backwards).unwrap();
 /// assert!(r.converged);
 /// ```
 pub trait Schedule: Send {
