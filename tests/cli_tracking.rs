@@ -8,73 +8,59 @@
 
 mod common;
 
-use common::{json, ok, refused, simulated, temp_dir};
+use common::*;
 use pgm_datasets::testdata;
+
+/// `pgm eval clustering --method crf --pairs PAIRS` followed by `rest`.
+fn eval_crf<'a>(pairs: &'a str, rest: &[&'a str]) -> Vec<&'a str> {
+    eval(
+        "clustering",
+        "crf",
+        &[&["--pairs", pairs][..], rest].concat(),
+    )
+}
+
+/// `pgm track --method crf --pairs PAIRS` followed by `rest`.
+fn track<'a>(pairs: &'a str, rest: &[&'a str]) -> Vec<&'a str> {
+    [&["track", "--method", "crf", "--pairs", pairs][..], rest].concat()
+}
+
+/// The datmo `overtake_ego` bag in ../shared/data (None: skipped, see `testdata`).
+fn overtake_ego() -> Option<String> {
+    let bag = testdata::shared_data_dir()?.join("datmo/overtake_ego.bag");
+    Some(bag.to_str().unwrap().to_string())
+}
+
+/// The options that read the scans of the datmo bags (laser 0.164 m behind the
+/// robot's centre).
+const DATMO_SCANS: [&str; 3] = ["--scan-topic", "/scan", "--laser-mount=-0.164,0.027,0.005"];
 
 #[test]
 fn tracking_options_need_track_and_sense() {
     let dir = temp_dir("track-options");
     let (pairs, _) = simulated(&dir, "sim", 5, 2);
-    refused(
-        &[
-            "eval",
-            "clustering",
-            "--method",
-            "crf",
-            "--pairs",
-            &pairs,
-            "--track-min-speed",
-            "1",
-        ],
-        &["--track"],
-    );
-    refused(
-        &[
-            "eval",
-            "clustering",
-            "--method",
-            "crf",
-            "--pairs",
-            &pairs,
-            "--track",
-            "--track-min-evidence",
-            "0",
-        ],
-        &["--track-min-evidence 0"],
-    );
-    refused(
-        &[
-            "eval",
-            "clustering",
-            "--method",
-            "crf",
-            "--pairs",
-            &pairs,
-            "--track",
-            "--track-min-speed",
-            "nan",
-        ],
-        &["--track-min-speed NaN"],
-    );
+    refused_all(&[
+        (
+            eval_crf(&pairs, &["--track-min-speed", "1"]),
+            vec!["--track"],
+        ),
+        (
+            eval_crf(&pairs, &["--track", "--track-min-evidence", "0"]),
+            vec!["--track-min-evidence 0"],
+        ),
+        (
+            eval_crf(&pairs, &["--track", "--track-min-speed", "nan"]),
+            vec!["--track-min-speed NaN"],
+        ),
+    ]);
 }
 
 #[test]
 fn simulated_scenes_score_as_without_tracking() {
     let dir = temp_dir("track-sim");
     let (pairs, _) = simulated(&dir, "sim", 11, 6);
-    let base = [
-        "eval",
-        "clustering",
-        "--method",
-        "crf",
-        "--pairs",
-        pairs.as_str(),
-        "--json",
-    ];
-    let plain = json(&ok(&base).0);
-    let mut with = base.to_vec();
-    with.push("--track");
-    let tracked = json(&ok(&with).0);
+    let plain = ok_json(&eval_crf(&pairs, &["--json"]));
+    let tracked = ok_json(&eval_crf(&pairs, &["--json", "--track"]));
     assert!(plain["tracking"].is_null());
     // Every simulated pair starts at time 0: each is a sequence of its own.
     assert_eq!(tracked["tracking"]["sequences"], 6);
@@ -90,27 +76,19 @@ fn simulated_scenes_score_as_without_tracking() {
 
 #[test]
 fn datmo_overtake_ego_tracking_finds_the_car_in_more_pairs() {
-    let Some(data) = testdata::shared_data_dir() else {
+    let Some(bag) = overtake_ego() else {
         return;
     };
-    let bag = data.join("datmo").join("overtake_ego.bag");
-    let bag = bag.to_str().unwrap();
-    let base = [
-        "eval",
+    let head = eval(
         "clustering",
-        "--method",
         "crf",
-        "--associations",
-        "crf-matching",
-        "--bag",
-        bag,
-        "--scan-topic",
-        "/scan",
+        &["--associations", "crf-matching", "--bag", &bag],
+    );
+    let truth = [
         "--ego-pose-topic",
         "/ego_pose",
         "--object-pose-topic",
         "/red_pose",
-        "--laser-mount=-0.164,0.027,0.005",
         "--pose-delay",
         "0.025",
         "--object-footprint",
@@ -121,12 +99,10 @@ fn datmo_overtake_ego_tracking_finds_the_car_in_more_pairs() {
         "3",
         "--json",
     ];
-    let plain = json(&ok(&base).0);
-    let mut with = base.to_vec();
-    with.push("--track");
-    let tracked = json(&ok(&with).0);
-    with.push("--track-forward-only");
-    let forward = json(&ok(&with).0);
+    let base = [&head[..], &DATMO_SCANS, &truth].concat();
+    let plain = ok_json(&base);
+    let tracked = ok_json(&[&base[..], &["--track"]].concat());
+    let forward = ok_json(&[&base[..], &["--track", "--track-forward-only"]].concat());
     assert_eq!(tracked["tracking"]["backward"], true);
     assert_eq!(forward["tracking"]["backward"], false);
     let recall = |r: &serde_json::Value| r["object_recall"].as_f64().unwrap();
@@ -156,101 +132,41 @@ fn datmo_overtake_ego_tracking_finds_the_car_in_more_pairs() {
 fn track_refuses_bad_options_and_writes_its_output_whole() {
     let dir = temp_dir("track-cli");
     let (pairs, _) = simulated(&dir, "sim", 7, 3);
-    refused(
-        &[
-            "track",
-            "--method",
-            "crf",
-            "--pairs",
-            &pairs,
-            "--min-evidence",
-            "0",
-        ],
-        &["--min-evidence 0"],
-    );
-    refused(
-        &[
-            "track",
-            "--method",
-            "crf",
-            "--pairs",
-            &pairs,
-            "--min-speed=-1",
-        ],
-        &["--min-speed -1"],
-    );
-    refused(
-        &[
-            "track",
-            "--method",
-            "crf",
-            "--pairs",
-            &pairs,
-            "--out",
-            dir.to_str().unwrap(),
-        ],
-        &["is a directory"],
-    );
-    // Options that mean nothing here, and outputs that would destroy the input.
-    refused(
-        &["track", "--method", "crf", "--pairs", &pairs, "--k", "3"],
-        &["--k 3", "stored data set"],
-    );
-    refused(
-        &[
-            "track",
-            "--method",
-            "crf",
-            "--pairs",
-            &pairs,
-            "--annotated-sector",
-        ],
-        &["--annotated-sector", "ground-truth"],
-    );
     let index = format!("{pairs}/index.json");
-    refused(
-        &[
-            "track", "--method", "crf", "--pairs", &pairs, "--out", &index,
-        ],
-        &["refusing to write over the data being read"],
-    );
-    assert!(std::path::Path::new(&index).is_file());
-    let missing = dir.join("missing").join("x.json");
-    refused(
-        &[
-            "track",
-            "--method",
-            "crf",
-            "--pairs",
-            &pairs,
-            "--out",
-            missing.to_str().unwrap(),
-        ],
-        &["does not exist"],
-    );
-    let out = dir.join("tracks.json");
-    let (stdout, stderr) = ok(&[
-        "track",
-        "--method",
-        "crf",
-        "--pairs",
-        &pairs,
-        "--out",
-        out.to_str().unwrap(),
+    let missing = path(&dir, "missing/x.json");
+    refused_all(&[
+        (
+            track(&pairs, &["--min-evidence", "0"]),
+            vec!["--min-evidence 0"],
+        ),
+        (track(&pairs, &["--min-speed=-1"]), vec!["--min-speed -1"]),
+        (
+            track(&pairs, &["--out", dir.to_str().unwrap()]),
+            vec!["is a directory"],
+        ),
+        // Options that mean nothing here, and outputs that would destroy the input.
+        (
+            track(&pairs, &["--k", "3"]),
+            vec!["--k 3", "stored data set"],
+        ),
+        (
+            track(&pairs, &["--annotated-sector"]),
+            vec!["--annotated-sector", "unexpected argument"],
+        ),
+        (
+            track(&pairs, &["--out", &index]),
+            vec!["refusing to write over the data being read"],
+        ),
+        (track(&pairs, &["--out", &missing]), vec!["does not exist"]),
     ]);
+    assert!(std::path::Path::new(&index).is_file());
+    let out = path(&dir, "tracks.json");
+    let (stdout, stderr) = ok(&track(&pairs, &["--out", &out]));
     assert!(stdout.is_empty());
     assert!(stderr.contains("written to"), "{stderr}");
-    let written = json(&std::fs::read_to_string(&out).unwrap());
-    let svg = dir.join("tracks.svg");
-    ok(&[
-        "track",
-        "--method",
-        "crf",
-        "--pairs",
-        &pairs,
-        "--svg",
-        svg.to_str().unwrap(),
-    ]);
+    let written = read_json(&out);
+    let svg = path(&dir, "tracks.svg");
+    ok(&track(&pairs, &["--svg", &svg]));
     let picture = std::fs::read_to_string(&svg).unwrap();
     assert!(picture.starts_with("<svg") && picture.contains("first scan&apos;s frame"));
     // Three independent simulated scenes: three sequences, one entry per pair.
@@ -260,25 +176,19 @@ fn track_refuses_bad_options_and_writes_its_output_whole() {
 
 #[test]
 fn datmo_overtake_ego_track_follows_the_car_as_one_track() {
-    let Some(data) = testdata::shared_data_dir() else {
+    let Some(bag) = overtake_ego() else {
         return;
     };
-    let bag = data.join("datmo").join("overtake_ego.bag");
-    let (out, _) = ok(&[
+    let head = [
         "track",
         "--method",
         "crf",
         "--associations",
         "crf-matching",
         "--bag",
-        bag.to_str().unwrap(),
-        "--scan-topic",
-        "/scan",
-        "--laser-mount=-0.164,0.027,0.005",
-        "--k",
-        "3",
-    ]);
-    let out = json(&out);
+        &bag,
+    ];
+    let out = ok_json(&[&head[..], &DATMO_SCANS, &["--k", "3"]].concat());
     let scans = out["scans"].as_array().unwrap();
     assert_eq!(scans.len(), 132);
     // Reports per track, and the car's speeds (it drives at 0.7-1.1 m/s).
@@ -305,29 +215,9 @@ fn datmo_overtake_ego_track_follows_the_car_as_one_track() {
 }
 
 #[test]
-fn a_full_stdout_is_an_error_not_a_panic() {
-    // Linux only: writes to /dev/full fail with "no space left on device".
-    let Ok(full) = std::fs::OpenOptions::new().write(true).open("/dev/full") else {
-        return;
-    };
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_pgm"))
-        .args(["sim", "--pairs", "1"])
-        .stdout(full)
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{err}");
-    assert!(
-        err.contains("cannot write the result to standard output"),
-        "{err}"
-    );
-    assert!(!err.contains("panicked"), "{err}");
-}
-
-#[test]
 fn simulated_sequences_are_tracked_as_sequences() {
     let dir = temp_dir("track-seq");
-    let out = dir.join("seq");
+    let out = path(&dir, "seq");
     refused(
         &[
             "sim",
@@ -355,21 +245,12 @@ fn simulated_sequences_are_tracked_as_sequences() {
         "--k",
         "3",
         "--out",
-        out.to_str().unwrap(),
+        &out,
     ]);
-    let (text, _) = ok(&[
-        "eval",
-        "clustering",
-        "--method",
-        "crf",
-        "--associations",
-        "segment-icp",
-        "--pairs",
-        out.to_str().unwrap(),
-        "--track",
-        "--json",
-    ]);
-    let report = json(&text);
+    let report = ok_json(&eval_crf(
+        &out,
+        &["--associations", "segment-icp", "--track", "--json"],
+    ));
     assert_eq!(report["pairs"], 8);
     // Two sequences of four pairs each (their stamps are 1000 s apart).
     assert_eq!(report["tracking"]["sequences"], 2);

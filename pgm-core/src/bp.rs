@@ -127,7 +127,7 @@ pub struct BpResult {
     pub residual: f64,
     /// True when the run stopped because its time budget was spent.
     pub out_of_time: bool,
-    /// True when an observer stopped the run (see [`BeliefPropagation::run_observed`]).
+    /// True when an observer stopped the run (see [`BpRun::observer`]).
     pub stopped_by_observer: bool,
     /// Number of message updates whose every entry was −∞ (contradictory evidence);
     /// such messages are replaced by uniform ones.

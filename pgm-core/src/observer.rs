@@ -5,7 +5,7 @@
 //! message updates, and may change potentials; observers sit *between* iterations and
 //! only look. Belief propagation reports a [`BpProgress`] (iteration, fixed-point
 //! residual, contradictions, elapsed time) to an `Observe<BpProgress>` with every
-//! schedule ([`BeliefPropagation::run_observed`](crate::BeliefPropagation::run_observed));
+//! schedule ([`BpRun::observer`](crate::BpRun::observer));
 //! TRW-S reports a [`TrwsProgress`] (iteration, dual bound, primal log-score, gap) to an
 //! `Observe<TrwsProgress>` ([`Trws::run_observed`](crate::trws::Trws::run_observed)).
 //!

@@ -107,6 +107,9 @@ pub use objects::{Tracked, TrackedClusterer, TrackedObject, TrackingCounts};
 pub use params::TrackingParams;
 pub use tracker::Tracker;
 
+#[doc(no_inline)]
+pub use pgm_scan::methods::{MotionClusterer, MotionClustering};
+
 #[allow(unused_imports)]
 use {geometry::*, objects::*, tracker::*};
 
