@@ -24,14 +24,9 @@
 //! so the cells it can fall in span `⌊x − ρ⌋ ..= ⌊x + ρ⌋`, and a return whose span is
 //! a single cell is bounded by depth `h`, any other by depth `h + 1` from
 //! `⌊x − ρ⌋` (the derived step makes `ρ` at most `(2^h − 1)/2` cells, so the wider
-//! window always fits). Measured against rotation by rotation (the same code with one
-//! rotation per node at every depth), over 200 pairs each from priors up to 1 m and
-//! 30° off: on simulated street pairs (returns up to 80 m, about 560 rotations) it
-//! visits as many nodes (2215 against 2377 per search) but rotates 2.6 times fewer
-//! returns and takes about 20 % less time (1.05 against 1.26 ms); on mit-csail's
-//! indoor pairs (a median of 81 rotations) it visits more nodes (1390 against 1089) and
-//! takes about 25 % more (0.19 against 0.14 ms). Both are exact; the blocks pay where
-//! the rotations are many.
+//! window always fits). Both this and a search rotation by rotation are exact; the
+//! rotation blocks pay where the rotations are many (the measurement is in the book,
+//! `docs/decisions.md`, "Correlative search").
 //!
 //! The search is exact on its lattice: the first hypothesis is the best-scoring
 //! lattice point, as an exhaustive search finds it (the unit tests check both the
@@ -68,16 +63,13 @@
 //!   slack of a block of rotations an exact number of cells).
 //! - *Grid extent*: the bounding box of the reference returns within
 //!   [`CorrelativeParams::max_range`], padded by the kernel and the search window, so
-//!   building it costs O(area / resolution²) bytes per depth, a fraction of a
-//!   millisecond for a 361-beam scan (0.11 ms for the 581 × 282 cells and 6 depths of
-//!   the bench's simulated pair, `cargo bench --bench correlative`).
+//!   building it costs O(area / resolution²) bytes per depth.
 //! - *Max-pooling by hand*: depth `h` is depth `h − 1` maxed with itself shifted by
 //!   `2^(h−1)` cells along x, then along y (in place): two byte comparisons per cell
 //!   and depth, which the compiler vectorises (Cartographer slides a window instead).
 //!   An image crate computes the same windows as a grey-level dilation with a
-//!   `2^h × 2^h` mask, `O(4^h)` a cell: imageproc 0.25's `grayscale_dilate` took
-//!   11.2 ms for the five pooled depths of that grid, these two loops 0.15 ms
-//!   (measured outside the workspace on this machine, same windows, same values).
+//!   `2^h × 2^h` mask, `O(4^h)` a cell (why it is written by hand: the measurement
+//!   is in `docs/decisions.md`, "Correlative search").
 //! - *Several hypotheses*: the branch and bound keeps the `hypotheses` best lattice
 //!   points that are pairwise distinct (non-maximum suppression: two motions closer
 //!   than [`CorrelativeParams::suppression_translation`] in translation *and*
