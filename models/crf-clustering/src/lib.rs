@@ -40,7 +40,6 @@
 pub mod background;
 pub mod cleanup;
 pub mod clusterer;
-mod error;
 pub mod inference;
 pub mod input;
 pub mod learning;
@@ -50,7 +49,7 @@ pub mod segmentation;
 pub mod weights;
 
 pub use clusterer::{BackgroundChoice, Cluster, Clusterer, Clustering};
-pub use error::{Error, Result};
+pub use pgm_features::{ModelError as Error, ModelResult as Result};
 pub use input::ClusteringInput;
 pub use params::{ClusteringParams, DetectionParams, UpdateSchedule};
 pub use weights::ClusteringWeights;

@@ -8,14 +8,16 @@
 //! | `weighted_neighbour` | `same`, `different` | eq. (5) |
 //! | `stiffness` | `same`, `different` | eq. (6), split by whether the clusters are equal |
 //!
-//! The default weights (`weights/default.json`, compiled in with `include_str!`) were
-//! learned by pseudo-likelihood on simulated pairs; the command that produced them is
-//! in the crate README.
+//! The weights are kept in the workspace's one weight file
+//! ([`pgm_features::weight_file`]: `model` `crf-clustering`, version 1, the 8 named
+//! weights and nothing else). The default weights (`weights/default.json`, compiled in
+//! with `include_str!`) were learned by pseudo-likelihood on simulated pairs; the
+//! command that produced them is in the crate README.
 
 use crate::Result;
 use pgm_core::learning::{FeatureSet, Weights};
 use pgm_core::param::InvalidParameter;
-use std::path::Path;
+use pgm_features::weight_file::ModelWeights;
 use std::sync::Arc;
 
 /// Name of the model in weight files.
@@ -40,18 +42,13 @@ pub(crate) mod index {
 
 /// The feature set of CRF-Clustering (see the module table).
 pub fn feature_set() -> Arc<FeatureSet> {
-    let mut f = FeatureSet::new(MODEL_NAME, MODEL_VERSION);
-    // The names are fixed and distinct, so these cannot fail.
-    for (name, features) in [
+    let templates = [
         ("distance", &["squared", "normalised"][..]),
         ("neighbour", &["same", "different"][..]),
         ("weighted_neighbour", &["same", "different"][..]),
         ("stiffness", &["same", "different"][..]),
-    ] {
-        f.add_template(name, features)
-            .expect("fixed template names are valid");
-    }
-    Arc::new(f)
+    ];
+    pgm_features::weight_file::feature_set(MODEL_NAME, MODEL_VERSION, templates)
 }
 
 /// The weights as plain numbers, in the order the model uses them.
@@ -71,7 +68,14 @@ pub struct ClusteringWeights {
 impl ClusteringWeights {
     /// From learned or loaded [`Weights`] of [`feature_set`].
     pub fn from_weights(w: &Weights) -> Self {
-        let v = w.values();
+        Self::from_values(w.values())
+    }
+
+    /// From the 8 values in [`feature_set`] order.
+    ///
+    /// # Panics
+    /// When there are fewer than 8.
+    fn from_values(v: &[f64]) -> Self {
         Self {
             distance: [v[0], v[1]],
             neighbour: [v[2], v[3]],
@@ -118,30 +122,35 @@ impl ClusteringWeights {
     }
 
     /// As named [`Weights`].
+    ///
+    /// # Errors
+    /// When a weight is not finite.
     pub fn to_weights(&self) -> Result<Weights> {
-        Ok(Weights::new(feature_set(), self.to_vec())?)
-    }
-
-    /// The shipped default weights.
-    pub fn default_weights() -> Self {
-        let w = Weights::from_json(feature_set(), DEFAULT_WEIGHTS_JSON)
-            .expect("the shipped default weights match the feature set (checked by a test)");
-        Self::from_weights(&w)
-    }
-
-    /// Loads weights from a JSON file written by `pgm train clustering`, checked
-    /// ([`ClusteringWeights::check_ref`]) so that weights the model would reject are
-    /// refused where the file is named.
-    pub fn load(path: impl AsRef<Path>) -> Result<Self> {
-        let w = Weights::load(feature_set(), path)?;
-        let weights = Self::from_weights(&w);
-        weights.check_ref()?;
-        Ok(weights)
+        self.named()
     }
 }
 
-impl Default for ClusteringWeights {
-    fn default() -> Self {
-        Self::default_weights()
+impl ModelWeights for ClusteringWeights {
+    const TITLE: &'static str = "CRF-Clustering";
+    type Parts = ();
+
+    fn feature_set() -> Arc<FeatureSet> {
+        feature_set()
+    }
+
+    fn from_file(weights: &[f64], _: ()) -> Self {
+        Self::from_values(weights)
+    }
+
+    fn to_file(&self) -> (Vec<f64>, ()) {
+        (self.to_vec(), ())
+    }
+
+    /// [`ClusteringWeights::check_ref`]: weights the model would reject are refused
+    /// where the file is named.
+    fn check_values(&self) -> Result<()> {
+        self.check_ref()
     }
 }
+
+pgm_features::model_weights_api!(ClusteringWeights, DEFAULT_WEIGHTS_JSON);

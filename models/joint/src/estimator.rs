@@ -336,7 +336,7 @@ impl Joint {
     /// its segment and motion, with the segments that moved (each starts a motion
     /// cluster, the largest first, as step 1 says; read as [`SegmentMotions`] says).
     /// For hypotheses a pair alone cannot give: a tracker's predictions from earlier
-    /// scans, or an oracle's (the example `association_bound` starts the joint model
+    /// scans, or an oracle's (the tool `association_bound` starts the joint model
     /// from the true motions this way). Only the number of valid returns ties the
     /// hypotheses to `pair`.
     ///

@@ -40,7 +40,7 @@
 //! `pgm eval association`).
 //!
 //! ```text
-//! cargo run --release --example association_bound [-- --seed 7 --pairs 30]
+//! cargo run --release -p pgm-tools --bin association_bound [-- --seed 7 --pairs 30]
 //! ```
 //! Defaults: seed 3 (the design seed of CRF-Matching and the joint model), 30 pairs per
 //! preset, every simulator preset.

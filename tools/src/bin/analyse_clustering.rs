@@ -3,7 +3,7 @@
 //! were found, plus an "oracle" V-measure upper bound where objects whose points have
 //! no association (or fewer than the minimum) are labelled background.
 //!
-//! Run: `cargo run --release -p pgm-crf-clustering --example analyse -- [seed] [pairs] [true|icp|segment] [preset]`.
+//! Run: `cargo run --release -p pgm-tools --bin analyse_clustering -- [seed] [pairs] [true|icp|segment] [preset]`.
 
 use pgm_crf_clustering::{ClusteringParams, DetectionParams};
 use pgm_datasets::metrics::clustering_v_measure;

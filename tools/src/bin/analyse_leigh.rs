@@ -2,7 +2,7 @@
 //! pair the V-measure of each method, the true moving people (label, returns) and the
 //! predicted moving objects (returns, how many of them are true mover returns).
 //!
-//! Run: `cargo run --release -p pgm-crf-clustering --example analyse_leigh -- [DATA_DIR] [k] [icp|segment]`
+//! Run: `cargo run --release -p pgm-tools --bin analyse_leigh -- [DATA_DIR] [k] [icp|segment]`
 //! (`DATA_DIR` defaults to `../shared/data/leigh-gtm1`). The last lines sum V per
 //! kind of pair: no labelled mover, a walker, standing people only (see the
 //! `leigh_labels` example of pgm-datasets).
