@@ -158,4 +158,90 @@ mod tests {
         walk(&mut command, "pgm", &mut long);
         assert!(long.is_empty(), "short help too long: {}", long.join(", "));
     }
+
+    /// Every registered method is reachable from every command that takes
+    /// `--method` (or `--associations`): the command offers exactly the names of its
+    /// interface's table in `pgm::methods`, and each name builds with the default
+    /// options.
+    #[test]
+    fn every_registered_method_is_reachable_from_every_command() {
+        use pgm::methods::{
+            association_source, clusterer, joint_estimator, scan_matcher, MethodOptions,
+            ASSOCIATION_SOURCES, CLUSTERERS, JOINT_ESTIMATORS, SCAN_MATCHERS,
+        };
+        let options = MethodOptions::default();
+        let names = |table: &[(&str, &str)]| -> Vec<String> {
+            table.iter().map(|(n, _)| n.to_string()).collect()
+        };
+        for (name, _) in ASSOCIATION_SOURCES {
+            assert!(association_source(name, &options).is_ok(), "{name}");
+        }
+        for (name, _) in CLUSTERERS {
+            let icp = association_source("icp", &options).unwrap();
+            assert!(clusterer(name, icp, &options).is_ok(), "{name}");
+        }
+        for (name, _) in SCAN_MATCHERS {
+            assert!(scan_matcher(name, &options).is_ok(), "{name}");
+        }
+        for (name, _) in JOINT_ESTIMATORS {
+            assert!(joint_estimator(name, &options).is_ok(), "{name}");
+        }
+        // Which table each command's `--method` offers.
+        let expected: &[(&str, &[(&str, &str)])] = &[
+            ("pgm eval matching", SCAN_MATCHERS),
+            ("pgm eval clustering", CLUSTERERS),
+            ("pgm eval association", ASSOCIATION_SOURCES),
+            ("pgm eval joint", JOINT_ESTIMATORS),
+            ("pgm track", CLUSTERERS),
+        ];
+        fn walk(
+            command: &clap::Command,
+            path: &str,
+            found: &mut Vec<(String, String, Vec<String>)>,
+        ) {
+            for arg in command.get_arguments() {
+                let id = arg.get_id().as_str();
+                if id == "method" || id == "associations" {
+                    let values = arg
+                        .get_possible_values()
+                        .iter()
+                        .map(|v| v.get_name().to_string())
+                        .collect();
+                    found.push((path.to_string(), id.to_string(), values));
+                }
+            }
+            for sub in command.get_subcommands() {
+                walk(sub, &format!("{path} {}", sub.get_name()), found);
+            }
+        }
+        let mut command = Cli::command();
+        command.build();
+        let mut found = Vec::new();
+        walk(&command, "pgm", &mut found);
+        for (path, id, values) in &found {
+            if path.starts_with("pgm train") {
+                // Training chooses which associations to learn from (`both` included),
+                // not a method to run.
+                continue;
+            }
+            let table = if id == "associations" {
+                ASSOCIATION_SOURCES
+            } else {
+                expected
+                    .iter()
+                    .find(|(p, _)| p == path)
+                    .unwrap_or_else(|| {
+                        panic!("`{path} --method`: add the command to this test's table")
+                    })
+                    .1
+            };
+            assert_eq!(values, &names(table), "`{path} --{id}`");
+        }
+        for (path, _) in expected {
+            assert!(
+                found.iter().any(|(p, id, _)| p == path && id == "method"),
+                "`{path}` has no --method"
+            );
+        }
+    }
 }
