@@ -28,8 +28,7 @@ fn readme_library_example_builds_and_runs_against_the_facade_alone() {
         !example.contains("pgm_"),
         "the README's library example names a workspace crate instead of the facade: {example}"
     );
-    let (uses, body): (Vec<&str>, Vec<&str>) =
-        example.lines().partition(|l| l.starts_with("use "));
+    let (uses, body): (Vec<&str>, Vec<&str>) = example.lines().partition(|l| l.starts_with("use "));
 
     // Outside the workspace (no [workspace] above it), beside the build output.
     let dir: PathBuf = std::env::var_os("CARGO_TARGET_TMPDIR")

@@ -386,15 +386,28 @@ fn invalid_parameters_are_errors() {
     let g = FactorGraph::with_variables(&[2]).unwrap();
     for (params, name) in [
         (BpParams::new(Mode::MaxProduct).damping(1.0), "damping = 1"),
-        (BpParams::new(Mode::MaxProduct).damping(-0.1), "damping = -0.1"),
-        (BpParams::new(Mode::SumProduct).tolerance(f64::NAN), "tolerance = NaN"),
-        (BpParams::new(Mode::SumProduct).max_iterations(0), "max_iterations = 0"),
+        (
+            BpParams::new(Mode::MaxProduct).damping(-0.1),
+            "damping = -0.1",
+        ),
+        (
+            BpParams::new(Mode::SumProduct).tolerance(f64::NAN),
+            "tolerance = NaN",
+        ),
+        (
+            BpParams::new(Mode::SumProduct).max_iterations(0),
+            "max_iterations = 0",
+        ),
     ] {
         let err = params.check().unwrap_err();
         assert!(err.to_string().contains(name), "{err}");
     }
     // A checked engine runs.
-    assert!(BpParams::new(Mode::MaxProduct).check().unwrap().run(&g, &mut Flooding).is_ok());
+    assert!(BpParams::new(Mode::MaxProduct)
+        .check()
+        .unwrap()
+        .run(&g, &mut Flooding)
+        .is_ok());
     let err = TableFactor::new(vec![VariableId(0)], vec![2], vec![0.0, f64::NAN]).unwrap_err();
     assert!(err.to_string().contains("NaN"), "{err}");
     let err = TableFactor::new(vec![VariableId(0)], vec![2], vec![0.0]).unwrap_err();

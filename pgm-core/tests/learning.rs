@@ -498,7 +498,9 @@ fn learned_model_runs_belief_propagation() {
         .map(|(f, w)| f * w)
         .sum();
     assert!((graph.log_score(&data[0].labels).unwrap() - dot).abs() < 1e-9);
-    let bp = BpParams::new(Mode::MaxProduct).tolerance(1e-10).check_unwrap();
+    let bp = BpParams::new(Mode::MaxProduct)
+        .tolerance(1e-10)
+        .check_unwrap();
     let map = bp.run(&graph, &mut Sequential::default()).unwrap();
     let exact = brute_force(&graph, BruteForceLimit::default()).unwrap();
     assert!((map.log_score - exact.map_log_score).abs() < 1e-9);

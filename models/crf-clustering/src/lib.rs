@@ -49,7 +49,7 @@ pub mod segmentation;
 pub mod weights;
 
 pub use clusterer::{BackgroundChoice, Cluster, Clusterer, Clustering};
-pub use pgm_features::{ModelError as Error, ModelResult as Result};
 pub use input::ClusteringInput;
 pub use params::{ClusteringParams, DetectionParams, UpdateSchedule};
+pub use pgm_features::{ModelError as Error, ModelResult as Result};
 pub use weights::ClusteringWeights;
