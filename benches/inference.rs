@@ -92,7 +92,7 @@ fn iterations(
     schedule: &mut dyn Schedule,
     start: Messages,
 ) {
-    let p = bp.propagate(graph, schedule, start).unwrap();
+    let p = bp.on(graph).warm_start(start).propagate(schedule).unwrap();
     assert!(p.iterations >= 1);
     std::hint::black_box(p);
 }
