@@ -170,29 +170,29 @@ mod tests {
             ASSOCIATION_SOURCES, CLUSTERERS, JOINT_ESTIMATORS, SCAN_MATCHERS,
         };
         let options = MethodOptions::default();
-        let names = |table: &[(&str, &str)]| -> Vec<String> {
-            table.iter().map(|(n, _)| n.to_string()).collect()
-        };
-        for (name, _) in ASSOCIATION_SOURCES {
+        fn names<B>(table: &[pgm::methods::Method<B>]) -> Vec<String> {
+            table.iter().map(|m| m.name.to_string()).collect()
+        }
+        for name in ASSOCIATION_SOURCES.iter().map(|m| m.name) {
             assert!(association_source(name, &options).is_ok(), "{name}");
         }
-        for (name, _) in CLUSTERERS {
+        for name in CLUSTERERS.iter().map(|m| m.name) {
             let icp = association_source("icp", &options).unwrap();
             assert!(clusterer(name, icp, &options).is_ok(), "{name}");
         }
-        for (name, _) in SCAN_MATCHERS {
+        for name in SCAN_MATCHERS.iter().map(|m| m.name) {
             assert!(scan_matcher(name, &options).is_ok(), "{name}");
         }
-        for (name, _) in JOINT_ESTIMATORS {
+        for name in JOINT_ESTIMATORS.iter().map(|m| m.name) {
             assert!(joint_estimator(name, &options).is_ok(), "{name}");
         }
         // Which table each command's `--method` offers.
-        let expected: &[(&str, &[(&str, &str)])] = &[
-            ("pgm eval matching", SCAN_MATCHERS),
-            ("pgm eval clustering", CLUSTERERS),
-            ("pgm eval association", ASSOCIATION_SOURCES),
-            ("pgm eval joint", JOINT_ESTIMATORS),
-            ("pgm track", CLUSTERERS),
+        let expected: &[(&str, Vec<String>)] = &[
+            ("pgm eval matching", names(SCAN_MATCHERS)),
+            ("pgm eval clustering", names(CLUSTERERS)),
+            ("pgm eval association", names(ASSOCIATION_SOURCES)),
+            ("pgm eval joint", names(JOINT_ESTIMATORS)),
+            ("pgm track", names(CLUSTERERS)),
         ];
         fn walk(
             command: &clap::Command,
@@ -225,7 +225,7 @@ mod tests {
                 continue;
             }
             let table = if id == "associations" {
-                ASSOCIATION_SOURCES
+                names(ASSOCIATION_SOURCES)
             } else {
                 expected
                     .iter()
@@ -234,8 +234,9 @@ mod tests {
                         panic!("`{path} --method`: add the command to this test's table")
                     })
                     .1
+                    .clone()
             };
-            assert_eq!(values, &names(table), "`{path} --{id}`");
+            assert_eq!(values, &table, "`{path} --{id}`");
         }
         for (path, _) in expected {
             assert!(

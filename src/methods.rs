@@ -1,7 +1,8 @@
 //! The methods the command-line tool, the examples and the tests know by name: one
 //! table per interface ([`MotionClusterer`], [`ScanMatcher`],
-//! [`AssociationSource`], [`JointEstimator`]). A model crate implements the
-//! interface; adding it here is one entry, never a branch in a command.
+//! [`AssociationSource`], [`JointEstimator`]) of [`Method`] entries. A model crate
+//! implements the interface; adding it here is one entry, never a branch in a
+//! command: the commands build their `--method` choices from these tables.
 //!
 //! ```
 //! use pgm::methods::{association_source, clusterer, joint_estimator, MethodOptions};
@@ -53,14 +54,6 @@ fn invalid(e: impl fmt::Display) -> MethodError {
 /// `e` prefixed with the method whose parameter it concerns.
 fn of(method: &str, e: impl fmt::Display) -> MethodError {
     MethodError(format!("{method}: {e}"))
-}
-
-fn unknown(kind: &str, name: &str, known: &[(&str, &str)]) -> MethodError {
-    let names: Vec<&str> = known.iter().map(|(n, _)| *n).collect();
-    MethodError(format!(
-        "unknown {kind} `{name}`: expected one of {}",
-        names.join(", ")
-    ))
 }
 
 /// The parameters of every method, as the command line sets them (defaults: each
@@ -224,21 +217,66 @@ fn weight_kind_of(path: &std::path::Path) -> Option<WeightKind> {
     WeightKind::ALL.into_iter().find(|k| k.model() == model)
 }
 
-/// The association sources: name and what it is.
-pub const ASSOCIATION_SOURCES: &[(&str, &str)] = &[
-    (
-        "true",
-        "the pair's ground-truth associations (simulated data)",
-    ),
-    ("icp", "nearest neighbour after ICP (ego-motion only)"),
-    (
-        "segment-icp",
-        "segment-wise ICP, then nearest neighbours under each segment's motion",
-    ),
-    (
-        "crf-matching",
-        "CRF-Matching: learned association by a chain CRF over boosted shape features",
-    ),
+/// A registered method: the name the command line and the tables use, what it is,
+/// and how it is built from the [`MethodOptions`] (`B` is the builder's type, one per
+/// interface). Adding a method is one entry in its interface's table: every command,
+/// example and test looks methods up there.
+#[derive(Clone, Copy)]
+pub struct Method<B> {
+    /// The name, as typed (`--method NAME`).
+    pub name: &'static str,
+    /// What it is, in one line (the command line's help).
+    pub about: &'static str,
+    /// How it is built.
+    pub build: B,
+}
+
+impl<B> fmt::Debug for Method<B> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Method").field("name", &self.name).finish()
+    }
+}
+
+/// The entry of `table` named `name`, or the error listing the known names.
+fn lookup<'t, B>(
+    table: &'t [Method<B>],
+    kind: &str,
+    name: &str,
+) -> Result<&'t Method<B>, MethodError> {
+    table.iter().find(|m| m.name == name).ok_or_else(|| {
+        let names: Vec<&str> = table.iter().map(|m| m.name).collect();
+        MethodError(format!(
+            "unknown {kind} `{name}`: expected one of {}",
+            names.join(", ")
+        ))
+    })
+}
+
+/// Builds an association source.
+pub type BuildAssociations = fn(&MethodOptions) -> Result<Arc<dyn AssociationSource>, MethodError>;
+
+/// The association sources.
+pub const ASSOCIATION_SOURCES: &[Method<BuildAssociations>] = &[
+    Method {
+        name: "true",
+        about: "the pair's ground-truth associations (simulated data)",
+        build: |_| Ok(Arc::new(GroundTruthAssociations)),
+    },
+    Method {
+        name: "icp",
+        about: "nearest neighbour after ICP (ego-motion only)",
+        build: |o| Ok(Arc::new(o.nearest.check().map_err(invalid)?)),
+    },
+    Method {
+        name: "segment-icp",
+        about: "segment-wise ICP, then nearest neighbours under each segment's motion",
+        build: |o| Ok(Arc::new(o.segment.check().map_err(invalid)?)),
+    },
+    Method {
+        name: "crf-matching",
+        about: "CRF-Matching: learned association by a chain CRF over boosted shape features",
+        build: |o| Ok(Arc::new(o.matching.clone().check().map_err(invalid)?)),
+    },
 ];
 
 /// The association source named `name` (see [`ASSOCIATION_SOURCES`]).
@@ -246,13 +284,7 @@ pub fn association_source(
     name: &str,
     options: &MethodOptions,
 ) -> Result<Arc<dyn AssociationSource>, MethodError> {
-    Ok(match name {
-        "true" => Arc::new(GroundTruthAssociations),
-        "icp" => Arc::new(options.nearest.check().map_err(invalid)?),
-        "segment-icp" => Arc::new(options.segment.check().map_err(invalid)?),
-        "crf-matching" => Arc::new(options.matching.clone().check().map_err(invalid)?),
-        _ => return Err(unknown("association source", name, ASSOCIATION_SOURCES)),
-    })
+    (lookup(ASSOCIATION_SOURCES, "association source", name)?.build)(options)
 }
 
 /// The default association source for `pairs`: their ground truth when every pair has
@@ -270,27 +302,63 @@ pub fn default_association(pairs: &[ScanPair]) -> &'static str {
     }
 }
 
-/// The motion clusterers: name and what it is.
-pub const CLUSTERERS: &[(&str, &str)] = &[
-    (
-        "crf",
-        "CRF-Clustering (Tipaldi and Ramos), fed by an association source",
+/// How a motion clusterer is built: on its own, or fed by an association source.
+#[derive(Clone, Copy)]
+pub enum BuildClusterer {
+    /// A clusterer that reads the pair alone.
+    Alone(fn(&MethodOptions) -> Result<Box<dyn MotionClusterer>, MethodError>),
+    /// A clusterer fed by any association source (`--associations`).
+    WithAssociations(
+        fn(
+            Arc<dyn AssociationSource>,
+            &MethodOptions,
+        ) -> Result<Box<dyn MotionClusterer>, MethodError>,
     ),
-    ("cbd", "the consistency-based detector (Wang et al.)"),
-    (
-        "kmeans",
-        "motion K-Means (eq. 10), fed by an association source",
-    ),
-    ("one-cluster", "every return in the background cluster"),
-    (
-        "joint",
-        "the joint model (van de Ven, Ramos and Tipaldi): its clusters, the outlier cluster as background",
-    ),
+}
+
+/// The motion clusterers.
+pub const CLUSTERERS: &[Method<BuildClusterer>] = &[
+    Method {
+        name: "crf",
+        about: "CRF-Clustering (Tipaldi and Ramos), fed by an association source",
+        build: BuildClusterer::WithAssociations(|a, o| {
+            Ok(Box::new(Associated::new(
+                o.crf.clone().check().map_err(invalid)?,
+                a,
+            )))
+        }),
+    },
+    Method {
+        name: "cbd",
+        about: "the consistency-based detector (Wang et al.)",
+        build: BuildClusterer::Alone(|o| Ok(Box::new(o.cbd.check().map_err(invalid)?))),
+    },
+    Method {
+        name: "kmeans",
+        about: "motion K-Means (eq. 10), fed by an association source",
+        build: BuildClusterer::WithAssociations(|a, o| {
+            Ok(Box::new(Associated::new(o.kmeans.check().map_err(invalid)?, a)))
+        }),
+    },
+    Method {
+        name: "one-cluster",
+        about: "every return in the background cluster",
+        build: BuildClusterer::Alone(|_| Ok(Box::new(OneCluster))),
+    },
+    Method {
+        name: "joint",
+        about: "the joint model (van de Ven, Ramos and Tipaldi): its clusters, the outlier cluster as background",
+        build: BuildClusterer::Alone(|o| {
+            Ok(Box::new(JointClusters(o.joint.clone().check().map_err(invalid)?)))
+        }),
+    },
 ];
 
-/// Whether the clusterer `name` takes point associations.
+/// Whether the clusterer `name` takes point associations (false for an unknown name).
 pub fn clusterer_needs_associations(name: &str) -> bool {
-    matches!(name, "crf" | "kmeans")
+    CLUSTERERS
+        .iter()
+        .any(|m| m.name == name && matches!(m.build, BuildClusterer::WithAssociations(_)))
 }
 
 /// The motion clusterer named `name` (see [`CLUSTERERS`]); `associations` feeds the
@@ -300,40 +368,50 @@ pub fn clusterer(
     associations: Arc<dyn AssociationSource>,
     options: &MethodOptions,
 ) -> Result<Box<dyn MotionClusterer>, MethodError> {
-    Ok(match name {
-        "crf" => Box::new(Associated::new(
-            options.crf.clone().check().map_err(invalid)?,
-            associations,
-        )),
-        "cbd" => Box::new(options.cbd.check().map_err(invalid)?),
-        "kmeans" => Box::new(Associated::new(
-            options.kmeans.check().map_err(invalid)?,
-            associations,
-        )),
-        "one-cluster" => Box::new(OneCluster),
-        "joint" => Box::new(JointClusters(
-            options.joint.clone().check().map_err(invalid)?,
-        )),
-        _ => return Err(unknown("clustering method", name, CLUSTERERS)),
-    })
+    match lookup(CLUSTERERS, "clustering method", name)?.build {
+        BuildClusterer::Alone(build) => build(options),
+        BuildClusterer::WithAssociations(build) => build(associations, options),
+    }
 }
 
-/// The scan matchers: name and what it is.
-pub const SCAN_MATCHERS: &[(&str, &str)] = &[
-    (
-        "odometry",
-        "the odometry prior (the identity without odometry)",
-    ),
-    ("icp", "point-to-point ICP from the odometry prior"),
-    (
-        "icp+csm",
-        "correlative search around the prior (±1 m, ±30°), refined by ICP",
-    ),
-    (
-        "crf-matching",
-        "CRF-Matching: the ego-motion of its MAP associations",
-    ),
-    ("joint", "the joint model: the background cluster's motion"),
+/// Builds a scan matcher.
+pub type BuildMatcher = fn(&MethodOptions) -> Result<Box<dyn ScanMatcher>, MethodError>;
+
+/// The scan matchers.
+pub const SCAN_MATCHERS: &[Method<BuildMatcher>] = &[
+    Method {
+        name: "odometry",
+        about: "the odometry prior (the identity without odometry)",
+        build: |_| Ok(Box::new(Odometry)),
+    },
+    Method {
+        name: "icp",
+        about: "point-to-point ICP from the odometry prior",
+        build: |o| Ok(Box::new(o.icp.check().map_err(invalid)?)),
+    },
+    Method {
+        name: "icp+csm",
+        about: "correlative search around the prior (±1 m, ±30°), refined by ICP",
+        build: |_| {
+            Ok(Box::new(
+                pgm_scan::correlative::CorrelativeIcpMatcher::default(),
+            ))
+        },
+    },
+    Method {
+        name: "crf-matching",
+        about: "CRF-Matching: the ego-motion of its MAP associations",
+        build: |o| Ok(Box::new(o.matching.clone().check().map_err(invalid)?)),
+    },
+    Method {
+        name: "joint",
+        about: "the joint model: the background cluster's motion",
+        build: |o| {
+            Ok(Box::new(JointEgoMotion(
+                o.joint.clone().check().map_err(invalid)?,
+            )))
+        },
+    },
 ];
 
 /// The scan matcher named `name` (see [`SCAN_MATCHERS`]).
@@ -341,16 +419,7 @@ pub fn scan_matcher(
     name: &str,
     options: &MethodOptions,
 ) -> Result<Box<dyn ScanMatcher>, MethodError> {
-    Ok(match name {
-        "odometry" => Box::new(Odometry),
-        "icp" => Box::new(options.icp.check().map_err(invalid)?),
-        "icp+csm" => Box::new(pgm_scan::correlative::CorrelativeIcpMatcher::default()),
-        "crf-matching" => Box::new(options.matching.clone().check().map_err(invalid)?),
-        "joint" => Box::new(JointEgoMotion(
-            options.joint.clone().check().map_err(invalid)?,
-        )),
-        _ => return Err(unknown("scan-matching method", name, SCAN_MATCHERS)),
-    })
+    (lookup(SCAN_MATCHERS, "scan-matching method", name)?.build)(options)
 }
 
 /// The number of clusters of motion K-Means in the joint paper's experiments
@@ -358,52 +427,58 @@ pub fn scan_matcher(
 /// `tables_joint` example run the K-Means pipelines with it.
 pub const JOINT_PAPER_KMEANS_K: usize = 4;
 
-/// The joint methods (associations, clusters and motions of a pair together): name
-/// and what it is. The two-step pipelines are the joint paper's baselines.
-pub const JOINT_ESTIMATORS: &[(&str, &str)] = &[
-    (
-        "joint",
-        "the joint model: association and clustering chains coupled by per-cluster motions",
-    ),
-    (
-        "icp+kmeans",
-        "nearest neighbour after ICP, then motion K-Means on those associations",
-    ),
-    (
-        "crf-matching+kmeans",
-        "CRF-Matching, then motion K-Means on its associations",
-    ),
-    (
-        "separate",
-        "CRF-Matching, then CRF-Clustering on its associations (the chains without the shared motions)",
-    ),
+/// Builds a joint method.
+pub type BuildJoint = fn(&MethodOptions) -> Result<Box<dyn JointEstimator>, MethodError>;
+
+/// The joint methods (associations, clusters and motions of a pair together). The
+/// two-step pipelines are the joint paper's baselines; they put a return their
+/// association source calls an outlier in the outlier cluster
+/// ([`pgm_scan::methods::JointEstimate::from_two_steps`]).
+pub const JOINT_ESTIMATORS: &[Method<BuildJoint>] = &[
+    Method {
+        name: "joint",
+        about: "the joint model: association and clustering chains coupled by per-cluster motions",
+        build: |o| Ok(Box::new(o.joint.clone().check().map_err(invalid)?)),
+    },
+    Method {
+        name: "icp+kmeans",
+        about: "nearest neighbour after ICP, then motion K-Means on those associations",
+        build: |o| {
+            Ok(Box::new(TwoSteps::new(
+                "icp+kmeans",
+                o.kmeans.check().map_err(invalid)?,
+                association_source("icp", o)?,
+            )))
+        },
+    },
+    Method {
+        name: "crf-matching+kmeans",
+        about: "CRF-Matching, then motion K-Means on its associations",
+        build: |o| {
+            Ok(Box::new(TwoSteps::new(
+                "crf-matching+kmeans",
+                o.kmeans.check().map_err(invalid)?,
+                association_source("crf-matching", o)?,
+            )))
+        },
+    },
+    Method {
+        name: "separate",
+        about: "CRF-Matching, then CRF-Clustering on its associations (the chains without the shared motions)",
+        build: |o| {
+            Ok(Box::new(TwoSteps::new(
+                "separate",
+                o.crf.clone().check().map_err(invalid)?,
+                association_source("crf-matching", o)?,
+            )))
+        },
+    },
 ];
 
-/// The joint method named `name` (see [`JOINT_ESTIMATORS`]), named as typed. The
-/// two-step pipelines put a return their association source calls an outlier in the
-/// outlier cluster ([`pgm_scan::methods::JointEstimate::from_two_steps`]).
+/// The joint method named `name` (see [`JOINT_ESTIMATORS`]).
 pub fn joint_estimator(
     name: &str,
     options: &MethodOptions,
 ) -> Result<Box<dyn JointEstimator>, MethodError> {
-    let kmeans = || options.kmeans.check().map_err(invalid);
-    Ok(match name {
-        "joint" => Box::new(options.joint.clone().check().map_err(invalid)?),
-        "icp+kmeans" => Box::new(TwoSteps::new(
-            name,
-            kmeans()?,
-            association_source("icp", options)?,
-        )),
-        "crf-matching+kmeans" => Box::new(TwoSteps::new(
-            name,
-            kmeans()?,
-            association_source("crf-matching", options)?,
-        )),
-        "separate" => Box::new(TwoSteps::new(
-            name,
-            options.crf.clone().check().map_err(invalid)?,
-            association_source("crf-matching", options)?,
-        )),
-        _ => return Err(unknown("joint method", name, JOINT_ESTIMATORS)),
-    })
+    (lookup(JOINT_ESTIMATORS, "joint method", name)?.build)(options)
 }

@@ -33,7 +33,7 @@ pub fn matcher_names() -> PossibleValuesParser {
     PossibleValuesParser::new(
         SCAN_MATCHERS
             .iter()
-            .map(|(name, help)| PossibleValue::new(*name).help(*help)),
+            .map(|m| PossibleValue::new(m.name).help(m.about)),
     )
 }
 

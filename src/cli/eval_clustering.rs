@@ -60,7 +60,7 @@ pub fn clusterer_names() -> PossibleValuesParser {
     PossibleValuesParser::new(
         CLUSTERERS
             .iter()
-            .map(|(name, help)| PossibleValue::new(*name).help(*help)),
+            .map(|m| PossibleValue::new(m.name).help(m.about)),
     )
 }
 
