@@ -31,7 +31,7 @@ pub fn association_names() -> PossibleValuesParser {
     PossibleValuesParser::new(
         ASSOCIATION_SOURCES
             .iter()
-            .map(|(name, help)| PossibleValue::new(*name).help(*help)),
+            .map(|m| PossibleValue::new(m.name).help(m.about)),
     )
 }
 

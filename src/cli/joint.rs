@@ -90,7 +90,7 @@ fn joint_method_names() -> PossibleValuesParser {
     PossibleValuesParser::new(
         JOINT_ESTIMATORS
             .iter()
-            .map(|(name, help)| PossibleValue::new(*name).help(*help)),
+            .map(|m| PossibleValue::new(m.name).help(m.about)),
     )
 }
 
