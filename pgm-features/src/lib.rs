@@ -18,15 +18,25 @@
 //! - The joint matching + clustering + motion model: its clustering chain and 12
 //!   features ([`joint_clustering_features`]).
 //!
-//! Errors are the scan layer's ([`Error`]): the features fail only on geometry they
-//! cannot work on and on errors of the core.
+//! **What the models share.** One weight file ([`weight_file`]: the kind tag, the
+//! named weights, the model's other learned parts), the training of a model with an
+//! association chain ([`matching_training`]: CRF-Matching's, which the joint model
+//! shares), and one error shape ([`ModelError`], each model crate's `Error`).
+//!
+//! Errors of the feature code are the scan layer's ([`Error`]): the features fail only
+//! on geometry they cannot work on and on errors of the core.
 
 pub mod boosting;
 pub mod clustering_features;
 pub mod joint_clustering_features;
 pub mod matching_features;
+pub mod matching_training;
+mod model_error;
 pub mod motion_nodes;
 pub mod shape_features;
+pub mod weight_file;
 
+pub use model_error::{ModelError, ModelResult};
 pub use motion_nodes::{ClusterMotions, RigidMotionNodes};
 pub use pgm_scan::{Error, Result};
+pub use weight_file::{ModelWeights, WeightFile, WeightFileError};

@@ -193,7 +193,7 @@ fn run_clustering(args: TrainClusteringArgs) -> CliResult {
     bar.finish_and_clear();
     let (weights, result) = learned.map_err(|e| in_data(&args.data, e))?;
     let named = weights.to_weights().map_err(CliError::from_display)?;
-    named
+    weights
         .save(&args.out)
         .map_err(|e| CliError(format!("{}: {e}", args.out.display())))?;
     warn_unconverged(result.converged, result.iterations);

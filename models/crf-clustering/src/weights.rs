@@ -154,3 +154,64 @@ impl ModelWeights for ClusteringWeights {
 }
 
 pgm_features::model_weights_api!(ClusteringWeights, DEFAULT_WEIGHTS_JSON);
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The shipped file reads, and writing it back gives the same bytes.
+    #[test]
+    fn the_shipped_file_is_written_back_unchanged() {
+        let w = ClusteringWeights::default();
+        assert_eq!(w.to_json().unwrap(), DEFAULT_WEIGHTS_JSON);
+        assert_eq!(w.to_weights().unwrap().to_json(), DEFAULT_WEIGHTS_JSON);
+    }
+
+    /// Errors name the source and the field.
+    #[test]
+    fn errors_name_the_source_and_the_field() {
+        let e = |json: &str| {
+            ClusteringWeights::from_json(json, "w.json")
+                .unwrap_err()
+                .to_string()
+        };
+        let without = |name: &str| {
+            let mut v: serde_json::Value = serde_json::from_str(DEFAULT_WEIGHTS_JSON).unwrap();
+            v["weights"].as_object_mut().unwrap().remove(name);
+            v.to_string()
+        };
+        assert_eq!(
+            e(&without("stiffness.same")),
+            "w.json: field `weights.stiffness.same`: missing"
+        );
+        let extra = DEFAULT_WEIGHTS_JSON.replacen(
+            "\"version\": 1,",
+            "\"version\": 1, \"data_booster\": 1,",
+            1,
+        );
+        assert_eq!(
+            e(&extra),
+            "w.json: field `data_booster`: not a field of a CRF-Clustering weight file"
+        );
+        let other = DEFAULT_WEIGHTS_JSON.replacen("crf-clustering", "crf-matching", 1);
+        assert!(
+            e(&other).starts_with(
+                "w.json: not a CRF-Clustering weight file: field `model` is \"crf-matching\""
+            ),
+            "{}",
+            e(&other)
+        );
+        assert!(e("[1, 2").starts_with("w.json: not a CRF-Clustering weight file: "));
+        let positive = DEFAULT_WEIGHTS_JSON.replacen("-0.23814729538862026", "1.0", 1);
+        assert!(
+            e(&positive).starts_with("w.json: parameter `weights.distance`"),
+            "{}",
+            e(&positive)
+        );
+        let e = ClusteringWeights::load("/nonexistent/w.json").unwrap_err();
+        assert!(matches!(
+            e,
+            crate::Error::WeightFile(pgm_features::WeightFileError::Io { .. })
+        ));
+    }
+}

@@ -35,14 +35,13 @@
 //! **Current state.** Model, inference, learning and the shipped weights are
 //! complete; see the workspace README for measured accuracy and speed.
 
-mod error;
 pub mod learning;
 pub mod matcher;
 pub mod model;
 pub mod weights;
 
-pub use error::{Error, Result};
 pub use matcher::{Matcher, Matching, MatchingParams};
 pub use pgm_features::matching_features::StateSpace;
+pub use pgm_features::{ModelError as Error, ModelResult as Result};
 pub use pgm_scan::association::SegmentMotions;
 pub use weights::MatchingWeights;

@@ -11,18 +11,18 @@
 //! | `pairwise_distance` | `squared`, `normalised` | `(‖g_j' − g_j‖ − ‖s_{i+1} − s_i‖)²` within the band, and over `σ_i² + σ_{i+1}²` |
 //! | `pairwise_translation` | `squared`, `normalised` | `‖(g_j' − g_j) − R(s_{i+1} − s_i)‖²` within the band, and over `σ_i² + σ_{i+1}²` |
 //!
-//! The default weights and boosters (`weights/default.json`, compiled in with
-//! `include_str!`) were learned from simulated pairs; the command that produced them
-//! is in the crate's README section of the workspace README.
+//! The weights and boosters are kept in the workspace's one weight file
+//! ([`pgm_features::weight_file`]: `model` `crf-matching`, version 1, the 18 named
+//! weights, `data_booster` and `outlier_booster`). The default weights and boosters
+//! (`weights/default.json`, compiled in with `include_str!`) were learned from
+//! simulated pairs; the command that produced them is in the crate's README section of
+//! the workspace README.
 
-use crate::{Error, Result};
-use pgm_core::learning::{FeatureSet, Weights};
+use crate::Result;
+use pgm_core::learning::FeatureSet;
 use pgm_features::matching_features::{
-    check_association_weights, read_boosted_weights, write_boosted_weights, AssociationBoosters,
-    ASSOCIATION_TEMPLATES, ASSOCIATION_WEIGHTS,
+    check_association_weights, AssociationBoosters, ASSOCIATION_TEMPLATES, ASSOCIATION_WEIGHTS,
 };
-
-use std::path::Path;
 use std::sync::Arc;
 
 /// Name of the model in weight files.
@@ -38,12 +38,7 @@ pub const WEIGHTS: usize = ASSOCIATION_WEIGHTS;
 /// The 18 named weights of CRF-Matching (see the module table and
 /// [`ASSOCIATION_TEMPLATES`]).
 pub fn feature_set() -> Arc<FeatureSet> {
-    let mut f = FeatureSet::new(MODEL_NAME, MODEL_VERSION);
-    for (name, features) in ASSOCIATION_TEMPLATES {
-        f.add_template(name, features)
-            .expect("fixed template names are valid");
-    }
-    Arc::new(f)
+    pgm_features::weight_file::feature_set(MODEL_NAME, MODEL_VERSION, ASSOCIATION_TEMPLATES)
 }
 
 /// The learned parameters of CRF-Matching: the log-linear weights and the two
@@ -59,56 +54,13 @@ pub struct MatchingWeights {
 impl MatchingWeights {
     /// Checks the sizes: 18 finite weights, boosters over the right feature counts
     /// with finite stumps.
+    ///
+    /// # Errors
+    /// [`crate::Error::Features`] naming what is wrong.
     pub fn check_ref(&self) -> Result<()> {
         check_association_weights(&self.weights)?;
         self.boosters.check_ref()?;
         Ok(())
-    }
-
-    /// The weights as named [`Weights`].
-    pub fn named(&self) -> Result<Weights> {
-        Ok(Weights::new(feature_set(), self.weights.clone())?)
-    }
-
-    /// Parses the JSON written by [`MatchingWeights::to_json`]; `origin` names the
-    /// source in errors.
-    pub fn from_json(json: &str, origin: &str) -> Result<Self> {
-        let in_file = |problem: String| Error::WeightFile {
-            origin: origin.to_string(),
-            problem,
-        };
-        let (weights, boosters) =
-            read_boosted_weights(feature_set(), json, "a CRF-Matching weight file")
-                .map_err(in_file)?;
-        let weights = Self { weights, boosters };
-        weights.check_ref().map_err(|e| in_file(e.to_string()))?;
-        Ok(weights)
-    }
-
-    /// The JSON form (named weights and the boosters' stumps).
-    pub fn to_json(&self) -> Result<String> {
-        Ok(write_boosted_weights(&self.named()?, &self.boosters))
-    }
-
-    /// Loads weights written by `pgm train matching`.
-    pub fn load(path: impl AsRef<Path>) -> Result<Self> {
-        let path = path.as_ref();
-        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
-        Self::from_json(&text, &path.display().to_string())
-    }
-
-    /// Writes the weights atomically: a temporary sibling `.NAME.PID.tmp`, flushed to
-    /// disk and renamed into place (removed when anything fails), so `path` holds the
-    /// old file or the new one, never a part, and no other file is touched.
-    pub fn save(&self, path: impl AsRef<Path>) -> Result<()> {
-        let json = self.to_json()?;
-        pgm_core::fsutil::write_atomically(path, json.as_bytes()).map_err(|e| match e {
-            pgm_core::Error::Io { path, source } => Error::Io { path, source },
-            other => Error::Core(other),
-        })
     }
 
     /// All-zero weights and boosters without stumps (scores 0): the starting point of
@@ -119,16 +71,43 @@ impl MatchingWeights {
             boosters: AssociationBoosters::untrained(),
         }
     }
-
-    /// The shipped default weights.
-    pub fn default_weights() -> Self {
-        Self::from_json(DEFAULT_WEIGHTS_JSON, "the shipped default weights")
-            .expect("the shipped default weights are valid (checked by a test)")
-    }
 }
 
-impl Default for MatchingWeights {
-    fn default() -> Self {
-        Self::default_weights()
+pgm_features::boosted_model_weights!(MatchingWeights, "CRF-Matching", feature_set());
+
+pgm_features::model_weights_api!(MatchingWeights, DEFAULT_WEIGHTS_JSON);
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The shipped file reads; written back, it holds the same weights and the same
+    /// boosters, byte for byte.
+    #[test]
+    fn the_shipped_file_is_written_back_with_the_same_content() {
+        let w = MatchingWeights::default();
+        let shipped: serde_json::Value = serde_json::from_str(DEFAULT_WEIGHTS_JSON).unwrap();
+        let written: serde_json::Value = serde_json::from_str(&w.to_json().unwrap()).unwrap();
+        assert_eq!(written, shipped);
+        assert_eq!(
+            MatchingWeights::from_json(&w.to_json().unwrap(), "again").unwrap(),
+            w
+        );
+    }
+
+    /// A model's error keeps its type through the method traits.
+    #[test]
+    fn weight_file_errors_travel_whole() {
+        let e = MatchingWeights::from_json("{}", "w.json").unwrap_err();
+        let message = e.to_string();
+        assert_eq!(message, "w.json: field `model`: missing");
+        let through = pgm_scan::Error::from(e);
+        assert_eq!(through.to_string(), message);
+        assert!(matches!(
+            through.downcast_method::<crate::Error>(),
+            Some(crate::Error::WeightFile(
+                pgm_features::WeightFileError::Field { .. }
+            ))
+        ));
     }
 }

@@ -1,6 +1,8 @@
 //! Learning the joint model from labelled pairs: the two association boosters (as
 //! CRF-Matching's), then the 30 weights by pseudo-likelihood (L-BFGS,
-//! [`pgm_core::learning`]).
+//! [`pgm_core::learning`]), by the procedure it shares with CRF-Matching
+//! ([`pgm_features::matching_training`]); this module says what its samples and
+//! instances are.
 //!
 //! A labelled pair has ground-truth associations, labels and per-object motions (the
 //! simulator has all of them). The motions are observed during learning, as the
@@ -23,92 +25,14 @@ use crate::model::{node_motions, JointModel};
 use crate::weights::{feature_set, AssociationPart, JointWeights, ASSOCIATION_BASE, WEIGHTS};
 use crate::Result;
 use pgm_core::hybrid::chain::{chain_instance, HybridChainModel};
-use pgm_core::learning::{LabelledInstance, LearnerParams, LearningObserver, LearningResult};
-use pgm_core::param::InvalidParameter;
-use pgm_core::ParamGuard;
-use pgm_features::boosting::{BoosterParams, TrainingSet};
+use pgm_core::learning::{LabelledInstance, LearningObserver};
+use pgm_features::boosting::TrainingSet;
 use pgm_features::matching_features::{
     AssociationBoosters, AssociationProblem, StateSpace, ASSOCIATION_WEIGHTS,
 };
-use pgm_features::shape_features::{ASSOCIATION_FEATURES, OUTLIER_FEATURES};
+use pgm_features::matching_training::{train_boosted, BoostedTraining};
+pub use pgm_features::matching_training::{TrainedBoosters, TrainingOptions, TrainingReport};
 use pgm_scan::{Pose2, ScanPair};
-use rayon::prelude::*;
-
-/// Options of [`train`].
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct TrainingOptions {
-    /// Candidates per return (pruned state space) (6).
-    pub candidates: usize,
-    /// Candidate gate (m) (1).
-    pub candidate_gate: f64,
-    /// Geometric band (8).
-    pub band: usize,
-    /// Stumps per booster (50, as the paper).
-    pub stumps: usize,
-    /// Variance of the Gaussian prior on each weight (10).
-    pub prior_variance: f64,
-}
-
-impl TrainingOptions {
-    /// Checks the options before anything is allocated (a candidate count of 2^64 − 1
-    /// would reserve that many states per return).
-    ///
-    /// # Errors
-    /// [`crate::Error::InvalidParameter`] naming the option: candidates outside 1..=64, a
-    /// negative or non-finite gate or prior variance (the variance must be positive),
-    /// no stumps.
-    pub fn check(&self) -> Result<()> {
-        if !(1..=64).contains(&self.candidates) {
-            return Err(
-                InvalidParameter::new("candidates", self.candidates, "1..=64 candidates").into(),
-            );
-        }
-        InvalidParameter::non_negative(
-            "candidate_gate",
-            self.candidate_gate,
-            "a number of metres >= 0",
-        )?;
-        if !(self.prior_variance.is_finite() && self.prior_variance > 0.0) {
-            return Err(InvalidParameter::new(
-                "prior_variance",
-                self.prior_variance,
-                "a finite variance > 0",
-            )
-            .into());
-        }
-        if self.stumps == 0 {
-            return Err(InvalidParameter::new("stumps", 0, "at least 1 stump").into());
-        }
-        Ok(())
-    }
-}
-
-impl Default for TrainingOptions {
-    fn default() -> Self {
-        Self {
-            candidates: 6,
-            candidate_gate: 1.0,
-            band: 8,
-            stumps: 50,
-            prior_variance: 10.0,
-        }
-    }
-}
-
-/// What [`train`] learned and from what.
-#[derive(Clone, Debug)]
-pub struct TrainingReport {
-    /// Pairs the boosters were trained on.
-    pub booster_pairs: usize,
-    /// Data-booster samples (all, positive).
-    pub data_samples: (usize, usize),
-    /// Outlier-booster samples (all, positive).
-    pub outlier_samples: (usize, usize),
-    /// Pairs the weights were learned from.
-    pub weight_pairs: usize,
-    /// The pseudo-likelihood optimisation.
-    pub learning: LearningResult,
-}
 
 /// A labelled pair's nodes at their true states.
 struct Truth {
@@ -177,85 +101,72 @@ fn truth_of(
     })
 }
 
-/// The pseudo-likelihood instance of one labelled pair with the boosters of
-/// `weights` (see the module docs); `None` for a pair with fewer than two returns.
-///
-/// # Errors
-/// When the pair lacks ground truth (named).
-pub fn training_instance(
-    pair: &ScanPair,
-    weights: &JointWeights,
-    options: &TrainingOptions,
-) -> Result<Option<LabelledInstance>> {
-    let problem = AssociationProblem::new(pair, &weights.boosters)?;
-    if problem.len() < 2 {
-        return Ok(None);
+impl BoostedTraining for JointWeights {
+    fn untrained(boosters: AssociationBoosters) -> Self {
+        JointWeights {
+            weights: vec![0.0; WEIGHTS],
+            boosters,
+        }
     }
-    let Truth {
-        candidates,
-        association,
-        cluster,
-        motions,
-    } = truth_of(&problem, pair, options)?;
-    let mut model = JointModel::new(
-        &problem,
-        candidates,
-        motions,
-        0,
-        &weights.weights,
-        options.band,
-        &cluster,
-    );
-    for i in 0..problem.len() {
-        model.set_label(0, i, None, association[i]);
-        model.set_label(1, i, None, cluster[i]);
-    }
-    Ok(Some(chain_instance(
-        &model,
-        &feature_set(),
-        &[association, cluster],
-    )?))
-}
 
-/// Sample counts (all, positive).
-pub type SampleCounts = (usize, usize);
+    /// Every return's candidates under its true motion (its true partner among them);
+    /// the return is an outlier sample.
+    fn booster_samples(
+        pair: &ScanPair,
+        problem: &AssociationProblem,
+        options: &TrainingOptions,
+    ) -> Result<(TrainingSet, TrainingSet)> {
+        let t = truth_of(problem, pair, options)?;
+        let per_node = node_motions(problem, &t.cluster, &t.motions, 0);
+        Ok(problem.booster_samples(&t.candidates, &t.association, &per_node)?)
+    }
+
+    /// Both chains at their true labels (each chain's local tables condition on the
+    /// other's true labels).
+    fn training_instance(
+        &self,
+        pair: &ScanPair,
+        options: &TrainingOptions,
+    ) -> Result<Option<LabelledInstance>> {
+        let problem = AssociationProblem::new(pair, &self.boosters)?;
+        if problem.len() < 2 {
+            return Ok(None);
+        }
+        let Truth {
+            candidates,
+            association,
+            cluster,
+            motions,
+        } = truth_of(&problem, pair, options)?;
+        let mut model = JointModel::new(
+            &problem,
+            candidates,
+            motions,
+            0,
+            &self.weights,
+            options.band,
+            &cluster,
+        );
+        for i in 0..problem.len() {
+            model.set_label(0, i, None, association[i]);
+            model.set_label(1, i, None, cluster[i]);
+        }
+        Ok(Some(chain_instance(
+            &model,
+            &feature_set(),
+            &[association, cluster],
+        )?))
+    }
+}
 
 /// Trains the two association boosters on `pairs` (returns them with the data and
 /// outlier sample counts).
 ///
 /// # Errors
-/// When a pair lacks ground truth or a booster cannot be trained.
-pub fn train_boosters(
-    pairs: &[ScanPair],
-    options: &TrainingOptions,
-) -> Result<(AssociationBoosters, SampleCounts, SampleCounts)> {
-    options.check()?;
-    let placeholder = AssociationBoosters::untrained();
-    let sets: Vec<(TrainingSet, TrainingSet)> = pairs
-        .par_iter()
-        .map(|pair| -> Result<(TrainingSet, TrainingSet)> {
-            let problem = AssociationProblem::new(pair, &placeholder)?;
-            let t = truth_of(&problem, pair, options)?;
-            let per_node = node_motions(&problem, &t.cluster, &t.motions, 0);
-            Ok(problem.booster_samples(&t.candidates, &t.association, &per_node)?)
-        })
-        .collect::<Result<_>>()?;
-    let mut data = TrainingSet::new(ASSOCIATION_FEATURES);
-    let mut outliers = TrainingSet::new(OUTLIER_FEATURES);
-    for (d, o) in &sets {
-        data.extend(d)?;
-        outliers.extend(o)?;
-    }
-    let boost = BoosterParams::default().stumps(options.stumps).check()?;
-    let boosters = AssociationBoosters {
-        data: boost.train(&data)?,
-        outlier: boost.train(&outliers)?,
-    };
-    Ok((
-        boosters,
-        (data.len(), data.positives()),
-        (outliers.len(), outliers.positives()),
-    ))
+/// When an option is out of range, a pair lacks ground truth or a booster cannot be
+/// trained.
+pub fn train_boosters(pairs: &[ScanPair], options: &TrainingOptions) -> Result<TrainedBoosters> {
+    pgm_features::matching_training::train_boosters::<JointWeights>(pairs, options)
 }
 
 /// Trains the joint model on labelled `pairs`: boosters on the first half, weights on
@@ -306,57 +217,16 @@ fn train_with(
     association: Option<&AssociationPart>,
     observer: &mut dyn LearningObserver,
 ) -> Result<(JointWeights, TrainingReport)> {
-    if pairs.is_empty() {
-        return Err(InvalidParameter::new("pairs", 0, "at least one labelled pair").into());
-    }
-    options.check()?;
     if let Some(a) = association {
-        pgm_features::matching_features::check_association_weights(&a.weights)?;
-        a.boosters.check_ref()?;
+        a.check_ref()?;
     }
-    let half = if pairs.len() >= 2 { pairs.len() / 2 } else { 1 };
-    let (booster_pairs, weight_pairs) = if pairs.len() >= 2 {
-        (&pairs[..half], &pairs[half..])
-    } else {
-        (pairs, pairs)
-    };
-    let (boosters, booster_pairs, data_samples, outlier_samples) = match association {
-        Some(a) => (a.boosters.clone(), 0, (0, 0), (0, 0)),
-        None => {
-            let (b, d, o) = train_boosters(booster_pairs, options)?;
-            (b, booster_pairs.len(), d, o)
-        }
-    };
-    let mut weights = JointWeights {
-        weights: vec![0.0; WEIGHTS],
-        boosters,
-    };
-    let instances: Vec<LabelledInstance> = weight_pairs
-        .par_iter()
-        .map(|p| training_instance(p, &weights, options))
-        .collect::<Result<Vec<_>>>()?
-        .into_iter()
-        .flatten()
-        .collect();
-    let learner = LearnerParams::default()
-        .prior_variance(options.prior_variance)
-        .max_iterations(3000)
-        .check()?;
-    let learning = learner.learn(&feature_set(), &instances, observer)?;
-    weights.weights = learning.weights.values().to_vec();
+    let given = association.map(|a| &a.boosters);
+    let (mut weights, report) = train_boosted::<JointWeights>(pairs, options, given, observer)?;
+    weights.weights = report.learning.weights.values().to_vec();
     if let Some(a) = association {
         weights.weights[ASSOCIATION_BASE..ASSOCIATION_BASE + ASSOCIATION_WEIGHTS]
             .copy_from_slice(&a.weights);
     }
     weights.check_ref()?;
-    Ok((
-        weights,
-        TrainingReport {
-            booster_pairs,
-            data_samples,
-            outlier_samples,
-            weight_pairs: weight_pairs.len(),
-            learning,
-        },
-    ))
+    Ok((weights, report))
 }

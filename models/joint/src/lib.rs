@@ -27,14 +27,13 @@
 //! println!("{} clusters, ego-motion {:?}", result.motions.len(), result.ego_motion);
 //! ```
 
-mod error;
 pub mod estimator;
 pub mod learning;
 mod methods;
 pub mod model;
 pub mod weights;
 
-pub use error::{Error, Result};
 pub use estimator::{ClusterLabel, Clusters, Joint, JointParams, JointResult};
+pub use pgm_features::{ModelError as Error, ModelResult as Result};
 pub use pgm_scan::association::SegmentMotions;
 pub use weights::{AssociationPart, JointWeights};
