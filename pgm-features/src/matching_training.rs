@@ -112,32 +112,33 @@ pub struct TrainedBoosters {
 }
 
 /// A model with an association chain, as [`train_boosted`] trains it: the weight type
-/// says what its samples and instances are.
-pub trait BoostedTraining: ModelWeights + Sync {
-    /// All-zero weights with `boosters`: what the training instances are written with.
-    fn untrained(boosters: AssociationBoosters) -> Self;
-
-    /// The (data, outlier) booster samples of one labelled pair; `problem` is the
-    /// pair's association problem with untrained boosters.
+/// says what its samples and instances are (the instances are written with
+/// [`ModelWeights::untrained`] weights and the trained boosters).
+pub trait BoostedTraining: ModelWeights<Parts = AssociationBoosters> + Sync {
+    /// The (data, outlier) booster samples of one labelled pair (its problem has
+    /// untrained boosters).
     ///
     /// # Errors
     /// When the pair lacks ground truth (named).
-    fn booster_samples(
-        pair: &ScanPair,
-        problem: &AssociationProblem,
-        options: &TrainingOptions,
-    ) -> ModelResult<(TrainingSet, TrainingSet)>;
+    fn booster_samples(at: &TrainingPair) -> ModelResult<(TrainingSet, TrainingSet)>;
 
-    /// The pseudo-likelihood instance of one labelled pair written with these weights'
-    /// boosters; `None` for a pair the model cannot learn from (fewer than two returns).
+    /// The pseudo-likelihood instance of one labelled pair of at least two returns,
+    /// written with these weights' boosters (its problem has them).
     ///
     /// # Errors
     /// When the pair lacks ground truth (named).
-    fn training_instance(
-        &self,
-        pair: &ScanPair,
-        options: &TrainingOptions,
-    ) -> ModelResult<Option<LabelledInstance>>;
+    fn training_instance(&self, at: &TrainingPair) -> ModelResult<LabelledInstance>;
+}
+
+/// A labelled pair as a model's training sees it.
+#[derive(Clone, Copy)]
+pub struct TrainingPair<'a> {
+    /// The pair, with its ground truth.
+    pub pair: &'a ScanPair,
+    /// Its association problem (with the boosters of the step).
+    pub problem: &'a AssociationProblem,
+    /// The training options.
+    pub options: &'a TrainingOptions,
 }
 
 /// Trains the two boosters of `W` on `pairs` (step 1 of the module docs).
@@ -155,7 +156,12 @@ pub fn train_boosters<W: BoostedTraining>(
     let sets: Vec<(TrainingSet, TrainingSet)> = pairs
         .par_iter()
         .map(|pair| {
-            W::booster_samples(pair, &AssociationProblem::new(pair, &placeholder)?, options)
+            let problem = AssociationProblem::new(pair, &placeholder)?;
+            W::booster_samples(&TrainingPair {
+                pair,
+                problem: &problem,
+                options,
+            })
         })
         .collect::<ModelResult<_>>()?;
     let mut data = TrainingSet::new(ASSOCIATION_FEATURES);
@@ -214,10 +220,22 @@ pub fn train_boosted<W: BoostedTraining>(
             booster_pairs.len(),
         ),
     };
-    let weights = W::untrained(trained.boosters);
+    let weights = W::untrained(trained.boosters.clone());
+    let instance = |pair: &ScanPair| -> ModelResult<Option<LabelledInstance>> {
+        let problem = AssociationProblem::new(pair, &trained.boosters)?;
+        if problem.len() < 2 {
+            return Ok(None);
+        }
+        let at = TrainingPair {
+            pair,
+            problem: &problem,
+            options,
+        };
+        Ok(Some(weights.training_instance(&at)?))
+    };
     let instances: Vec<LabelledInstance> = weight_pairs
         .par_iter()
-        .map(|p| weights.training_instance(p, options))
+        .map(instance)
         .collect::<ModelResult<Vec<_>>>()?
         .into_iter()
         .flatten()

@@ -376,6 +376,12 @@ pub trait ModelWeights: Sized {
     /// The model's error naming what is wrong.
     fn check_values(&self) -> ModelResult<()>;
 
+    /// All-zero weights with `parts`: the starting point of training, not a usable
+    /// model.
+    fn untrained(parts: Self::Parts) -> Self {
+        Self::from_file(&vec![0.0; Self::feature_set().num_weights()], parts)
+    }
+
     /// Parses the text of a weight file; `origin` names the source in errors.
     ///
     /// # Errors

@@ -21,14 +21,14 @@
 //!    on the second half as they will be on new pairs, not overconfident.
 
 use crate::model::MatchingModel;
-use crate::weights::{feature_set, MatchingWeights, WEIGHTS};
+use crate::weights::{feature_set, MatchingWeights};
 use crate::Result;
 use pgm_core::hybrid::chain::chain_instance;
 use pgm_core::learning::{LabelledInstance, LearningObserver};
 use pgm_features::boosting::TrainingSet;
-use pgm_features::matching_features::{AssociationBoosters, AssociationProblem, StateSpace};
-use pgm_features::matching_training::{train_boosted, BoostedTraining};
-pub use pgm_features::matching_training::{TrainedBoosters, TrainingOptions, TrainingReport};
+use pgm_features::matching_features::{AssociationProblem, StateSpace};
+use pgm_features::matching_training::{train_boosted, BoostedTraining, TrainingPair};
+pub use pgm_features::matching_training::{TrainingOptions, TrainingReport};
 use pgm_scan::{Pose2, ScanPair};
 
 /// A pair's nodes under their true motions: candidates, the true state of each node,
@@ -90,64 +90,28 @@ fn true_candidates(
 }
 
 impl BoostedTraining for MatchingWeights {
-    fn untrained(boosters: AssociationBoosters) -> Self {
-        MatchingWeights {
-            weights: vec![0.0; WEIGHTS],
-            boosters,
-        }
-    }
-
     /// Every return's candidates under its true motion (its true partner among them).
-    fn booster_samples(
-        pair: &ScanPair,
-        problem: &AssociationProblem,
-        options: &TrainingOptions,
-    ) -> Result<(TrainingSet, TrainingSet)> {
-        let TrueStates {
-            candidates,
-            states,
-            group_of,
-            motions,
-        } = true_candidates(problem, pair, options)?;
-        let per_node: Vec<Pose2> = group_of.iter().map(|&g| motions[g]).collect();
-        Ok(problem.booster_samples(&candidates, &states, &per_node)?)
+    fn booster_samples(at: &TrainingPair) -> Result<(TrainingSet, TrainingSet)> {
+        let t = true_candidates(at.problem, at.pair, at.options)?;
+        let per_node: Vec<Pose2> = t.group_of.iter().map(|&g| t.motions[g]).collect();
+        Ok(at
+            .problem
+            .booster_samples(&t.candidates, &t.states, &per_node)?)
     }
 
     /// The chain at its true associations, with the candidates of the booster samples.
-    fn training_instance(
-        &self,
-        pair: &ScanPair,
-        options: &TrainingOptions,
-    ) -> Result<Option<LabelledInstance>> {
-        let problem = AssociationProblem::new(pair, &self.boosters)?;
-        if problem.len() < 2 {
-            return Ok(None);
-        }
-        let TrueStates {
-            candidates,
-            states,
-            group_of,
-            motions,
-        } = true_candidates(&problem, pair, options)?;
+    fn training_instance(&self, at: &TrainingPair) -> Result<LabelledInstance> {
+        let t = true_candidates(at.problem, at.pair, at.options)?;
         let model = MatchingModel::new(
-            &problem,
-            candidates,
-            group_of,
-            motions,
+            at.problem,
+            t.candidates,
+            t.group_of,
+            t.motions,
             &self.weights,
-            options.band,
+            at.options.band,
         );
-        Ok(Some(chain_instance(&model, &feature_set(), &[states])?))
+        Ok(chain_instance(&model, &feature_set(), &[t.states])?)
     }
-}
-
-/// Trains the two boosters on `pairs` (step 1 of the module docs).
-///
-/// # Errors
-/// When an option is out of range, a pair lacks ground truth, or a booster cannot be
-/// trained.
-pub fn train_boosters(pairs: &[ScanPair], options: &TrainingOptions) -> Result<TrainedBoosters> {
-    pgm_features::matching_training::train_boosters::<MatchingWeights>(pairs, options)
 }
 
 /// Trains CRF-Matching on labelled `pairs`: boosters on the first half, weights on the

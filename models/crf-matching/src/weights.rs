@@ -16,7 +16,18 @@
 //! weights, `data_booster` and `outlier_booster`). The default weights and boosters
 //! (`weights/default.json`, compiled in with `include_str!`) were learned from
 //! simulated pairs; the command that produced them is in the crate's README section of
-//! the workspace README.
+//! the workspace README. Written back, the shipped file holds the same weights and
+//! boosters:
+//!
+//! ```
+//! use pgm_crf_matching::weights::DEFAULT_WEIGHTS_JSON;
+//! use pgm_crf_matching::MatchingWeights;
+//!
+//! let written = MatchingWeights::default().to_json().unwrap();
+//! let json = |text: &str| serde_json::from_str::<serde_json::Value>(text).unwrap();
+//! assert_eq!(json(&written), json(DEFAULT_WEIGHTS_JSON));
+//! assert_eq!(MatchingWeights::from_json(&written, "again").unwrap(), MatchingWeights::default());
+//! ```
 
 use crate::Result;
 use pgm_core::learning::FeatureSet;
@@ -62,52 +73,8 @@ impl MatchingWeights {
         self.boosters.check_ref()?;
         Ok(())
     }
-
-    /// All-zero weights and boosters without stumps (scores 0): the starting point of
-    /// training, not a usable model.
-    pub fn untrained() -> Self {
-        Self {
-            weights: vec![0.0; WEIGHTS],
-            boosters: AssociationBoosters::untrained(),
-        }
-    }
 }
 
 pgm_features::boosted_model_weights!(MatchingWeights, "CRF-Matching", feature_set());
 
 pgm_features::model_weights_api!(MatchingWeights, DEFAULT_WEIGHTS_JSON);
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// The shipped file reads; written back, it holds the same weights and the same
-    /// boosters, byte for byte.
-    #[test]
-    fn the_shipped_file_is_written_back_with_the_same_content() {
-        let w = MatchingWeights::default();
-        let shipped: serde_json::Value = serde_json::from_str(DEFAULT_WEIGHTS_JSON).unwrap();
-        let written: serde_json::Value = serde_json::from_str(&w.to_json().unwrap()).unwrap();
-        assert_eq!(written, shipped);
-        assert_eq!(
-            MatchingWeights::from_json(&w.to_json().unwrap(), "again").unwrap(),
-            w
-        );
-    }
-
-    /// A model's error keeps its type through the method traits.
-    #[test]
-    fn weight_file_errors_travel_whole() {
-        let e = MatchingWeights::from_json("{}", "w.json").unwrap_err();
-        let message = e.to_string();
-        assert_eq!(message, "w.json: field `model`: missing");
-        let through = pgm_scan::Error::from(e);
-        assert_eq!(through.to_string(), message);
-        assert!(matches!(
-            through.downcast_method::<crate::Error>(),
-            Some(crate::Error::WeightFile(
-                pgm_features::WeightFileError::Field { .. }
-            ))
-        ));
-    }
-}

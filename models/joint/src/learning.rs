@@ -22,16 +22,14 @@
 //!    clusters is maximised.
 
 use crate::model::{node_motions, JointModel};
-use crate::weights::{feature_set, AssociationPart, JointWeights, ASSOCIATION_BASE, WEIGHTS};
+use crate::weights::{feature_set, AssociationPart, JointWeights, ASSOCIATION_BASE};
 use crate::Result;
 use pgm_core::hybrid::chain::{chain_instance, HybridChainModel};
 use pgm_core::learning::{LabelledInstance, LearningObserver};
 use pgm_features::boosting::TrainingSet;
-use pgm_features::matching_features::{
-    AssociationBoosters, AssociationProblem, StateSpace, ASSOCIATION_WEIGHTS,
-};
-use pgm_features::matching_training::{train_boosted, BoostedTraining};
-pub use pgm_features::matching_training::{TrainedBoosters, TrainingOptions, TrainingReport};
+use pgm_features::matching_features::{AssociationProblem, StateSpace, ASSOCIATION_WEIGHTS};
+use pgm_features::matching_training::{train_boosted, BoostedTraining, TrainingPair};
+pub use pgm_features::matching_training::{TrainingOptions, TrainingReport};
 use pgm_scan::{Pose2, ScanPair};
 
 /// A labelled pair's nodes at their true states.
@@ -102,71 +100,44 @@ fn truth_of(
 }
 
 impl BoostedTraining for JointWeights {
-    fn untrained(boosters: AssociationBoosters) -> Self {
-        JointWeights {
-            weights: vec![0.0; WEIGHTS],
-            boosters,
-        }
-    }
-
     /// Every return's candidates under its true motion (its true partner among them);
     /// the return is an outlier sample.
-    fn booster_samples(
-        pair: &ScanPair,
-        problem: &AssociationProblem,
-        options: &TrainingOptions,
-    ) -> Result<(TrainingSet, TrainingSet)> {
-        let t = truth_of(problem, pair, options)?;
-        let per_node = node_motions(problem, &t.cluster, &t.motions, 0);
-        Ok(problem.booster_samples(&t.candidates, &t.association, &per_node)?)
+    fn booster_samples(at: &TrainingPair) -> Result<(TrainingSet, TrainingSet)> {
+        let t = truth_of(at.problem, at.pair, at.options)?;
+        let per_node = node_motions(at.problem, &t.cluster, &t.motions, 0);
+        Ok(at
+            .problem
+            .booster_samples(&t.candidates, &t.association, &per_node)?)
     }
 
     /// Both chains at their true labels (each chain's local tables condition on the
     /// other's true labels).
-    fn training_instance(
-        &self,
-        pair: &ScanPair,
-        options: &TrainingOptions,
-    ) -> Result<Option<LabelledInstance>> {
-        let problem = AssociationProblem::new(pair, &self.boosters)?;
-        if problem.len() < 2 {
-            return Ok(None);
-        }
+    fn training_instance(&self, at: &TrainingPair) -> Result<LabelledInstance> {
         let Truth {
             candidates,
             association,
             cluster,
             motions,
-        } = truth_of(&problem, pair, options)?;
+        } = truth_of(at.problem, at.pair, at.options)?;
         let mut model = JointModel::new(
-            &problem,
+            at.problem,
             candidates,
             motions,
             0,
             &self.weights,
-            options.band,
+            at.options.band,
             &cluster,
         );
-        for i in 0..problem.len() {
+        for i in 0..at.problem.len() {
             model.set_label(0, i, None, association[i]);
             model.set_label(1, i, None, cluster[i]);
         }
-        Ok(Some(chain_instance(
+        Ok(chain_instance(
             &model,
             &feature_set(),
             &[association, cluster],
-        )?))
+        )?)
     }
-}
-
-/// Trains the two association boosters on `pairs` (returns them with the data and
-/// outlier sample counts).
-///
-/// # Errors
-/// When an option is out of range, a pair lacks ground truth or a booster cannot be
-/// trained.
-pub fn train_boosters(pairs: &[ScanPair], options: &TrainingOptions) -> Result<TrainedBoosters> {
-    pgm_features::matching_training::train_boosters::<JointWeights>(pairs, options)
 }
 
 /// Trains the joint model on labelled `pairs`: boosters on the first half, weights on

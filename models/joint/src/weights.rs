@@ -136,15 +136,6 @@ impl JointWeights {
         self.boosters.check_ref()?;
         Ok(())
     }
-
-    /// All-zero weights and boosters without stumps: the starting point of training,
-    /// not a usable model.
-    pub fn untrained() -> Self {
-        Self {
-            weights: vec![0.0; WEIGHTS],
-            boosters: AssociationBoosters::untrained(),
-        }
-    }
 }
 
 pgm_features::boosted_model_weights!(JointWeights, "joint-model", feature_set());
