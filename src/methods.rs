@@ -302,18 +302,16 @@ pub fn default_association(pairs: &[ScanPair]) -> &'static str {
     }
 }
 
+/// A motion clusterer built, or why not.
+pub type ClustererResult = Result<Box<dyn MotionClusterer>, MethodError>;
+
 /// How a motion clusterer is built: on its own, or fed by an association source.
 #[derive(Clone, Copy)]
 pub enum BuildClusterer {
     /// A clusterer that reads the pair alone.
-    Alone(fn(&MethodOptions) -> Result<Box<dyn MotionClusterer>, MethodError>),
+    Alone(fn(&MethodOptions) -> ClustererResult),
     /// A clusterer fed by any association source (`--associations`).
-    WithAssociations(
-        fn(
-            Arc<dyn AssociationSource>,
-            &MethodOptions,
-        ) -> Result<Box<dyn MotionClusterer>, MethodError>,
-    ),
+    WithAssociations(fn(Arc<dyn AssociationSource>, &MethodOptions) -> ClustererResult),
 }
 
 /// The motion clusterers.

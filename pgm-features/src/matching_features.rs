@@ -175,69 +175,6 @@ pub enum StateSpace {
     /// ego-motion).
     Pruned(usize),
 }
-/// The on-disk weight file of a model with association boosters (CRF-Matching, the
-/// joint model): the named weights in the core's format (`model`, `version`,
-/// `weights`: [`pgm_core::learning::Weights`]) and the two boosters' stumps
-/// (`data_booster`, `outlier_booster`).
-#[derive(Serialize, Deserialize)]
-struct BoostedWeightFile {
-    model: String,
-    version: u32,
-    weights: serde_json::Value,
-    data_booster: Booster,
-    outlier_booster: Booster,
-}
-
-/// Reads a weight file with association boosters written by
-/// [`write_boosted_weights`] for `features` (model name, version and every weight
-/// name must match); `what` names the kind of file in the message of a parse error
-/// ("a CRF-Matching weight file"). Returns the weights in `features` order and the
-/// boosters, unchecked beyond the names.
-///
-/// # Errors
-/// The problem as a message (the caller names the file): not JSON of this shape, or
-/// the named weights do not fit `features`.
-pub fn read_boosted_weights(
-    features: Arc<pgm_core::learning::FeatureSet>,
-    json: &str,
-    what: &str,
-) -> std::result::Result<(Vec<f64>, AssociationBoosters), String> {
-    let file: BoostedWeightFile =
-        serde_json::from_str(json).map_err(|e| format!("not {what}: {e}"))?;
-    let named = serde_json::json!({
-        "model": file.model,
-        "version": file.version,
-        "weights": file.weights,
-    });
-    let weights = pgm_core::learning::Weights::from_json(features, &named.to_string())
-        .map_err(|e| e.to_string())?;
-    Ok((
-        weights.values().to_vec(),
-        AssociationBoosters {
-            data: file.data_booster,
-            outlier: file.outlier_booster,
-        },
-    ))
-}
-
-/// The JSON of a weight file with association boosters: `weights` (named, with its
-/// model name and version) and `boosters` (see [`read_boosted_weights`]).
-pub fn write_boosted_weights(
-    weights: &pgm_core::learning::Weights,
-    boosters: &AssociationBoosters,
-) -> String {
-    let named: serde_json::Value =
-        serde_json::from_str(&weights.to_json()).expect("the core writes its weights as JSON");
-    let file = BoostedWeightFile {
-        model: named["model"].as_str().unwrap_or_default().to_string(),
-        version: named["version"].as_u64().unwrap_or_default() as u32,
-        weights: named["weights"].clone(),
-        data_booster: boosters.data.clone(),
-        outlier_booster: boosters.outlier.clone(),
-    };
-    serde_json::to_string_pretty(&file).expect("weights and stumps serialise")
-}
-
 /// Everything about a pair that does not change during inference: both scans' shapes,
 /// the reference scan's search structure and the boosters split for fast refreshes.
 pub struct AssociationProblem {
