@@ -300,6 +300,7 @@ fn drawing(pair: &ScanPair, clustering: &Clustering, title: String) -> Result<St
     picture.labels = Some(&clustering.labels);
     picture.motions = &motions;
     picture.alignment = clustering.background_motion;
+    picture.framing = pgm::plot::Framing::MovingObjects;
     picture.title = title;
     picture.to_svg_string().map_err(CliError::from_display)
 }

@@ -199,6 +199,8 @@ pub fn draw_joint(
     picture.motions = &motions;
     picture.alignment = estimate.ego_motion;
     picture.associations = Some(&estimate.associations);
+    picture.framing = pgm::plot::Framing::MovingObjects;
+    picture.unlabelled = Some("outlier cluster".into());
     picture.title = title;
     picture.write_svg(path).map_err(CliError::from_display)
 }
