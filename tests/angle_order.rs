@@ -11,59 +11,13 @@
 //! same estimate rather than on it, which moves a few nearest-neighbour partners
 //! across the gate, and K-Means (unlike the CRF) follows every partner.
 
+mod common;
+
+use common::pairs::{reversed, turned};
 use pgm::datasets::sim::{simulate_pairs, SimConfig};
-use pgm::datasets::{Association, ParamGuard, ScanPair};
+use pgm::datasets::ParamGuard;
 use pgm::eval::evaluate_clustering_pair;
 use pgm::methods::{association_source, clusterer, MethodOptions};
-use pgm::scan::Scan;
-
-/// The scan with its beams in reverse order.
-fn reversed_scan(scan: &Scan) -> Scan {
-    let mut s = scan.clone();
-    s.angles.reverse();
-    s.ranges.reverse();
-    s.valid.reverse();
-    s
-}
-
-/// The pair with both scans' beams reversed (and the per-beam ground truth with them).
-fn reversed(pair: &ScanPair) -> ScanPair {
-    let n = pair.reference.len();
-    let mut p = pair.clone();
-    p.reference = reversed_scan(&pair.reference);
-    p.current = reversed_scan(&pair.current);
-    if let Some(t) = p.truth.as_mut() {
-        if let Some(l) = t.labels.as_mut() {
-            l.reverse();
-        }
-        if let Some(l) = t.reference_labels.as_mut() {
-            l.reverse();
-        }
-        if let Some(a) = t.associations.as_mut() {
-            a.reverse();
-            for x in a.iter_mut().flatten() {
-                if let Association::Point(r) = x {
-                    *r = n - 1 - *r;
-                }
-            }
-        }
-    }
-    p
-}
-
-/// The pair with every beam angle of both scans moved by a whole turn.
-fn turned(pair: &ScanPair) -> ScanPair {
-    let mut p = pair.clone();
-    for a in p
-        .reference
-        .angles
-        .iter_mut()
-        .chain(p.current.angles.iter_mut())
-    {
-        *a += std::f64::consts::TAU;
-    }
-    p
-}
 
 #[test]
 fn every_method_ignores_the_beam_order_and_the_turn() {
@@ -88,20 +42,15 @@ fn every_method_ignores_the_beam_order_and_the_turn() {
             let mirror = evaluate_clustering_pair(&reversed(pair), m.as_ref()).unwrap();
             let turn = evaluate_clustering_pair(&turned(pair), m.as_ref()).unwrap();
             let v = original.score.v_measure;
-            assert!(
-                (mirror.score.v_measure - v).abs() <= tolerance,
-                "{} on {} reversed: V {} against {v}",
-                m.name(),
-                pair.name,
-                mirror.score.v_measure
-            );
-            assert!(
-                (turn.score.v_measure - v).abs() <= tolerance,
-                "{} on {} turned: V {} against {v}",
-                m.name(),
-                pair.name,
-                turn.score.v_measure
-            );
+            for (how, other) in [("reversed", &mirror), ("turned", &turn)] {
+                assert!(
+                    (other.score.v_measure - v).abs() <= tolerance,
+                    "{} on {} {how}: V {} against {v}",
+                    m.name(),
+                    pair.name,
+                    other.score.v_measure
+                );
+            }
             if tolerance > 1e-9 {
                 continue;
             }

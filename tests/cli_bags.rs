@@ -1,44 +1,15 @@
-//! Issue 18 from the command line: every command that reads a log reads a bag
-//! (`pgm data pairs`, `pgm data summary`, `pgm eval clustering`, `pgm eval matching`,
-//! `pgm cluster`), a malformed bag exits 2 naming topic, message and field, and
-//! `pgm eval clustering --json` carries the detection metrics. Bags are written here;
-//! the leigh-gtm1 bag of ../shared/data is checked against its text export.
+//! ROS bags from the command line (issue 18): every command that reads a log reads a
+//! bag (`pgm data pairs`, `pgm data summary`, `pgm eval clustering`, `pgm eval
+//! matching`, `pgm cluster`), a malformed bag or a damaged record exits 2 naming
+//! topic, message and field, and `pgm eval clustering --json` carries the detection
+//! metrics. Bags are written here; the leigh-gtm1 bag of ../shared/data is checked
+//! against its text export.
 
-use pgm_datasets::bag::synthetic::{drive, mcap_bag, ros1_bag};
+mod common;
+
+use common::*;
+use pgm_datasets::bag::synthetic::{drive, mcap_bag, ros1_bag, serialise, Wire};
 use pgm_datasets::testdata::shared_data_dir;
-use std::path::{Path, PathBuf};
-use std::process::Command;
-
-fn pgm(args: &[&str]) -> (String, String, Option<i32>) {
-    let out = Command::new(env!("CARGO_BIN_EXE_pgm"))
-        .args(args)
-        .output()
-        .unwrap();
-    (
-        String::from_utf8(out.stdout).unwrap(),
-        String::from_utf8(out.stderr).unwrap(),
-        out.status.code(),
-    )
-}
-
-fn ok(args: &[&str]) -> (String, String) {
-    let (out, err, code) = pgm(args);
-    assert_eq!(code, Some(0), "{args:?}\n{err}");
-    (out, err)
-}
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("pgm-cli-bags-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-fn write(dir: &Path, name: &str, bytes: &[u8]) -> String {
-    let p = dir.join(name);
-    std::fs::write(&p, bytes).unwrap();
-    p.to_str().unwrap().to_string()
-}
 
 const TRUTH: [&str; 10] = [
     "--scan-topic",
@@ -63,17 +34,29 @@ const FOOTPRINT: [&str; 4] = [
 fn bags_in_every_command() {
     let dir = temp_dir("commands");
     let records = drive(12);
-    let ros1 = write(&dir, "drive.bag", &ros1_bag(&records));
-    let ros2 = write(&dir, "drive.mcap", &mcap_bag(&records, false, None));
+    let ros1 = write_bytes(&dir, "drive.bag", &ros1_bag(&records));
+    let ros2 = write_bytes(&dir, "drive.mcap", &mcap_bag(&records, false, None));
+    // The command, then the bag with its topics, the footprint, and `rest`.
+    let with_truth = |command: &[&'static str], bag: &str, rest: &[&str]| -> Vec<String> {
+        [command, &["--bag", bag], &TRUTH, &FOOTPRINT, rest]
+            .concat()
+            .into_iter()
+            .map(String::from)
+            .collect()
+    };
+    let run = |args: Vec<String>| {
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        ok(&args)
+    };
     // pgm data pairs: the same data set from both containers.
     let mut outs = Vec::new();
     for (bag, out) in [(&ros1, "ros1"), (&ros2, "ros2")] {
-        let out = dir.join(out).to_str().unwrap().to_string();
-        let mut args = vec!["data", "pairs", "--bag", bag.as_str()];
-        args.extend(TRUTH);
-        args.extend(FOOTPRINT);
-        args.extend(["--k", "2", "--out", out.as_str()]);
-        let (stdout, stderr) = ok(&args);
+        let out = path(&dir, out);
+        let (stdout, stderr) = run(with_truth(
+            &["data", "pairs"],
+            bag,
+            &["--k", "2", "--out", &out],
+        ));
         assert!(stderr.contains("wrote 10 pairs of bag"), "{stderr}");
         assert!(
             stdout.is_empty(),
@@ -88,36 +71,22 @@ fn bags_in_every_command() {
         .iter()
         .all(|p| p.truth.as_ref().unwrap().ego_motion.is_some()));
     // pgm eval matching on the bag: the ego-motion truth from the poses.
-    let mut args = vec![
-        "eval",
-        "matching",
-        "--method",
-        "icp",
-        "--bag",
-        ros2.as_str(),
-    ];
-    args.extend(TRUTH);
-    args.extend(FOOTPRINT);
-    args.extend(["--k", "1", "--json"]);
-    let (stdout, _) = ok(&args);
-    let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    let (stdout, _) = run(with_truth(
+        &["eval", "matching", "--method", "icp"],
+        &ros2,
+        &["--k", "1", "--json"],
+    ));
+    let v = json(&stdout);
     assert_eq!(v["pairs"], 11);
     assert!(v["data"].as_str().unwrap().contains("drive.mcap"));
     assert!(v["translation_median"].as_f64().unwrap() < 0.05, "{v}");
     // pgm eval clustering --json: the detection fields, with the data named.
-    let mut args = vec![
-        "eval",
-        "clustering",
-        "--method",
-        "one-cluster",
-        "--bag",
-        ros1.as_str(),
-    ];
-    args.extend(TRUTH);
-    args.extend(FOOTPRINT);
-    args.extend(["--k", "2", "--json"]);
-    let (stdout, _) = ok(&args);
-    let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    let (stdout, _) = run(with_truth(
+        &["eval", "clustering", "--method", "one-cluster"],
+        &ros1,
+        &["--k", "2", "--json"],
+    ));
+    let v = json(&stdout);
     for field in [
         "v_measure_mean",
         "v_measure_mover_pairs",
@@ -139,23 +108,26 @@ fn bags_in_every_command() {
     assert!(v["moving_precision"].is_null());
     assert!(v["data"].as_str().unwrap().contains("drive.bag"));
     // pgm cluster on two scans of the bag.
-    let (stdout, _) = ok(&[
-        "cluster",
-        "--bag",
-        &ros2,
-        "--scan-topic",
-        "/scan",
-        "--odom-topic",
-        "/odom",
-        "--reference",
-        "2",
-        "--current",
-        "5",
-    ]);
-    let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    let cluster = one_pair("cluster", "--bag", &ros2, "2", "5");
+    let v = ok_json(
+        &[
+            &cluster[..],
+            &["--scan-topic", "/scan", "--odom-topic", "/odom"],
+        ]
+        .concat(),
+    );
     assert_eq!(v["pair"], "drive:2-5");
     assert_eq!(v["labels"].as_array().unwrap().len(), 181);
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// `pgm cluster` on scans 0 and `current` of `bag`, its scans on /scan.
+fn cluster_bag<'a>(bag: &'a str, current: &'a str) -> Vec<&'a str> {
+    [
+        &one_pair("cluster", "--bag", bag, "0", current)[..],
+        &["--scan-topic", "/scan"],
+    ]
+    .concat()
 }
 
 #[test]
@@ -163,79 +135,10 @@ fn malformed_bags_and_options_exit_2() {
     let dir = temp_dir("malformed");
     let records = drive(4);
     let mut bytes = mcap_bag(&records, false, None);
-    let good = write(&dir, "drive.mcap", &bytes);
-    let refused = |args: &[&str], needles: &[&str]| {
-        let (out, err, code) = pgm(args);
-        assert_eq!(code, Some(2), "{args:?}\n{err}");
-        assert!(out.is_empty(), "{out}");
-        assert!(!err.contains("panicked"), "{err}");
-        for n in needles {
-            assert!(err.contains(n), "{args:?}: {n:?} not in\n{err}");
-        }
-    };
-    refused(
-        &[
-            "data",
-            "pairs",
-            "--bag",
-            &good,
-            "--scan-topic",
-            "/laser",
-            "--out",
-            "x",
-        ],
-        &[
-            "drive.mcap",
-            "topic /laser",
-            "no such topic",
-            "/scan (sensor_msgs/msg/LaserScan",
-        ],
-    );
-    refused(
-        &["data", "pairs", "--bag", &good, "--out", "x"],
-        &["--bag needs --scan-topic"],
-    );
-    refused(
-        &[
-            "data",
-            "pairs",
-            "--bag",
-            &good,
-            "--scan-topic",
-            "/scan",
-            "--ego-pose-topic",
-            "/ego_pose",
-            "--object-pose-topic",
-            "/box_pose",
-            "--k",
-            "1",
-            "--out",
-            "x",
-        ],
-        &["footprint"],
-    );
-    refused(
-        &[
-            "data",
-            "pairs",
-            "--bag",
-            &good,
-            "--scan-topic",
-            "/scan",
-            "--laser-mount",
-            "1,2",
-            "--out",
-            "x",
-        ],
-        &["X,Y,YAW"],
-    );
+    let good = write_bytes(&dir, "drive.mcap", &bytes);
     // A scan message cut short inside its ranges.
     let scan = records.iter().find(|r| r.topic == "/scan").unwrap();
-    let data = pgm_datasets::bag::synthetic::serialise(
-        &scan.msg,
-        1,
-        pgm_datasets::bag::synthetic::Wire::Cdr { big_endian: false },
-    );
+    let data = serialise(&scan.msg, 1, Wire::Cdr { big_endian: false });
     let at = bytes
         .windows(data.len())
         .position(|w| w == data.as_slice())
@@ -243,49 +146,114 @@ fn malformed_bags_and_options_exit_2() {
     // The ranges' length (after the header, 7 floats): claim a million.
     let len_at = at + data.len() - 4 * 181 - 8;
     bytes[len_at..len_at + 4].copy_from_slice(&1_000_000u32.to_le_bytes());
-    let bad = write(&dir, "bad.mcap", &bytes);
-    refused(
-        &[
-            "eval",
-            "clustering",
-            "--method",
-            "cbd",
-            "--bag",
-            &bad,
-            "--scan-topic",
-            "/scan",
-        ],
-        &["bad.mcap", "topic /scan", "message 1", "field `ranges`"],
+    let bad = write_bytes(&dir, "bad.mcap", &bytes);
+    let junk = write_bytes(&dir, "junk.bag", b"#ROSBAG V2.0\n\x05\x00\x00\x00");
+    let pairs = |options: &[&'static str]| {
+        [
+            &["data", "pairs", "--bag", &good][..],
+            options,
+            &["--out", "x"],
+        ]
+        .concat()
+    };
+    refused_all(&[
+        (
+            pairs(&["--scan-topic", "/laser"]),
+            vec![
+                "drive.mcap",
+                "topic /laser",
+                "no such topic",
+                "/scan (sensor_msgs/msg/LaserScan",
+            ],
+        ),
+        (pairs(&[]), vec!["--bag needs --scan-topic"]),
+        (
+            pairs(&[
+                "--scan-topic",
+                "/scan",
+                "--ego-pose-topic",
+                "/ego_pose",
+                "--object-pose-topic",
+                "/box_pose",
+                "--k",
+                "1",
+            ]),
+            vec!["footprint"],
+        ),
+        (
+            pairs(&["--scan-topic", "/scan", "--laser-mount", "1,2"]),
+            vec!["X,Y,YAW"],
+        ),
+        (
+            eval(
+                "clustering",
+                "cbd",
+                &["--bag", &bad, "--scan-topic", "/scan"],
+            ),
+            vec!["bad.mcap", "topic /scan", "message 1", "field `ranges`"],
+        ),
+        (cluster_bag(&junk, "1"), vec!["junk.bag", "ROS 1 bag"]),
+        (cluster_bag(&good, "9"), vec!["scan 9", "no such scan"]),
+    ]);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Item 9 of the polish: a damaged record inside a ROS 1 chunk names the topic and
+/// message it is (its header still names its connection) or follows (it does not),
+/// and where it lies.
+#[test]
+fn damaged_bag_records_name_the_topic_and_message() {
+    let dir = temp_dir("bag-record");
+    let records = drive(4);
+    let good = ros1_bag(&records);
+    let scan = records
+        .iter()
+        .filter(|r| r.topic == "/scan")
+        .nth(1)
+        .unwrap();
+    let data = serialise(&scan.msg, 2, Wire::Ros1);
+    let at = good
+        .windows(data.len())
+        .position(|w| w == data.as_slice())
+        .unwrap();
+    // `good` with the 4-byte length at `offset` claiming 2^31 - 1 bytes, as `name`.
+    let garbled = |name: &str, offset: usize| {
+        let mut bytes = good.clone();
+        bytes[offset..offset + 4].copy_from_slice(&0x7fff_ffffu32.to_le_bytes());
+        write_bytes(&dir, name, &bytes)
+    };
+    // The data length of the second scan message runs past the chunk: its header
+    // still names the scan topic.
+    let length = garbled("length.bag", at - 4);
+    // The header length of the same record is garbled: the error names the message
+    // before it.
+    let header_len_at = at - 4 - 38 - 4;
+    assert_eq!(
+        &good[header_len_at..header_len_at + 4],
+        &38u32.to_le_bytes()
     );
-    let junk = write(&dir, "junk.bag", b"#ROSBAG V2.0\n\x05\x00\x00\x00");
-    refused(
-        &[
-            "cluster",
-            "--bag",
-            &junk,
-            "--scan-topic",
-            "/scan",
-            "--reference",
-            "0",
-            "--current",
-            "1",
-        ],
-        &["junk.bag", "ROS 1 bag"],
-    );
-    refused(
-        &[
-            "cluster",
-            "--bag",
-            &good,
-            "--scan-topic",
-            "/scan",
-            "--reference",
-            "0",
-            "--current",
-            "9",
-        ],
-        &["scan 9", "no such scan"],
-    );
+    let header = garbled("header.bag", header_len_at);
+    let errors = refused_all(&[
+        (
+            cluster_bag(&length, "1"),
+            vec![
+                "topic /scan, message 2",
+                "this message's record",
+                "of the chunk at byte",
+                "out of bounds",
+            ],
+        ),
+        (
+            cluster_bag(&header, "1"),
+            vec![
+                "topic /",
+                ", message ",
+                "the record after this message",
+                "at byte",
+            ],
+        ),
+    ]);
+    assert!(!errors[1].contains("rosbag::Error"), "{}", errors[1]);
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
@@ -328,7 +296,7 @@ fn leigh_bag_and_text_export_give_the_same_data_set() {
     };
     let a = summary(&bag_args);
     assert_eq!(a, summary(&text_args));
-    let rows: serde_json::Value = serde_json::from_str(&a).unwrap();
+    let rows = json(&a);
     let movers: Vec<(String, u64)> = rows
         .as_array()
         .unwrap()
@@ -364,7 +332,7 @@ fn leigh_bag_and_text_export_give_the_same_data_set() {
             "--json",
         ];
         args.extend(source);
-        let v: serde_json::Value = serde_json::from_str(&ok(&args).0).unwrap();
+        let v = ok_json(&args);
         (
             v["v_measure_mean"].as_f64().unwrap(),
             v["object_recall"].as_f64(),

@@ -1,19 +1,19 @@
-//! `pgm map` and `pgm marginals` on UAI files, checked against brute force, plus their
-//! error messages and `--stats` line.
+//! Inference from the command line: `pgm map` and `pgm marginals` on UAI files,
+//! checked against brute force under every schedule and TRW-S, their `--stats` line
+//! and warnings, and the errors on malformed or infeasible models and evidence
+//! (status 2, naming file, line and value).
 
+mod common;
+
+use common::{ok, refused, refused_all, temp_dir, write};
 use pgm_core::exact::{brute_force, BruteForceLimit};
 use pgm_core::uai::{Evidence, UaiModel};
 use pgm_core::{FactorGraph, TableFactor, VariableId};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::path::Path;
 
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("pgm-cli-{name}-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
+const SCHEDULES: [&str; 3] = ["flooding", "sequential", "residual"];
 
 /// A random tree with shuffled scope orders, some zero potentials, and cardinalities 1-4.
 fn random_tree(seed: u64) -> FactorGraph {
@@ -58,24 +58,14 @@ fn random_tree(seed: u64) -> FactorGraph {
     g
 }
 
-fn pgm(args: &[&str]) -> (String, String, bool) {
-    let out = Command::new(env!("CARGO_BIN_EXE_pgm"))
-        .args(args)
-        .output()
-        .unwrap();
-    (
-        String::from_utf8(out.stdout).unwrap(),
-        String::from_utf8(out.stderr).unwrap(),
-        out.status.success(),
-    )
-}
-
 fn numbers(line: &str) -> Vec<f64> {
     line.split_whitespace()
         .map(|t| t.parse().unwrap())
         .collect()
 }
 
+/// `pgm map` and `pgm marginals` on `model` (with `evidence`) under `schedule` agree
+/// with brute force.
 fn check(model: &Path, evidence: Option<&Path>, schedule: &str) {
     let uai = UaiModel::read(model).unwrap();
     let mut graph = uai.to_factor_graph().unwrap();
@@ -90,8 +80,7 @@ fn check(model: &Path, evidence: Option<&Path>, schedule: &str) {
     let Ok(exact) = brute_force(&graph, BruteForceLimit::default()) else {
         return;
     };
-    let (out, err, ok) = pgm(&[&["map"], &args[..]].concat());
-    assert!(ok, "{err}");
+    let (out, _) = ok(&[&["map"], &args[..]].concat());
     let lines: Vec<&str> = out.lines().collect();
     assert_eq!(lines[0], "MPE");
     let values = numbers(lines[1]);
@@ -104,8 +93,7 @@ fn check(model: &Path, evidence: Option<&Path>, schedule: &str) {
         exact.map_log_score
     );
 
-    let (out, err, ok) = pgm(&[&["marginals"], &args[..]].concat());
-    assert!(ok, "{err}");
+    let (out, _) = ok(&[&["marginals"], &args[..]].concat());
     let lines: Vec<&str> = out.lines().collect();
     assert_eq!(lines[0], "MAR");
     let values = numbers(lines[1]);
@@ -120,6 +108,13 @@ fn check(model: &Path, evidence: Option<&Path>, schedule: &str) {
     }
 }
 
+/// `graph` written as a UAI file `dir/name`; returns the path.
+fn uai_file(dir: &Path, name: &str, graph: &FactorGraph) -> String {
+    let path = dir.join(name);
+    UaiModel::from_factor_graph(graph).write(&path).unwrap();
+    path.to_str().unwrap().to_string()
+}
+
 #[test]
 fn map_and_marginals_are_exact_on_trees() {
     let dir = temp_dir("trees");
@@ -131,7 +126,7 @@ fn map_and_marginals_are_exact_on_trees() {
         let v = seed as usize % graph.num_variables();
         let x = seed as usize % graph.cardinalities()[v];
         std::fs::write(&evid, format!("1 {v} {x}\n")).unwrap();
-        for schedule in ["flooding", "sequential", "residual"] {
+        for schedule in SCHEDULES {
             check(&model, None, schedule);
             check(&model, Some(&evid), schedule);
         }
@@ -141,14 +136,10 @@ fn map_and_marginals_are_exact_on_trees() {
 #[test]
 fn stats_line_is_json_on_stderr() {
     let dir = temp_dir("stats");
-    let model = dir.join("m.uai");
-    UaiModel::from_factor_graph(&random_tree(99))
-        .write(&model)
-        .unwrap();
-    let (out, err, ok) = pgm(&["map", model.to_str().unwrap(), "--stats"]);
-    assert!(ok);
+    let model = uai_file(&dir, "m.uai", &random_tree(99));
+    let (out, err) = ok(&["map", &model, "--stats"]);
     assert!(out.starts_with("MPE\n"));
-    let stats: serde_json::Value = serde_json::from_str(err.trim()).unwrap();
+    let stats = common::json(&err);
     assert!(stats["iterations"].as_u64().unwrap() >= 1);
     assert_eq!(stats["converged"], serde_json::json!(true));
     assert!(stats["residual"].as_f64().unwrap() <= 1e-9);
@@ -158,80 +149,61 @@ fn stats_line_is_json_on_stderr() {
 #[test]
 fn malformed_input_names_file_line_and_expectation() {
     let dir = temp_dir("bad");
-    let model = dir.join("bad.uai");
-    std::fs::write(&model, "MARKOV\n2\n2 2\n1\n2 0 1\n\n4\n0.5 1 nope 2\n").unwrap();
-    let (out, err, ok) = pgm(&["map", model.to_str().unwrap()]);
-    assert!(!ok && out.is_empty());
-    assert!(
-        err.contains("bad.uai:8:") && err.contains("entry 2 of the table of function 0"),
-        "{err}"
+    let bad = write(
+        &dir,
+        "bad.uai",
+        "MARKOV\n2\n2 2\n1\n2 0 1\n\n4\n0.5 1 nope 2\n",
     );
-    std::fs::write(&model, "MARKOV\n2\n2 2\n1\n2 0 1\n\n4\n0.5 1 1 2\n").unwrap();
-    let evid = dir.join("e.evid");
-    std::fs::write(&evid, "1 1 7\n").unwrap();
-    let (_, err, ok) = pgm(&[
-        "map",
-        model.to_str().unwrap(),
-        "--evidence",
-        evid.to_str().unwrap(),
+    let model = write(
+        &dir,
+        "good.uai",
+        "MARKOV\n2\n2 2\n1\n2 0 1\n\n4\n0.5 1 1 2\n",
+    );
+    let evid = write(&dir, "e.evid", "1 1 7\n");
+    refused_all(&[
+        (
+            vec!["map", &bad],
+            vec!["bad.uai:8:", "entry 2 of the table of function 0"],
+        ),
+        (
+            vec!["map", &model, "--evidence", &evid],
+            vec!["e.evid:1:", "state 7 of variable 1"],
+        ),
+        (vec!["map", &model, "--damping", "1.5"], vec!["damping"]),
     ]);
-    assert!(!ok);
-    assert!(
-        err.contains("e.evid:1:") && err.contains("state 7 of variable 1"),
-        "{err}"
-    );
-    let (_, err, ok) = pgm(&["map", model.to_str().unwrap(), "--damping", "1.5"]);
-    assert!(!ok && err.contains("damping"), "{err}");
-}
-
-/// Writes `text` to `dir/name` and returns the path as a string.
-fn file(dir: &Path, name: &str, text: &str) -> String {
-    let path = dir.join(name);
-    std::fs::write(&path, text).unwrap();
-    path.to_str().unwrap().to_string()
 }
 
 #[test]
 fn models_and_evidence_without_positive_assignment_exit_2_with_the_reason() {
     let dir = temp_dir("infeasible");
     // B04: one binary variable whose only table is zero (Z = 0).
-    let zero = file(&dir, "zero.uai", "MARKOV\n1\n2\n1\n1 0\n\n2\n0 0\n");
-    for task in ["map", "marginals"] {
-        let (out, err, ok) = pgm(&[task, &zero]);
-        assert!(!ok && out.is_empty(), "{task}: {out}");
-        assert!(err.contains("zero.uai") && err.contains("Z = 0"), "{err}");
-    }
+    let zero = write(&dir, "zero.uai", "MARKOV\n1\n2\n1\n1 0\n\n2\n0 0\n");
     // B10: the evidence observes a state of probability 0.
-    let skew = file(&dir, "skew.uai", "MARKOV\n1\n2\n1\n1 0\n\n2\n1 0\n");
-    let bad = file(&dir, "bad.evid", "1 0 1\n");
-    for task in ["map", "marginals"] {
-        let (out, err, ok) = pgm(&[task, &skew, "--evidence", &bad]);
-        assert!(!ok && out.is_empty(), "{task}: {out}");
-        assert!(
-            err.contains("P(evidence) = 0") && err.contains("x0 = 1"),
-            "{err}"
-        );
-    }
+    let skew = write(&dir, "skew.uai", "MARKOV\n1\n2\n1\n1 0\n\n2\n1 0\n");
+    let bad = write(&dir, "bad.evid", "1 0 1\n");
     // ev-contradict: x0 = x1 = x2, evidence x0 = 0 and x2 = 1.
-    let chain = file(
+    let chain = write(
         &dir,
         "chain.uai",
         "MARKOV\n3\n2 2 2\n2\n2 0 1\n2 1 2\n\n4\n1 0 0 1\n\n4\n1 0 0 1\n",
     );
-    let apart = file(&dir, "apart.evid", "2 0 0 2 1\n");
-    for task in ["map", "marginals"] {
-        let (out, err, ok) = pgm(&[task, &chain, "--evidence", &apart]);
-        assert!(!ok && out.is_empty(), "{task}: {out}");
-        assert!(err.contains("x0 = 0, x2 = 1"), "{err}");
+    let apart = write(&dir, "apart.evid", "2 0 0 2 1\n");
+    let cases: [(&str, &[&str], &[&str]); 3] = [
+        (&zero, &[], &["zero.uai", "Z = 0"]),
+        (&skew, &["--evidence", &bad], &["P(evidence) = 0", "x0 = 1"]),
+        (&chain, &["--evidence", &apart], &["x0 = 0, x2 = 1"]),
+    ];
+    for (model, evidence, needles) in cases {
+        for task in ["map", "marginals"] {
+            refused(&[&[task, model][..], evidence].concat(), needles);
+        }
     }
     // Consistent evidence: observed variables are reported at their observed value,
     // with marginals that are exactly their observed state.
-    let together = file(&dir, "together.evid", "2 0 1 2 1\n");
-    let (out, err, ok) = pgm(&["map", &chain, "--evidence", &together]);
-    assert!(ok, "{err}");
+    let together = write(&dir, "together.evid", "2 0 1 2 1\n");
+    let (out, _) = ok(&["map", &chain, "--evidence", &together]);
     assert_eq!(out, "MPE\n3 1 1 1\n");
-    let (out, err, ok) = pgm(&["marginals", &chain, "--evidence", &together]);
-    assert!(ok, "{err}");
+    let (out, _) = ok(&["marginals", &chain, "--evidence", &together]);
     assert_eq!(out, "MAR\n3 2 0 1 2 0 1 2 0 1\n");
 }
 
@@ -240,68 +212,52 @@ fn uai_2010_evidence_with_several_samples_uses_the_first_or_the_chosen_one() {
     let dir = temp_dir("samples");
     // B09: x0 prefers 1 only when observed; x1, x2 follow x0 through equal-preferring
     // tables.
-    let model = file(
+    let model = write(
         &dir,
         "m.uai",
         "MARKOV\n3\n2 2 2\n3\n1 0\n2 0 1\n2 1 2\n\n2\n4 1\n\n4\n3 1 1 3\n\n4\n2 1 1 2\n",
     );
-    let evid = file(&dir, "m.evid", "2\n1 0 1\n0\n");
-    let (out, err, ok) = pgm(&["map", &model, "--evidence", &evid]);
-    assert!(ok, "{err}");
+    let evid = write(&dir, "m.evid", "2\n1 0 1\n0\n");
+    let (out, err) = ok(&["map", &model, "--evidence", &evid]);
     assert_eq!(out, "MPE\n3 1 1 1\n");
     assert!(
         err.contains("holds 2 evidence samples") && err.contains("--sample"),
         "{err}"
     );
-    let (out, err, ok) = pgm(&["map", &model, "--evidence", &evid, "--sample", "1"]);
-    assert!(ok, "{err}");
+    let (out, err) = ok(&["map", &model, "--evidence", &evid, "--sample", "1"]);
     assert_eq!(out, "MPE\n3 0 0 0\n");
     assert!(!err.contains("note"), "{err}");
-    let (out, err, ok) = pgm(&["map", &model, "--evidence", &evid, "--sample", "2"]);
-    assert!(!ok && out.is_empty());
-    assert!(
-        err.contains("--sample 2") && err.contains("2 evidence samples"),
-        "{err}"
+    refused(
+        &["map", &model, "--evidence", &evid, "--sample", "2"],
+        &["--sample 2", "2 evidence samples"],
     );
+}
+
+/// A UAI model of `n` binary variables and one table over all of them that declares
+/// `entries` entries and gives `given`.
+fn one_table(n: usize, entries: &str, given: &str) -> String {
+    let scope: Vec<String> = (0..n).map(|v| v.to_string()).collect();
+    format!(
+        "MARKOV\n{n}\n{}\n1\n{n} {}\n\n{entries}\n{given}",
+        vec!["2"; n].join(" "),
+        scope.join(" ")
+    )
 }
 
 #[test]
 fn sizes_in_a_model_file_are_checked_before_they_are_used() {
     let dir = temp_dir("sizes");
     // uai-prodoverflow: 64 binary variables, the product wraps to the table size 0.
-    let scope: Vec<String> = (0..64).map(|v| v.to_string()).collect();
-    let wrap = file(
-        &dir,
-        "wrap.uai",
-        &format!(
-            "MARKOV\n64\n{}\n1\n64 {}\n\n0\n",
-            vec!["2"; 64].join(" "),
-            scope.join(" ")
-        ),
-    );
-    let (out, err, ok) = pgm(&["map", &wrap]);
-    assert!(!ok && out.is_empty());
-    assert!(
-        err.contains("wrap.uai:7:") && err.contains("overflows"),
-        "{err}"
-    );
+    let wrap = write(&dir, "wrap.uai", &one_table(64, "0", ""));
     // uai-bigtable-prealloc: a 2^36-entry table declared, two entries given.
-    let scope: Vec<String> = (0..36).map(|v| v.to_string()).collect();
-    let big = file(
-        &dir,
-        "big.uai",
-        &format!(
-            "MARKOV\n36\n{}\n1\n36 {}\n\n68719476736\n1 1\n",
-            vec!["2"; 36].join(" "),
-            scope.join(" ")
+    let big = write(&dir, "big.uai", &one_table(36, "68719476736", "1 1\n"));
+    refused_all(&[
+        (vec!["map", &wrap], vec!["wrap.uai:7:", "overflows"]),
+        (
+            vec!["map", &big],
+            vec!["big.uai:", "unexpected end of file"],
         ),
-    );
-    let (out, err, ok) = pgm(&["map", &big]);
-    assert!(!ok && out.is_empty());
-    assert!(
-        err.contains("big.uai:") && err.contains("unexpected end of file"),
-        "{err}"
-    );
+    ]);
 }
 
 /// An 8×8 Potts grid with three labels and couplings of both signs: loopy and
@@ -343,15 +299,11 @@ fn frustrated_grid() -> FactorGraph {
 #[test]
 fn a_run_stopped_by_its_iteration_limit_says_so_on_stderr() {
     let dir = temp_dir("unconverged");
-    let model = dir.join("grid.uai");
-    UaiModel::from_factor_graph(&frustrated_grid())
-        .write(&model)
-        .unwrap();
-    let model = model.to_str().unwrap();
+    let model = uai_file(&dir, "grid.uai", &frustrated_grid());
+    let tree = uai_file(&dir, "tree.uai", &random_tree(5));
     for command in ["map", "marginals"] {
-        for schedule in ["flooding", "sequential", "residual"] {
-            let (out, err, ok) = pgm(&[command, model, "--schedule", schedule, "--max-iters", "1"]);
-            assert!(ok, "{err}");
+        for schedule in SCHEDULES {
+            let (out, err) = ok(&[command, &model, "--schedule", schedule, "--max-iters", "1"]);
             assert!(!out.is_empty());
             assert!(
                 err.contains("warning")
@@ -359,25 +311,16 @@ fn a_run_stopped_by_its_iteration_limit_says_so_on_stderr() {
                     && err.contains(schedule),
                 "{command} {schedule}: {err:?}"
             );
+            // A converged run prints nothing on stderr.
+            let (_, err) = ok(&[command, &tree, "--schedule", schedule]);
+            assert!(err.is_empty(), "{command} {schedule}: {err:?}");
         }
     }
-    let (_, err, ok) = pgm(&["map", model, "--algorithm", "trws", "--max-iters", "1"]);
-    assert!(ok, "{err}");
+    let (_, err) = ok(&["map", &model, "--algorithm", "trws", "--max-iters", "1"]);
     assert!(
         err.contains("warning") && err.contains("TRW-S") && err.contains("iteration limit"),
         "{err:?}"
     );
-    // A converged run prints nothing on stderr.
-    let tree = dir.join("tree.uai");
-    UaiModel::from_factor_graph(&random_tree(5))
-        .write(&tree)
-        .unwrap();
-    for command in ["map", "marginals"] {
-        for schedule in ["flooding", "sequential", "residual"] {
-            let (_, err, ok) = pgm(&[command, tree.to_str().unwrap(), "--schedule", schedule]);
-            assert!(ok && err.is_empty(), "{command} {schedule}: {err:?}");
-        }
-    }
 }
 
 #[test]
@@ -400,30 +343,27 @@ fn damping_changes_no_fixed_point_under_any_schedule() {
         .unwrap();
     }
     let dir = temp_dir("damping");
-    let model = dir.join("star.uai");
-    UaiModel::from_factor_graph(&g).write(&model).unwrap();
-    let evid = dir.join("star.uai.evid");
-    std::fs::write(&evid, "3 1 1 2 1 3 1\n").unwrap();
-    Evidence::read(&evid, g.cardinalities())
+    let model = uai_file(&dir, "star.uai", &g);
+    let evid = write(&dir, "star.uai.evid", "3 1 1 2 1 3 1\n");
+    Evidence::read(Path::new(&evid), g.cardinalities())
         .unwrap()
         .apply(&mut g)
         .unwrap();
     let exact = brute_force(&g, BruteForceLimit::default()).unwrap();
     for damping in ["0", "0.5", "0.9"] {
-        for schedule in ["flooding", "sequential", "residual"] {
-            let (out, err, ok) = pgm(&[
+        for schedule in SCHEDULES {
+            let (out, err) = ok(&[
                 "marginals",
-                model.to_str().unwrap(),
+                &model,
                 "--evidence",
-                evid.to_str().unwrap(),
+                &evid,
                 "--schedule",
                 schedule,
                 "--damping",
                 damping,
                 "--stats",
             ]);
-            assert!(ok, "{err}");
-            let stats: serde_json::Value = serde_json::from_str(err.trim()).unwrap();
+            let stats = common::json(&err);
             assert_eq!(
                 stats["converged"],
                 serde_json::json!(true),
@@ -445,24 +385,16 @@ fn trws_map_is_exact_on_trees_and_reports_its_bound() {
     let dir = temp_dir("trws");
     for seed in 0..8 {
         let graph = random_tree(seed);
-        let model = dir.join(format!("tree{seed}.uai"));
-        UaiModel::from_factor_graph(&graph).write(&model).unwrap();
+        let model = uai_file(&dir, &format!("tree{seed}.uai"), &graph);
         let Ok(exact) = brute_force(&graph, BruteForceLimit::default()) else {
             continue;
         };
-        let (out, err, ok) = pgm(&[
-            "map",
-            model.to_str().unwrap(),
-            "--algorithm",
-            "trws",
-            "--stats",
-        ]);
-        assert!(ok, "{err}");
+        let (out, err) = ok(&["map", &model, "--algorithm", "trws", "--stats"]);
         let values = numbers(out.lines().nth(1).unwrap());
         let assignment: Vec<usize> = values[1..].iter().map(|&x| x as usize).collect();
         let score = graph.log_score(&assignment).unwrap();
         assert!((score - exact.map_log_score).abs() < 1e-9, "seed {seed}");
-        let stats: serde_json::Value = serde_json::from_str(err.trim()).unwrap();
+        let stats = common::json(&err);
         assert_eq!(stats["algorithm"], "trws");
         assert_eq!(stats["converged"], serde_json::json!(true));
         let bound = stats["bound"].as_f64().unwrap();
@@ -476,11 +408,9 @@ fn trws_map_is_exact_on_trees_and_reports_its_bound() {
         assert!((0.0..1e-6).contains(&gap), "seed {seed}: gap {gap}");
         assert!(stats["iterations"].as_u64().unwrap() >= 1);
     }
-    let model = dir.join("tree0.uai");
-    let (out, err, ok) = pgm(&["marginals", model.to_str().unwrap(), "--algorithm", "trws"]);
-    assert!(!ok && out.is_empty());
-    assert!(
-        err.contains("--algorithm trws") && err.contains("MAP"),
-        "{err}"
+    let model = common::path(&dir, "tree0.uai");
+    refused(
+        &["marginals", &model, "--algorithm", "trws"],
+        &["--algorithm trws", "MAP"],
     );
 }

@@ -1,58 +1,24 @@
 //! `pgm joint`, `pgm eval joint` and `pgm eval clustering --method joint` from the
-//! command line: the JSON contracts of issue 15, the SVG, and clear errors (status 2)
-//! on bad input.
+//! command line: the JSON contracts of issue 15, the SVG, the motion fit, and clear
+//! errors (status 2) on bad input.
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
+mod common;
 
-fn pgm(args: &[&str]) -> (String, String, Option<i32>) {
-    let out = Command::new(env!("CARGO_BIN_EXE_pgm"))
-        .args(args)
-        .output()
-        .unwrap();
-    (
-        String::from_utf8(out.stdout).unwrap(),
-        String::from_utf8(out.stderr).unwrap(),
-        out.status.code(),
-    )
-}
+use common::logs::square_room;
+use common::*;
+use std::path::Path;
 
-/// Three simulated pairs (seed 5) in a fresh directory.
-fn simulated(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("pgm-cli-joint-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    let (_, err, code) = pgm(&[
-        "sim",
-        "--pairs",
-        "3",
-        "--seed",
-        "5",
-        "--out",
-        dir.to_str().unwrap(),
-    ]);
-    assert_eq!(code, Some(0), "{err}");
-    dir
-}
-
-fn json(out: &str) -> serde_json::Value {
-    serde_json::from_str(out.trim()).unwrap_or_else(|e| panic!("{e}: {out}"))
+/// Three simulated pairs (seed 5) in a fresh directory for the test `name`.
+fn simulated_3(name: &str) -> String {
+    simulated(&temp_dir(name), "ds", 5, 3).0
 }
 
 #[test]
 fn joint_prints_associations_clusters_and_motions_and_draws_them() {
-    let dir = simulated("one");
-    let svg = dir.join("joint.svg");
-    let (out, err, code) = pgm(&[
-        "joint",
-        "--pairs",
-        dir.to_str().unwrap(),
-        "--pair",
-        "1",
-        "--svg",
-        svg.to_str().unwrap(),
-    ]);
-    assert_eq!(code, Some(0), "{err}");
-    let v = json(&out);
+    let dir = temp_dir("one");
+    let (ds, _) = simulated(&dir, "ds", 5, 3);
+    let svg = path(&dir, "joint.svg");
+    let v = ok_json(&["joint", "--pairs", &ds, "--pair", "1", "--svg", &svg]);
     assert_eq!(v["pair"], "sim:mixed:5:1");
     assert_eq!(v["candidates"], "6");
     let beams = v["associations"].as_array().unwrap().len();
@@ -117,18 +83,16 @@ fn joint_prints_associations_clusters_and_motions_and_draws_them() {
 
 #[test]
 fn joint_takes_the_state_space_and_the_clusters() {
-    let dir = simulated("options");
-    let (out, err, code) = pgm(&[
+    let ds = simulated_3("options");
+    let v = ok_json(&[
         "joint",
         "--pairs",
-        dir.to_str().unwrap(),
+        &ds,
         "--candidates",
         "3",
         "--clusters",
         "5",
     ]);
-    assert_eq!(code, Some(0), "{err}");
-    let v = json(&out);
     assert_eq!(v["candidates"], "3");
     // D = 5 states: at most 4 motion clusters after the vacuous ones are dropped.
     assert!(v["motions"].as_array().unwrap().len() <= 4);
@@ -153,28 +117,18 @@ const FIELDS: [&str; 15] = [
     "iterations_mean",
 ];
 
-fn eval_joint(dir: &Path, method: &str) -> serde_json::Value {
-    let (out, err, code) = pgm(&[
-        "eval",
-        "joint",
-        "--method",
-        method,
-        "--pairs",
-        dir.to_str().unwrap(),
-        "--json",
-    ]);
-    assert_eq!(code, Some(0), "{method}: {err}");
-    json(&out)
+fn eval_joint(ds: &str, method: &str) -> serde_json::Value {
+    ok_json(&eval("joint", method, &["--pairs", ds, "--json"]))
 }
 
 #[test]
 fn eval_joint_prints_every_field_in_range() {
-    let dir = simulated("eval");
+    let ds = simulated_3("eval");
     for method in ["joint", "icp+kmeans", "crf-matching+kmeans", "separate"] {
-        let v = eval_joint(&dir, method);
+        let v = eval_joint(&ds, method);
         assert_eq!(v["method"], method, "names as typed");
         assert_eq!(v["pair_sets"], serde_json::json!(["sim:mixed:5"]));
-        assert!(v["data"].as_str().unwrap().contains(dir.to_str().unwrap()));
+        assert!(v["data"].as_str().unwrap().contains(&ds));
         assert!(v["weights"].is_string());
         let object = v.as_object().unwrap();
         for key in FIELDS {
@@ -227,8 +181,7 @@ fn eval_joint_prints_every_field_in_range() {
         }
     }
     // The text form names the data and the weights.
-    let (out, err, code) = pgm(&["eval", "joint", "--pairs", dir.to_str().unwrap()]);
-    assert_eq!(code, Some(0), "{err}");
+    let (out, _) = ok(&["eval", "joint", "--pairs", &ds]);
     assert!(
         out.contains("method joint: 3 pairs") && out.contains("sim:mixed:5"),
         "{out}"
@@ -238,17 +191,8 @@ fn eval_joint_prints_every_field_in_range() {
 
 #[test]
 fn eval_clustering_scores_the_joint_model_like_every_clusterer() {
-    let dir = simulated("clustering");
-    let (out, err, code) = pgm(&[
-        "eval",
-        "clustering",
-        "--method",
-        "joint",
-        "--pairs",
-        dir.to_str().unwrap(),
-        "--json",
-    ]);
-    assert_eq!(code, Some(0), "{err}");
+    let ds = simulated_3("clustering");
+    let (out, _) = ok(&eval("clustering", "joint", &["--pairs", &ds, "--json"]));
     let v = json(&out);
     assert_eq!(v["method"], "joint");
     assert_eq!(v["pairs"], 3);
@@ -260,114 +204,38 @@ fn eval_clustering_scores_the_joint_model_like_every_clusterer() {
 
 #[test]
 fn bad_input_is_a_clear_error_with_status_2() {
-    let dir = simulated("bad");
-    let cases: [(&[&str], &str); 6] = [
-        (
-            &["joint", "--pairs", "/nonexistent/pairs"],
-            "/nonexistent/pairs",
-        ),
-        (
-            &["joint", "--pairs", dir.to_str().unwrap(), "--pair", "7"],
-            "among its 3 pairs",
-        ),
-        (
-            &["joint", "--pairs", dir.to_str().unwrap(), "--clusters", "1"],
-            "`1` is neither `auto`",
-        ),
-        (
-            &[
-                "joint",
-                "--pairs",
-                dir.to_str().unwrap(),
-                "--candidates",
-                "0",
-            ],
-            "`0` is neither `full`",
-        ),
-        (
-            &[
-                "eval",
-                "joint",
-                "--method",
-                "kmeans",
-                "--pairs",
-                dir.to_str().unwrap(),
-            ],
-            "kmeans",
-        ),
-        (
-            &[
-                "joint",
-                "--pairs",
-                dir.to_str().unwrap(),
-                "--weights",
-                "/nonexistent/w.json",
-            ],
-            "/nonexistent/w.json",
-        ),
-    ];
-    for (args, needle) in cases {
-        let (_, err, code) = pgm(args);
-        assert_eq!(code, Some(2), "{args:?}: {err}");
-        assert!(err.contains(needle), "{args:?}: {err}");
-    }
+    let dir = temp_dir("bad");
+    let (ds, _) = simulated(&dir, "ds", 5, 3);
+    let joint = |options: &[&'static str]| [&["joint", "--pairs", &ds][..], options].concat();
     // A pair without ground truth: nothing to score, said so.
-    let text = std::fs::read_to_string(dir.join("pair-00000.json")).unwrap();
-    let mut pair: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let mut pair = read_json(Path::new(&ds).join("pair-00000.json"));
     pair.as_object_mut().unwrap().remove("truth");
-    let bare = dir.join("bare.json");
-    std::fs::write(&bare, pair.to_string()).unwrap();
-    let (_, err, code) = pgm(&["eval", "joint", "--pairs", bare.to_str().unwrap()]);
-    assert_eq!(code, Some(2), "{err}");
-    assert!(
-        err.contains("bare.json") && err.contains("none of the 1 pairs has a ground-truth"),
-        "{err}"
-    );
+    let bare = write(&dir, "bare.json", &pair.to_string());
+    refused_all(&[
+        (
+            vec!["joint", "--pairs", "/nonexistent/pairs"],
+            vec!["/nonexistent/pairs"],
+        ),
+        (joint(&["--pair", "7"]), vec!["among its 3 pairs"]),
+        (joint(&["--clusters", "1"]), vec!["`1` is neither `auto`"]),
+        (joint(&["--candidates", "0"]), vec!["`0` is neither `full`"]),
+        (eval("joint", "kmeans", &["--pairs", &ds]), vec!["kmeans"]),
+        (
+            joint(&["--weights", "/nonexistent/w.json"]),
+            vec!["/nonexistent/w.json"],
+        ),
+        (
+            vec!["eval", "joint", "--pairs", &bare],
+            vec!["bare.json", "none of the 1 pairs has a ground-truth"],
+        ),
+    ]);
 }
 
 #[test]
 fn joint_reads_a_carmen_log() {
-    // Two FLASER scans of a square room (half side 4 m) 0.2 m apart, the robot pose
-    // on each line (as tests/cli_clustering.rs).
-    let scan = |x: f64| {
-        let ranges: Vec<String> = (0..181)
-            .map(|k| {
-                let a = (-90.0 + k as f64).to_radians();
-                let (c, s) = (a.cos(), a.sin());
-                let front = if c > 1e-9 {
-                    (4.0 - x) / c
-                } else {
-                    f64::INFINITY
-                };
-                let side = if s.abs() > 1e-9 {
-                    4.0 / s.abs()
-                } else {
-                    f64::INFINITY
-                };
-                format!("{:.3}", front.min(side))
-            })
-            .collect();
-        format!(
-            "FLASER 181 {} {x} 0 0 {x} 0 0 {} host 0\n",
-            ranges.join(" "),
-            100.0 + x
-        )
-    };
-    let dir = std::env::temp_dir().join(format!("pgm-cli-joint-carmen-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let log = dir.join("room.clf");
-    std::fs::write(&log, format!("{}{}", scan(0.0), scan(0.2))).unwrap();
-    let log = log.to_str().unwrap();
-    let (out, err, code) = pgm(&[
-        "joint",
-        "--carmen",
-        log,
-        "--reference",
-        "0",
-        "--current",
-        "1",
-    ]);
-    assert_eq!(code, Some(0), "{err}");
+    // The square room of `cli_clustering.rs`: two scans 0.2 m apart.
+    let log = square_room(&temp_dir("carmen"), "");
+    let (out, _) = ok(&one_pair("joint", "--carmen", &log, "0", "1"));
     let v = json(&out);
     assert_eq!(v["pair"], "room:0-1");
     assert_eq!(v["clusters"].as_array().unwrap().len(), 181);
@@ -376,67 +244,10 @@ fn joint_reads_a_carmen_log() {
         (v["ego_motion"]["x"].as_f64().unwrap() - 0.2).abs() < 0.02,
         "{out}"
     );
-    let (_, err, code) = pgm(&[
-        "joint",
-        "--carmen",
-        log,
-        "--reference",
-        "0",
-        "--current",
-        "2",
-    ]);
-    assert_eq!(code, Some(2), "{err}");
-    assert!(err.contains("scan 2: no such laser scan"), "{err}");
-}
-
-/// `pgm train joint --association-weights` takes the association part of a
-/// CRF-Matching weight file and learns the clustering weights; a file of another
-/// model is refused with status 2, naming it, and nothing is written.
-#[test]
-fn train_joint_takes_the_association_part_of_crf_matching() {
-    let dir = std::env::temp_dir().join(format!("pgm-cli-joint-train-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let matching =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("models/crf-matching/weights/default.json");
-    let out = dir.join("joint.json");
-    let (stdout, stderr, code) = pgm(&[
-        "train",
-        "joint",
-        "--simulate",
-        "4",
-        "--seed",
-        "1000",
-        "--association-weights",
-        matching.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    assert_eq!(code, Some(0), "{stderr}");
-    let v = json(&stdout);
-    assert_eq!(v["booster_pairs"], 0);
-    assert_eq!(v["association_weights"], matching.to_str().unwrap());
-    let shipped: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&matching).unwrap()).unwrap();
-    assert_eq!(
-        v["weights"]["sequence.next"], shipped["weights"]["sequence.next"],
-        "the association weights are CRF-Matching's"
+    refused(
+        &one_pair("joint", "--carmen", &log, "0", "2"),
+        &["scan 2: no such laser scan"],
     );
-    // A joint-model file is not a CRF-Matching file.
-    let bad_out = dir.join("bad.json");
-    let (_, stderr, code) = pgm(&[
-        "train",
-        "joint",
-        "--simulate",
-        "2",
-        "--association-weights",
-        out.to_str().unwrap(),
-        "--out",
-        bad_out.to_str().unwrap(),
-    ]);
-    assert_eq!(code, Some(2), "{stderr}");
-    assert!(stderr.contains("joint.json"), "{stderr}");
-    assert!(!bad_out.exists());
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 /// `--motion-fit point-to-point` (eq. 6 alone, the paper's motion solve) reaches
@@ -444,52 +255,33 @@ fn train_joint_takes_the_association_part_of_crf_matching() {
 /// associate more returns exactly (seed 5: 0.903 against 0.881 for CRF-Matching).
 #[test]
 fn the_motion_fit_reaches_crf_matching_and_the_joint_model() {
-    let dir = simulated("motion-fit");
+    let ds = simulated_3("motion-fit");
     let accuracy = |args: &[&str], field: &str| {
-        let mut all = args.to_vec();
-        all.extend(["--pairs", dir.to_str().unwrap(), "--json"]);
-        let (out, err, code) = pgm(&all);
-        assert_eq!(code, Some(0), "{args:?}: {err}");
-        json(&out)[field].as_f64().unwrap()
+        ok_json(&[args, &["--pairs", &ds, "--json"]].concat())[field]
+            .as_f64()
+            .unwrap()
     };
-    let crf_m = ["eval", "association", "--method", "crf-matching"];
-    let line = accuracy(&crf_m, "accuracy");
-    let point = accuracy(
-        &[&crf_m[..], &["--motion-fit", "point-to-point"]].concat(),
-        "accuracy",
-    );
-    assert!(
-        line > point + 0.01,
-        "point-to-line {line}, point-to-point {point}"
-    );
-    let joint = ["eval", "joint", "--method", "joint"];
-    let line = accuracy(&joint, "association_accuracy");
-    let point = accuracy(
-        &[&joint[..], &["--motion-fit", "point-to-point"]].concat(),
-        "association_accuracy",
-    );
-    assert!(line > point, "point-to-line {line}, point-to-point {point}");
+    let point_to_point = ["--motion-fit", "point-to-point"];
+    for (command, field, by) in [
+        (eval("association", "crf-matching", &[]), "accuracy", 0.01),
+        (eval("joint", "joint", &[]), "association_accuracy", 0.0),
+    ] {
+        let line = accuracy(&command, field);
+        let point = accuracy(&[&command[..], &point_to_point].concat(), field);
+        assert!(
+            line > point + by,
+            "{command:?}: point-to-line {line}, point-to-point {point}"
+        );
+    }
     // The outputs say which solve made them.
     for fit in ["point-to-line", "point-to-point"] {
         for command in ["joint", "match"] {
-            let (out, err, code) = pgm(&[
-                command,
-                "--pairs",
-                dir.to_str().unwrap(),
-                "--motion-fit",
-                fit,
-            ]);
-            assert_eq!(code, Some(0), "{command}: {err}");
-            assert_eq!(json(&out)["motion_fit"], fit, "{command}");
+            let v = ok_json(&[command, "--pairs", &ds, "--motion-fit", fit]);
+            assert_eq!(v["motion_fit"], fit, "{command}");
         }
     }
-    let (_, err, code) = pgm(&[
-        "joint",
-        "--pairs",
-        dir.to_str().unwrap(),
-        "--motion-fit",
-        "icp",
-    ]);
-    assert_eq!(code, Some(2));
-    assert!(err.contains("--motion-fit"), "{err}");
+    refused(
+        &["joint", "--pairs", &ds, "--motion-fit", "icp"],
+        &["--motion-fit"],
+    );
 }
