@@ -300,6 +300,15 @@ pub struct SourceArgs {
     /// leigh-gtm1 odometry per scan (`ODOM idx stamp x y theta`).
     #[arg(long, requires = "scans", hide_short_help = true)]
     pub odometry: Option<PathBuf>,
+    /// CARMEN FLASER lines: the laser's geometry.
+    #[command(flatten)]
+    pub laser: CarmenLaserArgs,
+}
+
+/// The geometry of a CARMEN log's FLASER lines, where the log does not say it
+/// (`pgm data pairs`, `pgm eval`, `pgm track`).
+#[derive(Args, Debug, Default, Clone)]
+pub struct CarmenLaserArgs {
     /// CARMEN FLASER lines: field of view of the laser in degrees (overrides the log's
     /// PARAM lines and CARMEN's rule for the beam count).
     #[arg(long, hide_short_help = true)]
@@ -320,6 +329,23 @@ impl SourceArgs {
     pub fn check(&self) -> Result<(), CliError> {
         self.bag.check()?;
         self.labels.check()?;
+        self.laser.check()
+    }
+
+    /// The CARMEN reader options these arguments ask for.
+    pub fn carmen_options(&self) -> carmen::CarmenOptions {
+        carmen::CarmenOptions {
+            front_laser_fov: self.laser.laser_fov,
+            front_laser_resolution: self.laser.laser_resolution,
+            front_laser_start: self.laser.laser_start,
+            ..Default::default()
+        }
+    }
+}
+
+impl CarmenLaserArgs {
+    /// Checks the angles, whether or not a CARMEN log is read.
+    pub fn check(&self) -> Result<(), CliError> {
         for (option, value) in [
             ("--laser-fov", self.laser_fov),
             ("--laser-resolution", self.laser_resolution),
@@ -340,16 +366,6 @@ impl SourceArgs {
             }
         }
         Ok(())
-    }
-
-    /// The CARMEN reader options these arguments ask for.
-    pub fn carmen_options(&self) -> carmen::CarmenOptions {
-        carmen::CarmenOptions {
-            front_laser_fov: self.laser_fov,
-            front_laser_resolution: self.laser_resolution,
-            front_laser_start: self.laser_start,
-            ..Default::default()
-        }
     }
 }
 

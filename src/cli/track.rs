@@ -19,7 +19,9 @@
 //! the reference scan). A summary goes to stderr. `--svg FILE` draws the
 //! longest sequence ([`pgm::plot::TrackPicture`]).
 
-use super::data::{load_pairs, pair_source, parse_pose, BagArgs, LeighArgs, SourceArgs};
+use super::data::{
+    load_pairs, pair_source, parse_pose, BagArgs, CarmenLaserArgs, LeighArgs, SourceArgs,
+};
 use super::eval_clustering::MethodArgs;
 use super::{check_not_an_input, check_output_file, resolved_output, CliError, CliResult};
 use clap::Args;
@@ -101,17 +103,9 @@ pub struct SequenceSourceArgs {
     /// leigh-gtm1 odometry per scan (`ODOM idx stamp x y theta`).
     #[arg(long, requires = "scans", hide_short_help = true)]
     pub odometry: Option<PathBuf>,
-    /// CARMEN FLASER lines: field of view of the laser in degrees (overrides the log's
-    /// PARAM lines and CARMEN's rule for the beam count).
-    #[arg(long, hide_short_help = true)]
-    pub laser_fov: Option<f64>,
-    /// CARMEN FLASER lines: angle between beams in degrees (overrides the log's PARAM
-    /// lines and CARMEN's rule for the beam count).
-    #[arg(long, hide_short_help = true)]
-    pub laser_resolution: Option<f64>,
-    /// CARMEN FLASER lines: angle of the first beam in degrees (default -90, CARMEN's).
-    #[arg(long, allow_negative_numbers = true, hide_short_help = true)]
-    pub laser_start: Option<f64>,
+    /// CARMEN FLASER lines: the laser's geometry.
+    #[command(flatten)]
+    pub laser: CarmenLaserArgs,
 }
 
 impl SequenceSourceArgs {
@@ -130,9 +124,7 @@ impl SequenceSourceArgs {
             scans: self.scans.clone(),
             people: self.people.clone(),
             odometry: self.odometry.clone(),
-            laser_fov: self.laser_fov,
-            laser_resolution: self.laser_resolution,
-            laser_start: self.laser_start,
+            laser: self.laser.clone(),
             ..SourceArgs::default()
         }
     }
