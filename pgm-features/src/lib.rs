@@ -21,11 +21,15 @@
 //! **What the models share.** One weight file ([`weight_file`]: the kind tag, the
 //! named weights, the model's other learned parts), the training of a model with an
 //! association chain ([`matching_training`]: CRF-Matching's, which the joint model
-//! shares), and one error shape ([`ModelError`], each model crate's `Error`).
+//! shares; every model's training has one shape, [`training`]), the rounds of inference on that chain
+//! ([`association_rounds`]: the problem built beside the motion hypotheses, starting
+//! states, when rounds settle, the ego-motion's final ICP, per-beam output), and one
+//! error shape ([`ModelError`], each model crate's `Error`).
 //!
 //! Errors of the feature code are the scan layer's ([`Error`]): the features fail only
 //! on geometry they cannot work on and on errors of the core.
 
+pub mod association_rounds;
 pub mod boosting;
 pub mod clustering_features;
 pub mod joint_clustering_features;
@@ -34,6 +38,7 @@ pub mod matching_training;
 mod model_error;
 pub mod motion_nodes;
 pub mod shape_features;
+pub mod training;
 pub mod weight_file;
 
 pub use model_error::{ModelError, ModelResult};

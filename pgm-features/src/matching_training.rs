@@ -100,6 +100,21 @@ pub struct TrainingReport {
     pub learning: LearningResult,
 }
 
+impl TrainingReport {
+    /// The counts of the report by name, as [`crate::training::Trained::counts`]
+    /// gives them.
+    pub fn counts(&self) -> Vec<(&'static str, usize)> {
+        vec![
+            ("booster_pairs", self.booster_pairs),
+            ("data_samples", self.data_samples.0),
+            ("data_positives", self.data_samples.1),
+            ("outlier_samples", self.outlier_samples.0),
+            ("outlier_positives", self.outlier_samples.1),
+            ("weight_pairs", self.weight_pairs),
+        ]
+    }
+}
+
 /// The two trained boosters and their sample counts.
 #[derive(Clone, Debug)]
 pub struct TrainedBoosters {

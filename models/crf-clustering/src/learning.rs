@@ -26,8 +26,10 @@ use crate::{Error, Result};
 use pgm_core::hybrid::chain::{add_feature_cliques, chain_instance, FeatureTable};
 use pgm_core::learning::{LabelledInstance, LearnerParams, LearningObserver, LearningResult};
 use pgm_core::{ParamGuard, VariableId};
+use pgm_features::training::{ModelTrainer, Trained};
 use pgm_scan::{AssociationSource, PointAssociations, Pose2, ScanPair};
 use rayon::prelude::*;
+use std::sync::Arc;
 
 /// The labelled instance of one pair, or `None` when the pair has no ground-truth
 /// labels or no valid point. `params` gives the edges (`knn`).
@@ -181,4 +183,50 @@ pub fn learn(
             "weights the model accepts; the training pairs do not teach it to penalise distance",
     })?;
     Ok((weights, result))
+}
+
+/// CRF-Clustering's training with its options, in the shape every model's training
+/// has ([`ModelTrainer`]): the instances of every pair with each association source
+/// ([`training_instances`]), then [`learn`].
+#[derive(Clone)]
+pub struct ClusteringTrainer {
+    /// The model's parameters (the edges, `knn`, come from them).
+    pub params: ClusteringParams,
+    /// The association sources the training features use: each pair once per source.
+    pub sources: Vec<Arc<dyn AssociationSource>>,
+    /// Variance of the Gaussian prior on each weight.
+    pub prior_variance: f64,
+}
+
+impl ModelTrainer for ClusteringTrainer {
+    type Weights = ClusteringWeights;
+
+    /// Counts `instances` (labelled pairs times sources) and `pairs`.
+    ///
+    /// # Errors
+    /// As [`training_instances`] and [`learn`], and when no pair has ground-truth
+    /// labels.
+    fn train(
+        &self,
+        pairs: &[ScanPair],
+        observer: &mut dyn LearningObserver,
+    ) -> Result<Trained<ClusteringWeights>> {
+        self.params.check_ref()?;
+        let sources: Vec<&dyn AssociationSource> =
+            self.sources.iter().map(|s| s.as_ref()).collect();
+        let instances = training_instances(pairs, &sources, &self.params)?;
+        if instances.is_empty() {
+            return Err(Error::InvalidParameter {
+                name: "training set",
+                value: format!("{} pairs, none with ground-truth labels", pairs.len()),
+                expected: "pairs whose returns have ground-truth labels",
+            });
+        }
+        let (weights, learning) = learn(&instances, self.prior_variance, observer)?;
+        Ok(Trained {
+            weights,
+            counts: vec![("instances", instances.len()), ("pairs", pairs.len())],
+            learning,
+        })
+    }
 }

@@ -29,6 +29,7 @@ use pgm_features::boosting::TrainingSet;
 use pgm_features::matching_features::{AssociationProblem, StateSpace};
 use pgm_features::matching_training::{train_boosted, BoostedTraining, TrainingPair};
 pub use pgm_features::matching_training::{TrainingOptions, TrainingReport};
+use pgm_features::training::{ModelTrainer, Trained};
 use pgm_scan::{Pose2, ScanPair};
 
 /// A pair's nodes under their true motions: candidates, the true state of each node,
@@ -132,4 +133,29 @@ pub fn train(
     weights.weights = report.learning.weights.values().to_vec();
     weights.check_ref()?;
     Ok((weights, report))
+}
+
+/// CRF-Matching's training with its options, in the shape every model's training has
+/// ([`ModelTrainer`]; [`train`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct MatchingTrainer {
+    /// The training options.
+    pub options: TrainingOptions,
+}
+
+impl ModelTrainer for MatchingTrainer {
+    type Weights = MatchingWeights;
+
+    fn train(
+        &self,
+        pairs: &[ScanPair],
+        observer: &mut dyn LearningObserver,
+    ) -> Result<Trained<MatchingWeights>> {
+        let (weights, report) = train(pairs, &self.options, observer)?;
+        Ok(Trained {
+            weights,
+            counts: report.counts(),
+            learning: report.learning,
+        })
+    }
 }

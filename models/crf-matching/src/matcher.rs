@@ -22,12 +22,12 @@ use crate::weights::MatchingWeights;
 use crate::{Error, Result};
 use pgm_core::hybrid::chain::{ChainUpdate, HybridChainParams};
 use pgm_core::param::{InvalidParameter, ParamGuard};
-use pgm_features::matching_features::{AssociationProblem, StateSpace};
+use pgm_features::association_rounds::{polish_ego, problem_with_hypotheses, rounds_settled};
+use pgm_features::matching_features::StateSpace;
 use pgm_scan::association::{
     segment_motions, AssociationSource, SegmentIcp, SegmentMotions, SegmentParams,
 };
 use pgm_scan::methods::{EgoMotionEstimate, ScanMatcher};
-use pgm_scan::registration::IcpStatus;
 use pgm_scan::{Association, PointAssociations, Pose2, ScanPair};
 use serde::Serialize;
 
@@ -149,14 +149,7 @@ impl ParamGuard for MatchingParams {
     }
 }
 
-/// A run of rounds stops when no group's motion moved by more than this since the
-/// round's candidates were chosen (m and rad; 1 cm, 5 mrad): candidates chosen under
-/// the new motions would hardly differ.
-pub const ROUND_TOLERANCE: (f64, f64) = (0.01, 0.005);
-
-/// First correspondence distance (m) of the final ego-motion ICP
-/// ([`MatchingParams::polish_ego`]): the CRF's estimate is already close.
-pub const POLISH_DISTANCE: f64 = 0.3;
+pub use pgm_features::association_rounds::{POLISH_DISTANCE, ROUND_TOLERANCE};
 
 /// CRF-Matching with checked parameters.
 #[derive(Clone, Debug)]
@@ -264,26 +257,12 @@ impl Matcher {
     /// Both entry points: `given` hypotheses, else segment-wise ICP's.
     fn run(&self, pair: &ScanPair, given: Option<SegmentMotions>) -> Result<Matching> {
         let p = &self.params;
-        // The problem (shape features, search structures) and the motion hypotheses
-        // do not depend on each other: they are built side by side (rayon; one
-        // thread builds them in turn).
-        let n = pair.current.valid.iter().filter(|&&v| v).count();
-        let (problem, hypotheses) = if n == 0 {
-            (AssociationProblem::new(pair, &p.weights.boosters), None)
-        } else if let Some(given) = given {
-            (
-                AssociationProblem::new(pair, &p.weights.boosters),
-                Some(Ok(given)),
-            )
-        } else {
-            let (problem, hypotheses) = rayon::join(
-                || AssociationProblem::new(pair, &p.weights.boosters),
-                || segment_motions(pair, &self.segment_icp),
-            );
-            (problem, Some(hypotheses))
-        };
-        let problem = problem?;
-        debug_assert_eq!(problem.len(), n, "one node per valid current return");
+        let (problem, hypotheses) =
+            problem_with_hypotheses(pair, &p.weights.boosters, |_| match given {
+                Some(given) => Ok(given),
+                None => segment_motions(pair, &self.segment_icp),
+            })?;
+        let n = problem.len();
         let beams = pair.current.len();
         let Some(hypotheses) = hypotheses else {
             return Ok(Matching {
@@ -324,8 +303,7 @@ impl Matcher {
         let mut chosen: Vec<Option<usize>> = vec![None; n];
         let mut sweeps = 0;
         let mut rounds = 0;
-        let (mut labels, mut max_marginals, mut converged);
-        let mut model;
+        let (mut max_marginals, mut converged);
         let mut previous: Option<MatchingModel> = None;
         loop {
             rounds += 1;
@@ -333,7 +311,7 @@ impl Matcher {
             let own: Vec<Pose2> = group_of.iter().map(|&g| motions[g]).collect();
             let ego = vec![motions[0]; n];
             let candidates = problem.candidates(p.state_space, &own, &ego, p.candidate_gate);
-            model = match previous.take() {
+            let mut model = match previous.take() {
                 Some(last) => last.next_round(candidates, group_of.clone(), motions.clone()),
                 None => MatchingModel::new(
                     &problem,
@@ -345,28 +323,22 @@ impl Matcher {
                 )
                 .with_point_to_line(p.point_to_line),
             };
-            let initial: Vec<usize> = (0..n)
-                .map(|i| {
-                    let keep = chosen[i].and_then(|j| model.state_of(i, j));
-                    keep.unwrap_or_else(|| model.tables().nearest_state(i, &motions[group_of[i]]))
-                })
-                .collect();
+            let initial = model.tables().start_states(&chosen, &own);
             let result = solver.run(&mut model, &[initial])?;
             sweeps += result.sweeps;
             converged = result.converged;
-            labels = result.labels[0].clone();
+            let labels = &result.labels[0];
             max_marginals = (0..n)
                 .map(|i| result.max_marginal(0, i)[labels[i]])
                 .collect::<Vec<f64>>();
             motions = model.motions().to_vec();
             for (i, &l) in labels.iter().enumerate() {
-                chosen[i] = model.candidates()[i].get(l).copied();
+                chosen[i] = model.tables().partner(i, l);
             }
-            let settled = chosen_under.iter().zip(&motions).all(|(a, b)| {
-                a.translation_error(b) <= ROUND_TOLERANCE.0
-                    && a.rotation_error(b) <= ROUND_TOLERANCE.1
-            });
-            if settled || rounds >= p.max_rounds || matches!(p.state_space, StateSpace::Full) {
+            if rounds_settled(&chosen_under, &motions)
+                || rounds >= p.max_rounds
+                || matches!(p.state_space, StateSpace::Full)
+            {
                 break;
             }
             previous = Some(model);
@@ -374,21 +346,9 @@ impl Matcher {
         if p.polish_ego {
             // The static returns the CRF associates decide the ego-motion's final ICP
             // (see `MatchingParams::polish_ego`).
-            let mut seen = pair.current.clone();
-            seen.valid.fill(false);
-            for i in 0..n {
-                if group_of[i] == 0 && chosen[i].is_some() {
-                    seen.valid[problem.current.beams[i]] = true;
-                }
-            }
-            if let Ok(r) = problem
-                .search
-                .align_best(&seen, &[(motions[0], POLISH_DISTANCE)])
-            {
-                if r.status != IcpStatus::TooFewCorrespondences {
-                    motions[0] = r.motion;
-                }
-            }
+            motions[0] = polish_ego(&problem, pair, motions[0], |i| {
+                group_of[i] == 0 && chosen[i].is_some()
+            });
         }
         // Too little data for a rigid fit (eq. 6 on one or two associations follows
         // whatever they suggest): the ego-motion keeps the prior, and says so.
@@ -405,24 +365,12 @@ impl Matcher {
                  rigid fit needs: kept the prior"
             ));
         }
-        let mut associations = vec![None; beams];
-        let mut confidence = vec![None; beams];
-        let mut groups = vec![None; beams];
-        for i in 0..n {
-            let beam = problem.current.beams[i];
-            groups[beam] = Some(group_of[i]);
-            associations[beam] = Some(match chosen[i] {
-                Some(j) => Association::Point(problem.reference.beams[j]),
-                None => Association::Outlier,
-            });
-            confidence[beam] = Some(max_marginals[i]);
-        }
         Ok(Matching {
-            associations,
-            confidence,
+            associations: problem.per_beam(beams, |i| problem.association(chosen[i])),
+            confidence: problem.per_beam(beams, |i| max_marginals[i]),
             motion: motions[0],
             group_motions: motions,
-            groups,
+            groups: problem.per_beam(beams, |i| group_of[i]),
             sweeps,
             rounds,
             converged,

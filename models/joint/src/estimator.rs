@@ -36,10 +36,10 @@ use crate::weights::JointWeights;
 use crate::{Error, Result};
 use pgm_core::hybrid::chain::{ChainUpdate, Convergence, HybridChainParams};
 use pgm_core::param::{InvalidParameter, ParamGuard};
+use pgm_features::association_rounds::{polish_ego, problem_with_hypotheses, rounds_settled};
 use pgm_features::joint_clustering_features::MAX_MOTION_CLUSTERS;
-use pgm_features::matching_features::{AssociationProblem, StateSpace};
+use pgm_features::matching_features::StateSpace;
 use pgm_scan::association::{segment_motions, SegmentIcp, SegmentMotions, SegmentParams};
-use pgm_scan::registration::IcpStatus;
 use pgm_scan::{Association, Pose2, ScanPair};
 use serde::Serialize;
 
@@ -356,21 +356,10 @@ impl Joint {
     /// Both entry points: `given` hypotheses, else segment-wise ICP's.
     fn run(&self, pair: &ScanPair, given: Option<SegmentMotions>) -> Result<JointResult> {
         let p = &self.params;
-        // The problem (shape features, search structures) and the motion hypotheses
-        // do not depend on each other: they are built side by side (rayon; one
-        // thread builds them in turn).
-        let n = pair.current.valid.iter().filter(|&&v| v).count();
-        let (problem, initial) = if n == 0 {
-            (AssociationProblem::new(pair, &p.weights.boosters), None)
-        } else {
-            let (problem, initial) = rayon::join(
-                || AssociationProblem::new(pair, &p.weights.boosters),
-                || self.initial_clusters(pair, n, given),
-            );
-            (problem, Some(initial))
-        };
-        let problem = problem?;
-        debug_assert_eq!(problem.len(), n, "one node per valid current return");
+        let (problem, initial) = problem_with_hypotheses(pair, &p.weights.boosters, |n| {
+            self.initial_clusters(pair, n, given)
+        })?;
+        let n = problem.len();
         let beams = pair.current.len();
         let Some(initial) = initial else {
             let ego = pair.odometry.unwrap_or_default();
@@ -418,12 +407,7 @@ impl Joint {
                 )
                 .with_point_to_line(p.point_to_line),
             };
-            let start_association: Vec<usize> = (0..n)
-                .map(|i| {
-                    let keep = chosen[i].and_then(|j| model.tables().state_of(i, j));
-                    keep.unwrap_or_else(|| model.tables().nearest_state(i, &own[i]))
-                })
-                .collect();
+            let start_association = model.tables().start_states(&chosen, &own);
             let result = solver.run(&mut model, &[start_association, clusters.clone()])?;
             sweeps += result.sweeps;
             converged = result.converged;
@@ -436,11 +420,10 @@ impl Joint {
             }
             clusters.clone_from(&result.labels[CLUSTERING_CHAIN]);
             motions = model.motions().to_vec();
-            let settled = chosen_under
-                .iter()
-                .zip(&motions)
-                .all(|(a, b)| a.translation_error(b) <= 0.01 && a.rotation_error(b) <= 0.005);
-            if settled || rounds >= p.max_rounds || matches!(p.state_space, StateSpace::Full) {
+            if rounds_settled(&chosen_under, &motions)
+                || rounds >= p.max_rounds
+                || matches!(p.state_space, StateSpace::Full)
+            {
                 if let Some(sigma) = p.object_rotation_sigma {
                     motions = model.object_motions_with_prior(sigma);
                 }
@@ -472,39 +455,20 @@ impl Joint {
         }
         let mut ego = motions[background];
         if p.polish_ego {
-            let mut seen = pair.current.clone();
-            seen.valid.fill(false);
-            for i in 0..n {
-                if clusters[i] == background && chosen[i].is_some() {
-                    seen.valid[problem.current.beams[i]] = true;
-                }
-            }
-            if let Ok(r) = problem.search.align_best(&seen, &[(ego, POLISH_DISTANCE)]) {
-                if r.status != IcpStatus::TooFewCorrespondences {
-                    ego = r.motion;
-                }
-            }
-        }
-        let mut associations = vec![None; beams];
-        let mut confidences = vec![None; beams];
-        let mut labels = vec![None; beams];
-        for i in 0..n {
-            let beam = problem.current.beams[i];
-            associations[beam] = Some(match chosen[i] {
-                Some(j) => Association::Point(problem.reference.beams[j]),
-                None => Association::Outlier,
-            });
-            confidences[beam] = Some(confidence[i]);
-            labels[beam] = Some(match renumber.get(clusters[i]).copied().flatten() {
-                Some(k) => ClusterLabel::Object(k),
-                None => ClusterLabel::Outlier,
+            ego = polish_ego(&problem, pair, ego, |i| {
+                clusters[i] == background && chosen[i].is_some()
             });
         }
         kept[0] = ego;
         Ok(JointResult {
-            associations,
-            confidence: confidences,
-            clusters: labels,
+            associations: problem.per_beam(beams, |i| problem.association(chosen[i])),
+            confidence: problem.per_beam(beams, |i| confidence[i]),
+            clusters: problem.per_beam(beams, |i| {
+                match renumber.get(clusters[i]).copied().flatten() {
+                    Some(k) => ClusterLabel::Object(k),
+                    None => ClusterLabel::Outlier,
+                }
+            }),
             motions: kept,
             background: 0,
             ego_motion: ego,
@@ -515,5 +479,5 @@ impl Joint {
     }
 }
 
-/// First correspondence distance (m) of the final ego-motion ICP.
-pub const POLISH_DISTANCE: f64 = 0.3;
+/// First correspondence distance (m) of the final ego-motion ICP (as CRF-Matching's).
+pub use pgm_features::association_rounds::POLISH_DISTANCE;

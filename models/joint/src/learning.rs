@@ -30,6 +30,7 @@ use pgm_features::boosting::TrainingSet;
 use pgm_features::matching_features::{AssociationProblem, StateSpace, ASSOCIATION_WEIGHTS};
 use pgm_features::matching_training::{train_boosted, BoostedTraining, TrainingPair};
 pub use pgm_features::matching_training::{TrainingOptions, TrainingReport};
+use pgm_features::training::{ModelTrainer, Trained};
 use pgm_scan::{Pose2, ScanPair};
 
 /// A labelled pair's nodes at their true states.
@@ -200,4 +201,34 @@ fn train_with(
     }
     weights.check_ref()?;
     Ok((weights, report))
+}
+
+/// The joint model's training with its options, in the shape every model's training
+/// has ([`ModelTrainer`]): [`train`], or [`train_clustering`] with the association
+/// chain's part given.
+#[derive(Clone, Debug, Default)]
+pub struct JointTrainer {
+    /// The training options.
+    pub options: TrainingOptions,
+    /// The association chain's weights and boosters, when they are given (piecewise
+    /// training, [`train_clustering`]); `None` learns them too.
+    pub association: Option<AssociationPart>,
+}
+
+impl ModelTrainer for JointTrainer {
+    type Weights = JointWeights;
+
+    fn train(
+        &self,
+        pairs: &[ScanPair],
+        observer: &mut dyn LearningObserver,
+    ) -> Result<Trained<JointWeights>> {
+        let (weights, report) =
+            train_with(pairs, &self.options, self.association.as_ref(), observer)?;
+        Ok(Trained {
+            weights,
+            counts: report.counts(),
+            learning: report.learning,
+        })
+    }
 }

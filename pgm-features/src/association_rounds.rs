@@ -1,0 +1,122 @@
+//! The rounds of inference of a model built on the association chain
+//! ([`crate::matching_features`]): CRF-Matching and the joint model run them alike.
+//!
+//! 1. The pair's [`AssociationProblem`] is built side by side with the model's motion
+//!    hypotheses ([`problem_with_hypotheses`]).
+//! 2. Each round chooses candidates under the current motions, starts every node at
+//!    its last round's partner where that is still a candidate, else at the candidate
+//!    nearest under its motion ([`AssociationTables::start_states`]), runs the chain
+//!    solver, and ends the run when no motion moved by more than [`ROUND_TOLERANCE`]
+//!    since its candidates were chosen ([`rounds_settled`]).
+//! 3. The ego-motion ends with ICP on the static returns with a partner
+//!    ([`polish_ego`]), and every node's result goes to its beam
+//!    ([`AssociationProblem::per_beam`], [`AssociationProblem::association`]).
+
+use crate::matching_features::{AssociationBoosters, AssociationProblem, AssociationTables};
+use crate::Result;
+use pgm_scan::registration::IcpStatus;
+use pgm_scan::{Association, Pose2, ScanPair};
+
+/// A run of rounds stops when no motion moved by more than this since the round's
+/// candidates were chosen (m and rad; 1 cm, 5 mrad): candidates chosen under the new
+/// motions would hardly differ.
+pub const ROUND_TOLERANCE: (f64, f64) = (0.01, 0.005);
+
+/// First correspondence distance (m) of the final ego-motion ICP ([`polish_ego`]):
+/// the CRF's estimate is already close.
+pub const POLISH_DISTANCE: f64 = 0.3;
+
+/// The association problem of `pair` and, when the pair has a valid current return,
+/// what `hypotheses` makes from their number, built side by side (rayon; one thread
+/// builds them in turn): the problem (shape features, search structures) and a
+/// model's motion hypotheses do not depend on each other. `None` without a valid
+/// current return.
+///
+/// # Errors
+/// The problem's ([`AssociationProblem::new`]).
+pub fn problem_with_hypotheses<T: Send>(
+    pair: &ScanPair,
+    boosters: &AssociationBoosters,
+    hypotheses: impl FnOnce(usize) -> T + Send,
+) -> Result<(AssociationProblem, Option<T>)> {
+    let n = pair.current.valid.iter().filter(|&&v| v).count();
+    let (problem, hypotheses) = if n == 0 {
+        (AssociationProblem::new(pair, boosters), None)
+    } else {
+        let (problem, hypotheses) =
+            rayon::join(|| AssociationProblem::new(pair, boosters), || hypotheses(n));
+        (problem, Some(hypotheses))
+    };
+    let problem = problem?;
+    debug_assert_eq!(problem.len(), n, "one node per valid current return");
+    Ok((problem, hypotheses))
+}
+
+/// Whether a round has settled: no motion of `after` moved by more than
+/// [`ROUND_TOLERANCE`] from its value in `before` (the motions the round's candidates
+/// were chosen under).
+pub fn rounds_settled(before: &[Pose2], after: &[Pose2]) -> bool {
+    before.iter().zip(after).all(|(a, b)| {
+        a.translation_error(b) <= ROUND_TOLERANCE.0 && a.rotation_error(b) <= ROUND_TOLERANCE.1
+    })
+}
+
+/// The ego-motion `ego` refined by ICP from itself (first correspondence distance
+/// [`POLISH_DISTANCE`]) on the current returns that `is_static` (a node index) keeps,
+/// against the reference scan; `ego` itself when ICP fails or finds too few
+/// correspondences.
+pub fn polish_ego(
+    problem: &AssociationProblem,
+    pair: &ScanPair,
+    ego: Pose2,
+    is_static: impl Fn(usize) -> bool,
+) -> Pose2 {
+    let mut seen = pair.current.clone();
+    seen.valid.fill(false);
+    for i in (0..problem.len()).filter(|&i| is_static(i)) {
+        seen.valid[problem.current.beams[i]] = true;
+    }
+    match problem.search.align_best(&seen, &[(ego, POLISH_DISTANCE)]) {
+        Ok(r) if r.status != IcpStatus::TooFewCorrespondences => r.motion,
+        _ => ego,
+    }
+}
+
+impl AssociationProblem {
+    /// The association of a node whose partner is `partner` (an index among the
+    /// reference scan's valid returns; `None`: the outlier state).
+    pub fn association(&self, partner: Option<usize>) -> Association {
+        match partner {
+            Some(j) => Association::Point(self.reference.beams[j]),
+            None => Association::Outlier,
+        }
+    }
+
+    /// Per beam of a current scan of `beams` beams: `value` of the beam's node
+    /// (`None` for beams without a return).
+    pub fn per_beam<T>(&self, beams: usize, mut value: impl FnMut(usize) -> T) -> Vec<Option<T>> {
+        let mut out: Vec<Option<T>> = (0..beams).map(|_| None).collect();
+        for (i, &beam) in self.current.beams.iter().enumerate() {
+            out[beam] = Some(value(i));
+        }
+        out
+    }
+}
+
+impl AssociationTables<'_> {
+    /// The starting state of every node: its `chosen` partner of the last round (a
+    /// reference index) where that is still a candidate, else the candidate nearest
+    /// to the node moved by its `motions` entry.
+    pub fn start_states(&self, chosen: &[Option<usize>], motions: &[Pose2]) -> Vec<usize> {
+        chosen
+            .iter()
+            .zip(motions)
+            .enumerate()
+            .map(|(i, (partner, motion))| {
+                partner
+                    .and_then(|j| self.state_of(i, j))
+                    .unwrap_or_else(|| self.nearest_state(i, motion))
+            })
+            .collect()
+    }
+}
