@@ -30,6 +30,7 @@
 pub mod bag;
 pub mod builders;
 pub mod carmen;
+pub mod clear_mot;
 pub mod error;
 pub mod format;
 pub mod leigh;
