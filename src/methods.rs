@@ -174,6 +174,41 @@ impl WeightKind {
             WeightKind::Joint => "pgm train joint",
         }
     }
+
+    /// The shipped weights of this kind, and how they were made (the commands'
+    /// reports of the weights they ran with).
+    pub fn shipped(self) -> &'static str {
+        match self {
+            WeightKind::Clustering => {
+                "shipped CRF-Clustering weights (pgm train clustering --simulate 40 --seed 1000)"
+            }
+            WeightKind::Matching => {
+                "shipped CRF-Matching weights (pgm train matching --simulate 40 --seed 1000)"
+            }
+            WeightKind::Joint => {
+                "shipped joint weights (pgm train joint --simulate 40 --seed 1000 \
+                 --association-weights models/crf-matching/weights/default.json)"
+            }
+        }
+    }
+}
+
+/// The weights a method with weight files of `kinds` (its registry entry's
+/// [`Method::weights`]) runs with, for a report: per kind the file `given` names, else
+/// the shipped ones ([`WeightKind::shipped`]), joined by `; `; `none (no learned
+/// weights)` for a method without.
+pub fn weights_used<'p>(
+    kinds: &[WeightKind],
+    given: impl Fn(WeightKind) -> Option<&'p std::path::Path>,
+) -> String {
+    if kinds.is_empty() {
+        return "none (no learned weights)".into();
+    }
+    kinds
+        .iter()
+        .map(|&k| given(k).map_or(k.shipped().into(), |p| p.display().to_string()))
+        .collect::<Vec<String>>()
+        .join("; ")
 }
 
 /// Loads a weight file of `kind` with `load`. The error names the file once (the
@@ -227,6 +262,9 @@ pub struct Method<B> {
     pub name: &'static str,
     /// What it is, in one line (the command line's help).
     pub about: &'static str,
+    /// The kinds of weight file it reads (none for a method without learned weights):
+    /// the commands report which weights it ran with ([`weights_used`]).
+    pub weights: &'static [WeightKind],
     /// How it is built.
     pub build: B,
 }
@@ -235,6 +273,11 @@ impl<B> fmt::Debug for Method<B> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.debug_struct("Method").field("name", &self.name).finish()
     }
+}
+
+/// The entry of `table` named `name`, if there is one.
+pub fn find<B>(table: &'static [Method<B>], name: &str) -> Option<&'static Method<B>> {
+    table.iter().find(|m| m.name == name)
 }
 
 /// The entry of `table` named `name`, or the error listing the known names.
@@ -260,21 +303,25 @@ pub const ASSOCIATION_SOURCES: &[Method<BuildAssociations>] = &[
     Method {
         name: "true",
         about: "the pair's ground-truth associations (simulated data)",
+        weights: &[],
         build: |_| Ok(Arc::new(GroundTruthAssociations)),
     },
     Method {
         name: "icp",
         about: "nearest neighbour after ICP (ego-motion only)",
+        weights: &[],
         build: |o| Ok(Arc::new(o.nearest.check().map_err(invalid)?)),
     },
     Method {
         name: "segment-icp",
         about: "segment-wise ICP, then nearest neighbours under each segment's motion",
+        weights: &[],
         build: |o| Ok(Arc::new(o.segment.check().map_err(invalid)?)),
     },
     Method {
         name: "crf-matching",
         about: "CRF-Matching: learned association by a chain CRF over boosted shape features",
+        weights: &[WeightKind::Matching],
         build: |o| Ok(Arc::new(o.matching.clone().check().map_err(invalid)?)),
     },
 ];
@@ -314,49 +361,78 @@ pub enum BuildClusterer {
     WithAssociations(fn(Arc<dyn AssociationSource>, &MethodOptions) -> ClustererResult),
 }
 
+/// A motion clusterer's entry: how it is built and what it reports.
+#[derive(Clone, Copy)]
+pub struct Clusterer {
+    /// How it is built.
+    pub build: BuildClusterer,
+    /// Whether it estimates its clusters' motions (`pgm eval clustering` then reports
+    /// their errors).
+    pub motions: bool,
+}
+
 /// The motion clusterers.
-pub const CLUSTERERS: &[Method<BuildClusterer>] = &[
+pub const CLUSTERERS: &[Method<Clusterer>] = &[
     Method {
         name: "crf",
         about: "CRF-Clustering (Tipaldi and Ramos), fed by an association source",
-        build: BuildClusterer::WithAssociations(|a, o| {
+        weights: &[WeightKind::Clustering],
+        build: Clusterer {
+            build: BuildClusterer::WithAssociations(|a, o| {
             Ok(Box::new(Associated::new(
                 o.crf.clone().check().map_err(invalid)?,
                 a,
             )))
         }),
+            motions: true,
+        },
     },
     Method {
         name: "cbd",
         about: "the consistency-based detector (Wang et al.)",
-        build: BuildClusterer::Alone(|o| Ok(Box::new(o.cbd.check().map_err(invalid)?))),
+        weights: &[],
+        build: Clusterer {
+            build: BuildClusterer::Alone(|o| Ok(Box::new(o.cbd.check().map_err(invalid)?))),
+            motions: false,
+        },
     },
     Method {
         name: "kmeans",
         about: "motion K-Means (eq. 10), fed by an association source",
-        build: BuildClusterer::WithAssociations(|a, o| {
+        weights: &[],
+        build: Clusterer {
+            build: BuildClusterer::WithAssociations(|a, o| {
             Ok(Box::new(Associated::new(o.kmeans.check().map_err(invalid)?, a)))
         }),
+            motions: true,
+        },
     },
     Method {
         name: "one-cluster",
         about: "every return in the background cluster",
-        build: BuildClusterer::Alone(|_| Ok(Box::new(OneCluster))),
+        weights: &[],
+        build: Clusterer {
+            build: BuildClusterer::Alone(|_| Ok(Box::new(OneCluster))),
+            motions: false,
+        },
     },
     Method {
         name: "joint",
         about: "the joint model (van de Ven, Ramos and Tipaldi): its clusters, the outlier cluster as background",
-        build: BuildClusterer::Alone(|o| {
+        weights: &[WeightKind::Joint],
+        build: Clusterer {
+            build: BuildClusterer::Alone(|o| {
             Ok(Box::new(JointClusters(o.joint.clone().check().map_err(invalid)?)))
         }),
+            motions: true,
+        },
     },
 ];
 
 /// Whether the clusterer `name` takes point associations (false for an unknown name).
 pub fn clusterer_needs_associations(name: &str) -> bool {
-    CLUSTERERS
-        .iter()
-        .any(|m| m.name == name && matches!(m.build, BuildClusterer::WithAssociations(_)))
+    find(CLUSTERERS, name)
+        .is_some_and(|m| matches!(m.build.build, BuildClusterer::WithAssociations(_)))
 }
 
 /// The motion clusterer named `name` (see [`CLUSTERERS`]); `associations` feeds the
@@ -366,7 +442,7 @@ pub fn clusterer(
     associations: Arc<dyn AssociationSource>,
     options: &MethodOptions,
 ) -> Result<Box<dyn MotionClusterer>, MethodError> {
-    match lookup(CLUSTERERS, "clustering method", name)?.build {
+    match lookup(CLUSTERERS, "clustering method", name)?.build.build {
         BuildClusterer::Alone(build) => build(options),
         BuildClusterer::WithAssociations(build) => build(associations, options),
     }
@@ -380,16 +456,19 @@ pub const SCAN_MATCHERS: &[Method<BuildMatcher>] = &[
     Method {
         name: "odometry",
         about: "the odometry prior (the identity without odometry)",
+        weights: &[],
         build: |_| Ok(Box::new(Odometry)),
     },
     Method {
         name: "icp",
         about: "point-to-point ICP from the odometry prior",
+        weights: &[],
         build: |o| Ok(Box::new(o.icp.check().map_err(invalid)?)),
     },
     Method {
         name: "icp+csm",
         about: "correlative search around the prior (±1 m, ±30°), refined by ICP",
+        weights: &[],
         build: |_| {
             Ok(Box::new(
                 pgm_scan::correlative::CorrelativeIcpMatcher::default(),
@@ -399,11 +478,13 @@ pub const SCAN_MATCHERS: &[Method<BuildMatcher>] = &[
     Method {
         name: "crf-matching",
         about: "CRF-Matching: the ego-motion of its MAP associations",
+        weights: &[WeightKind::Matching],
         build: |o| Ok(Box::new(o.matching.clone().check().map_err(invalid)?)),
     },
     Method {
         name: "joint",
         about: "the joint model: the background cluster's motion",
+        weights: &[WeightKind::Joint],
         build: |o| {
             Ok(Box::new(JointEgoMotion(
                 o.joint.clone().check().map_err(invalid)?,
@@ -436,11 +517,13 @@ pub const JOINT_ESTIMATORS: &[Method<BuildJoint>] = &[
     Method {
         name: "joint",
         about: "the joint model: association and clustering chains coupled by per-cluster motions",
+        weights: &[WeightKind::Joint],
         build: |o| Ok(Box::new(o.joint.clone().check().map_err(invalid)?)),
     },
     Method {
         name: "icp+kmeans",
         about: "nearest neighbour after ICP, then motion K-Means on those associations",
+        weights: &[],
         build: |o| {
             Ok(Box::new(TwoSteps::new(
                 "icp+kmeans",
@@ -452,6 +535,7 @@ pub const JOINT_ESTIMATORS: &[Method<BuildJoint>] = &[
     Method {
         name: "crf-matching+kmeans",
         about: "CRF-Matching, then motion K-Means on its associations",
+        weights: &[WeightKind::Matching],
         build: |o| {
             Ok(Box::new(TwoSteps::new(
                 "crf-matching+kmeans",
@@ -463,6 +547,7 @@ pub const JOINT_ESTIMATORS: &[Method<BuildJoint>] = &[
     Method {
         name: "separate",
         about: "CRF-Matching, then CRF-Clustering on its associations (the chains without the shared motions)",
+        weights: &[WeightKind::Matching, WeightKind::Clustering],
         build: |o| {
             Ok(Box::new(TwoSteps::new(
                 "separate",

@@ -12,10 +12,13 @@
 //!    ([`polish_ego`]), and every node's result goes to its beam
 //!    ([`AssociationProblem::per_beam`], [`AssociationProblem::association`]).
 
-use crate::matching_features::{AssociationBoosters, AssociationProblem, AssociationTables};
+use crate::matching_features::{
+    AssociationBoosters, AssociationProblem, AssociationTables, StateSpace,
+};
 use crate::Result;
+use pgm_core::param::InvalidParameter;
 use pgm_scan::registration::IcpStatus;
-use pgm_scan::{Association, Pose2, ScanPair};
+use pgm_scan::{Association, Pose2, ScanPair, SurfacePair};
 
 /// A run of rounds stops when no motion moved by more than this since the round's
 /// candidates were chosen (m and rad; 1 cm, 5 mrad): candidates chosen under the new
@@ -25,6 +28,47 @@ pub const ROUND_TOLERANCE: (f64, f64) = (0.01, 0.005);
 /// First correspondence distance (m) of the final ego-motion ICP ([`polish_ego`]):
 /// the CRF's estimate is already close.
 pub const POLISH_DISTANCE: f64 = 0.3;
+
+/// Checks the parameters of the rounds every model on the association chain has: at
+/// most 64 candidates per return (and at least one), at least one sweep and one
+/// round, a positive point-to-line weight.
+///
+/// # Errors
+/// The first parameter out of range, named.
+pub fn check_rounds(
+    state_space: StateSpace,
+    max_sweeps: usize,
+    max_rounds: usize,
+    point_to_line: Option<f64>,
+) -> std::result::Result<(), InvalidParameter> {
+    if let StateSpace::Pruned(k) = state_space {
+        check_candidates(k)?;
+    }
+    if max_sweeps == 0 || max_rounds == 0 {
+        return Err(InvalidParameter::new(
+            "max_sweeps / max_rounds",
+            (max_sweeps, max_rounds),
+            "at least 1 each",
+        ));
+    }
+    if let Some(w) = point_to_line {
+        InvalidParameter::positive("point_to_line", w, "a positive weight")?;
+    }
+    Ok(())
+}
+
+/// Checks a number of candidates per return: 1..=64 (the states are allocated per
+/// return).
+///
+/// # Errors
+/// `candidates` outside 1..=64.
+pub fn check_candidates(k: usize) -> std::result::Result<(), InvalidParameter> {
+    if (1..=64).contains(&k) {
+        Ok(())
+    } else {
+        Err(InvalidParameter::new("candidates", k, "1..=64 candidates"))
+    }
+}
 
 /// The association problem of `pair` and, when the pair has a valid current return,
 /// what `hypotheses` makes from their number, built side by side (rayon; one thread
@@ -104,6 +148,26 @@ impl AssociationProblem {
 }
 
 impl AssociationTables<'_> {
+    /// Fills `pairs` with the [`AssociationProblem::surface_pair`] of every node that
+    /// `member` keeps (a node index) and whose current state `labels` is not the
+    /// outlier state: the pairs a motion of those nodes is solved from.
+    pub fn member_pairs(
+        &self,
+        labels: &[Option<usize>],
+        member: impl Fn(usize) -> bool,
+        pairs: &mut Vec<SurfacePair>,
+    ) {
+        pairs.clear();
+        for (i, label) in labels.iter().enumerate() {
+            if !member(i) {
+                continue;
+            }
+            if let Some(j) = label.and_then(|l| self.partner(i, l)) {
+                pairs.push(self.problem().surface_pair(i, j));
+            }
+        }
+    }
+
     /// The starting state of every node: its `chosen` partner of the last round (a
     /// reference index) where that is still a candidate, else the candidate nearest
     /// to the node moved by its `motions` entry.

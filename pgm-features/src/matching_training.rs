@@ -48,11 +48,7 @@ impl TrainingOptions {
     /// 1..=64, a negative or non-finite gate or prior variance (the variance must be
     /// positive), no stumps.
     pub fn check(&self) -> ModelResult<()> {
-        if !(1..=64).contains(&self.candidates) {
-            return Err(
-                InvalidParameter::new("candidates", self.candidates, "1..=64 candidates").into(),
-            );
-        }
+        crate::association_rounds::check_candidates(self.candidates)?;
         InvalidParameter::non_negative(
             "candidate_gate",
             self.candidate_gate,

@@ -400,18 +400,36 @@ impl Default for LeighArgs {
     }
 }
 
-/// `pgm data pairs`.
+/// Pairs made from logs or a bag: where the scans come from, the leigh-gtm1
+/// labelling and the scan distance (`pgm data pairs`, `pgm eval clustering`, `pgm
+/// eval joint`).
 #[derive(Args, Debug)]
-pub struct PairsArgs {
-    /// Input logs.
+pub struct LogPairsArgs {
+    /// Input logs or a bag.
     #[command(flatten)]
     pub source: SourceArgs,
     /// leigh-gtm1 options.
     #[command(flatten)]
     pub leigh: LeighArgs,
-    /// leigh-gtm1: scan distance of the pairs.
+    /// Logs and bags: scan distance of the pairs.
     #[arg(long, default_value_t = 5)]
     pub k: usize,
+}
+
+impl LogPairsArgs {
+    /// Where the pairs come from: the `stored` data set (`--pairs`), else these logs
+    /// ([`pair_source`]).
+    pub fn pair_source(&self, stored: Option<&Path>) -> Result<PairSource, CliError> {
+        pair_source(stored, &self.source, &self.leigh, self.k)
+    }
+}
+
+/// `pgm data pairs`.
+#[derive(Args, Debug)]
+pub struct PairsArgs {
+    /// Input logs or a bag, labelling and scan distance.
+    #[command(flatten)]
+    pub logs: LogPairsArgs,
     /// Output directory: created, or an empty directory, or one holding a data set,
     /// which is replaced (datasets/FORMAT.md; other files are never removed).
     #[arg(long)]
@@ -563,7 +581,7 @@ pub fn run(args: DataArgs) -> CliResult {
 }
 
 fn run_pairs(args: PairsArgs) -> CliResult {
-    let source = pair_source(None, &args.source, &args.leigh, args.k)?;
+    let source = args.logs.pair_source(None)?;
     let pairs = load_pairs(&source)?.pairs;
     if pairs.is_empty() {
         return Err(CliError(format!(

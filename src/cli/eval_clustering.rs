@@ -37,14 +37,14 @@
 //! moved), to measure the methods as they run on a log without odometry.
 
 use super::cluster::{association_names, CrfArgs};
-use super::data::{load_pairs, pair_source, LeighArgs, SourceArgs};
+use super::data::{load_pairs, LogPairsArgs};
 use super::track::TrackingFields;
 use super::{CliError, CliResult};
 use clap::builder::{PossibleValue, PossibleValuesParser};
 use clap::Args;
 use pgm::methods::{
-    association_source, clusterer, clusterer_needs_associations, default_association,
-    MethodOptions, CLUSTERERS,
+    association_source, clusterer, clusterer_needs_associations, default_association, find,
+    weights_used, Clusterer, Method, MethodOptions, WeightKind, ASSOCIATION_SOURCES, CLUSTERERS,
 };
 use pgm_eval::{
     evaluate_clustering_with, scorable_for_clustering, DetectionOptions, DetectionSummary,
@@ -96,8 +96,10 @@ pub struct BuiltMethod {
     /// The association source it runs on, as typed (or the default), for the methods
     /// that take one.
     pub associations: Option<String>,
-    /// Which weights it uses.
+    /// Which weights it uses (its own and its association source's).
     pub weights: String,
+    /// Whether it uses learned weights.
+    pub has_weights: bool,
 }
 
 impl MethodArgs {
@@ -138,30 +140,40 @@ impl MethodArgs {
             .unwrap_or_else(|| default_association(pairs));
         let source = association_source(which, options).map_err(CliError::from_display)?;
         let method = clusterer(&self.method, source, options).map_err(CliError::from_display)?;
-        let weights = if self.method == "joint" {
-            self.joint_weights
-                .as_ref()
-                .map_or(super::joint::SHIPPED_JOINT_WEIGHTS.into(), |p| {
-                    p.display().to_string()
-                })
-        } else {
-            match &self.crf.weights {
-                Some(path) => path.display().to_string(),
-                None => "shipped (trained on simulated pairs, seed 1000)".into(),
+        // The method's weights, and its association source's when it takes one.
+        let takes_associations = clusterer_needs_associations(&self.method);
+        let mut weight_kinds = self.entry().weights.to_vec();
+        if takes_associations {
+            let source = find(ASSOCIATION_SOURCES, which).map_or(&[][..], |m| m.weights);
+            for kind in source {
+                if !weight_kinds.contains(kind) {
+                    weight_kinds.push(*kind);
+                }
             }
-        };
+        }
+        let weights = weights_used(&weight_kinds, |kind| match kind {
+            WeightKind::Clustering => self.crf.weights.as_deref(),
+            WeightKind::Matching => self.crf.matching.matching_weights.as_deref(),
+            WeightKind::Joint => self.joint_weights.as_deref(),
+        });
         Ok(BuiltMethod {
             method,
             // Names as typed on the command line: the method, and its association
             // source apart (the library's `crf (icp)` joins them).
-            associations: clusterer_needs_associations(&self.method).then(|| which.to_string()),
+            associations: takes_associations.then(|| which.to_string()),
             weights,
+            has_weights: !weight_kinds.is_empty(),
         })
     }
 
-    /// Whether the method has weights to name (crf, kmeans, joint).
-    pub fn has_weights(&self) -> bool {
-        clusterer_needs_associations(&self.method) || self.method == "joint"
+    /// The method's registry entry (clap has checked the name).
+    fn entry(&self) -> &'static Method<Clusterer> {
+        find(CLUSTERERS, &self.method).expect("clap offers the registered clusterers only")
+    }
+
+    /// Whether the method estimates its clusters' motions (its registry entry says).
+    pub fn estimates_motions(&self) -> bool {
+        self.entry().build.motions
     }
 }
 
@@ -174,15 +186,9 @@ pub struct ClusteringEvalArgs {
     /// A stored scan-pair data set with ground-truth labels.
     #[arg(long, conflicts_with_all = ["carmen", "log", "scans", "bag"])]
     pub pairs: Option<PathBuf>,
-    /// Input logs (leigh-gtm1 style: --scans, --people, optional --odometry).
+    /// Input logs or a bag, labelling and scan distance.
     #[command(flatten)]
-    pub source: SourceArgs,
-    /// leigh-gtm1 options (moving threshold, person radius).
-    #[command(flatten)]
-    pub leigh: LeighArgs,
-    /// leigh-gtm1: scan distance of the pairs.
-    #[arg(long, default_value_t = 5)]
-    pub k: usize,
+    pub logs: LogPairsArgs,
     /// Hide the pairs' odometry prior from the methods (the labels still use it): the
     /// methods run as on a log without odometry.
     #[arg(long, hide_short_help = true)]
@@ -283,7 +289,7 @@ fn show(x: Option<f64>, digits: usize) -> String {
 
 /// Runs `pgm eval clustering`.
 pub fn run(args: ClusteringEvalArgs) -> CliResult {
-    let source = pair_source(args.pairs.as_deref(), &args.source, &args.leigh, args.k)?;
+    let source = args.logs.pair_source(args.pairs.as_deref())?;
     let options = args.method.options()?;
     let tracker = args
         .track
@@ -407,7 +413,7 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
         "pair sets (names before the last `:`): {}",
         pair_sets.join(", ")
     );
-    if args.method.has_weights() {
+    if built.has_weights {
         println!("weights {weights}");
     }
     if let Some(t) = &tracking_fields {
@@ -472,7 +478,7 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
         show(d.object_translation_error_median, 3),
         show(d.object_rotation_error_median, 4)
     );
-    if args.method.has_weights() {
+    if args.method.estimates_motions() {
         println!(
             "motion errors (every true mover with a known motion, any number of returns): \
              {} of {} found; median error {} m at the centroid, {} rad",

@@ -30,12 +30,15 @@
 //! `--per-pair` adds every pair's outcome (a table, or an `outcomes` array).
 
 use super::cluster::OnePairArgs;
-use super::data::{load_pairs, pair_source, LeighArgs, SourceArgs};
+use super::data::{load_pairs, LogPairsArgs};
 use super::matching::{parse_state_space, state_space_name, MatchingOptionArgs, MotionFit};
 use super::{CliError, CliResult};
 use clap::builder::{PossibleValue, PossibleValuesParser};
 use clap::Args;
-use pgm::methods::{joint_estimator, MethodOptions, JOINT_ESTIMATORS, JOINT_PAPER_KMEANS_K};
+use pgm::methods::{
+    find, joint_estimator, weights_used, MethodOptions, WeightKind, JOINT_ESTIMATORS,
+    JOINT_PAPER_KMEANS_K,
+};
 use pgm::plot::PairPicture;
 use pgm_crf_matching::StateSpace;
 use pgm_datasets::ClusterMotion;
@@ -46,11 +49,6 @@ use pgm_scan::{Association, ParamGuard, Pose2};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-
-/// How the shipped joint weights were made (the README has the command).
-pub const SHIPPED_JOINT_WEIGHTS: &str =
-    "shipped joint weights (pgm train joint --simulate 40 --seed 1000 --association-weights \
-     models/crf-matching/weights/default.json)";
 
 /// `--object-rotation-sigma`: a standard deviation in rad, or none (`None`).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -170,7 +168,7 @@ fn joint_params(
         ..JointParams::default()
     };
     if let Some(path) = weights {
-        params.weights = pgm::methods::load_weights(path, pgm::methods::WeightKind::Joint, |p| {
+        params.weights = pgm::methods::load_weights(path, WeightKind::Joint, |p| {
             pgm_joint::JointWeights::load(p)
         })
         .map_err(CliError::from_display)?;
@@ -220,10 +218,7 @@ pub fn run_joint(args: JointArgs) -> CliResult {
     let count = |c: JointCluster| result.clusters.iter().filter(|x| **x == Some(c)).count();
     let output = JointOutput {
         pair: &pair.name,
-        weights: args
-            .weights
-            .as_ref()
-            .map_or(SHIPPED_JOINT_WEIGHTS.into(), |p| p.display().to_string()),
+        weights: weights_used(&[WeightKind::Joint], |_| args.weights.as_deref()),
         candidates: state_space_name(args.candidates),
         motion_fit: args.motion_fit.name(),
         result: &result,
@@ -287,15 +282,9 @@ pub struct JointEvalArgs {
     /// associations, labels and motions).
     #[arg(long, conflicts_with_all = ["carmen", "log", "scans", "bag"])]
     pub pairs: Option<PathBuf>,
-    /// Input logs or a bag (as `pgm eval clustering`).
+    /// Input logs or a bag, labelling and scan distance.
     #[command(flatten)]
-    pub source: SourceArgs,
-    /// leigh-gtm1 options.
-    #[command(flatten)]
-    pub leigh: LeighArgs,
-    /// Logs and bags: scan distance of the pairs.
-    #[arg(long, default_value_t = 5)]
-    pub k: usize,
+    pub logs: LogPairsArgs,
     /// The joint model's weights and boosters, written by `pgm train joint` (default:
     /// the shipped ones).
     #[arg(long)]
@@ -367,31 +356,9 @@ fn show(x: Option<f64>, scale: f64, digits: usize, unit: &str) -> String {
     x.map_or("n/a".into(), |x| format!("{:.digits$}{unit}", scale * x))
 }
 
-/// Which weights `method` runs with.
-fn weights_used(args: &JointEvalArgs) -> String {
-    let joint = args
-        .weights
-        .as_ref()
-        .map_or(SHIPPED_JOINT_WEIGHTS.into(), |p| p.display().to_string());
-    let matching = args.matching.matching_weights.as_ref().map_or(
-        "shipped CRF-Matching weights (pgm train matching --simulate 40 --seed 1000)".into(),
-        |p| p.display().to_string(),
-    );
-    let crf = args.crf_weights.as_ref().map_or(
-        "shipped CRF-Clustering weights (pgm train clustering --simulate 40 --seed 1000)".into(),
-        |p| p.display().to_string(),
-    );
-    match args.method.as_str() {
-        "joint" => joint,
-        "icp+kmeans" => "none (no learned weights)".into(),
-        "crf-matching+kmeans" => matching,
-        _ => format!("{matching}; {crf}"),
-    }
-}
-
 /// Runs `pgm eval joint`.
 pub fn run_eval_joint(args: JointEvalArgs) -> CliResult {
-    let source = pair_source(args.pairs.as_deref(), &args.source, &args.leigh, args.k)?;
+    let source = args.logs.pair_source(args.pairs.as_deref())?;
     let mut options = args.matching.apply(MethodOptions::default())?;
     options.joint = joint_params(
         args.matching.candidates,
@@ -428,7 +395,12 @@ pub fn run_eval_joint(args: JointEvalArgs) -> CliResult {
     let report = evaluate_joint(&pairs, method.as_ref()).map_err(CliError::from_display)?;
     let data = format!("{source}; every pair scored, none trained on");
     let sets = pair_sets(&pairs);
-    let weights = weights_used(&args);
+    let entry = find(JOINT_ESTIMATORS, &args.method).expect("clap offers the registered methods");
+    let weights = weights_used(entry.weights, |kind| match kind {
+        WeightKind::Clustering => args.crf_weights.as_deref(),
+        WeightKind::Matching => args.matching.matching_weights.as_deref(),
+        WeightKind::Joint => args.weights.as_deref(),
+    });
     let unconverged = report.outcomes.iter().filter(|o| !o.converged).count();
     if unconverged > 0 {
         eprintln!(

@@ -10,10 +10,13 @@
 use super::cluster::CrfArgs;
 use super::{CliError, CliResult};
 use clap::{Args, Subcommand, ValueEnum};
-use pgm::methods::association_source;
-use pgm_crf_clustering::learning::{learn, training_instances};
-use pgm_crf_matching::learning::{train as train_matching, TrainingOptions};
+use pgm::methods::{association_source, load_weights, WeightKind};
+use pgm_crf_clustering::learning::ClusteringTrainer;
+use pgm_crf_matching::learning::{MatchingTrainer, TrainingOptions};
 use pgm_datasets::sim::{simulate_pairs, Preset, SimConfig};
+use pgm_features::training::ModelTrainer;
+use pgm_features::ModelWeights;
+use pgm_joint::learning::JointTrainer;
 use pgm_scan::ParamGuard;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -37,6 +40,33 @@ pub enum TrainCommand {
     Joint(TrainJointArgs),
 }
 
+/// Where the labelled pairs come from and where the weights go (every `pgm train`
+/// subcommand).
+#[derive(Args, Debug)]
+pub struct TrainingDataArgs {
+    /// Labelled scan-pair data set (directory written by `pgm sim --out` / `pgm data
+    /// pairs`; CRF-Matching and the joint model need ground-truth associations, as the
+    /// simulator's).
+    #[arg(long, conflicts_with = "simulate")]
+    pub data: Option<PathBuf>,
+    /// Instead of --data: simulate this many pairs.
+    #[arg(long)]
+    pub simulate: Option<usize>,
+    /// Simulator seed for --simulate (keep it disjoint from evaluation seeds).
+    #[arg(long, default_value_t = 1000)]
+    pub seed: u64,
+    /// Simulator preset for --simulate.
+    #[arg(long, default_value = "mixed")]
+    pub preset: String,
+    /// Output weight file (JSON: the model's named weights and its other learned
+    /// parts).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Variance of the Gaussian prior on each weight.
+    #[arg(long, default_value_t = TrainingOptions::default().prior_variance)]
+    pub prior_variance: f64,
+}
+
 /// `pgm train joint`: the options of `pgm train matching`, and where the association
 /// chain's part may come from.
 #[derive(Args, Debug)]
@@ -54,30 +84,15 @@ pub struct TrainJointArgs {
 /// `pgm train matching` and `pgm train joint`.
 #[derive(Args, Debug)]
 pub struct TrainMatchingArgs {
-    /// Labelled scan-pair data set with ground-truth associations (the simulator's).
-    #[arg(long, conflicts_with = "simulate")]
-    pub data: Option<PathBuf>,
-    /// Instead of --data: simulate this many pairs.
-    #[arg(long)]
-    pub simulate: Option<usize>,
-    /// Simulator seed for --simulate (keep it disjoint from evaluation seeds).
-    #[arg(long, default_value_t = 1000)]
-    pub seed: u64,
-    /// Simulator preset for --simulate.
-    #[arg(long, default_value = "mixed")]
-    pub preset: String,
-    /// Output weight file (JSON: named weights and both boosters).
-    #[arg(long)]
-    pub out: PathBuf,
+    /// The labelled pairs and the output.
+    #[command(flatten)]
+    pub data: TrainingDataArgs,
     /// Candidates per return.
     #[arg(long, default_value_t = TrainingOptions::default().candidates)]
     pub candidates: usize,
     /// Stumps per booster.
     #[arg(long, default_value_t = TrainingOptions::default().stumps)]
     pub stumps: usize,
-    /// Variance of the Gaussian prior on each weight.
-    #[arg(long, default_value_t = TrainingOptions::default().prior_variance)]
-    pub prior_variance: f64,
 }
 
 /// Which associations the training features use.
@@ -96,120 +111,109 @@ pub enum TrainAssociations {
 /// `pgm train clustering`.
 #[derive(Args, Debug)]
 pub struct TrainClusteringArgs {
-    /// Labelled scan-pair data set (directory written by `pgm sim --out` / `pgm data pairs`).
-    #[arg(long, conflicts_with = "simulate")]
-    pub data: Option<PathBuf>,
-    /// Instead of --data: simulate this many pairs.
-    #[arg(long)]
-    pub simulate: Option<usize>,
-    /// Simulator seed for --simulate (keep it disjoint from evaluation seeds).
-    #[arg(long, default_value_t = 1000)]
-    pub seed: u64,
-    /// Simulator preset for --simulate.
-    #[arg(long, default_value = "mixed")]
-    pub preset: String,
-    /// Output weight file (JSON).
-    #[arg(long)]
-    pub out: PathBuf,
+    /// The labelled pairs and the output.
+    #[command(flatten)]
+    pub data: TrainingDataArgs,
     /// Associations used for the training features.
     #[arg(long, value_enum, default_value = "true")]
     pub associations: TrainAssociations,
-    /// Variance of the Gaussian prior on each weight.
-    #[arg(long, default_value_t = 10.0)]
-    pub prior_variance: f64,
     /// CRF options (only --knn and --gate matter for training).
     #[command(flatten)]
     pub crf: CrfArgs,
 }
 
-/// Runs `pgm train …`.
+/// Runs `pgm train …`: each model's options make its trainer (checked before any pair
+/// is read), then one procedure trains any model ([`train`]).
 pub fn run(args: TrainArgs) -> CliResult {
     match args.command {
-        TrainCommand::Clustering(a) => run_clustering(a),
-        TrainCommand::Matching(a) => run_matching(a),
-        TrainCommand::Joint(a) => run_joint(a),
+        TrainCommand::Clustering(a) => train(&a.data, &a.trainer()?, &[]),
+        TrainCommand::Matching(a) => train(&a.data, &a.trainer()?, &[]),
+        TrainCommand::Joint(a) => {
+            let shown = a
+                .association_weights
+                .as_ref()
+                .map(|p| p.display().to_string());
+            train(
+                &a.common.data,
+                &a.trainer()?,
+                &[("association_weights", shown.into())],
+            )
+        }
     }
 }
 
-fn run_clustering(args: TrainClusteringArgs) -> CliResult {
-    super::check_output_file(&args.out)?;
-    let pairs = match (&args.data, args.simulate) {
-        (Some(dir), _) => pgm_datasets::read_pairs(dir).map_err(CliError::from_display)?,
-        (None, Some(n)) => {
-            let preset: Preset = args.preset.parse().map_err(CliError::from_display)?;
-            let config = SimConfig {
-                preset,
-                ..SimConfig::default()
-            }
-            .check()
+impl TrainClusteringArgs {
+    /// CRF-Clustering's trainer.
+    fn trainer(&self) -> Result<ClusteringTrainer, CliError> {
+        super::check_output_file(&self.data.out)?;
+        let options = self.crf.options()?;
+        let names: &[&str] = match self.associations {
+            TrainAssociations::True => &["true"],
+            TrainAssociations::Icp => &["icp"],
+            TrainAssociations::SegmentIcp => &["segment-icp"],
+            TrainAssociations::Both => &["true", "icp"],
+        };
+        let sources = names
+            .iter()
+            .map(|n| association_source(n, &options))
+            .collect::<Result<Vec<_>, _>>()
             .map_err(CliError::from_display)?;
-            config.check_pairs(n).map_err(CliError::from_display)?;
-            simulate_pairs(&config, args.seed, n)
-        }
-        (None, None) => return Err(CliError("give --data DIR or --simulate N".into())),
-    };
-    let options = args.crf.options()?;
-    let clusterer = options
-        .crf
-        .clone()
-        .check()
-        .map_err(CliError::from_display)?;
-    let names: &[&str] = match args.associations {
-        TrainAssociations::True => &["true"],
-        TrainAssociations::Icp => &["icp"],
-        TrainAssociations::SegmentIcp => &["segment-icp"],
-        TrainAssociations::Both => &["true", "icp"],
-    };
-    let sources = names
-        .iter()
-        .map(|n| association_source(n, &options))
-        .collect::<Result<Vec<_>, _>>()
-        .map_err(CliError::from_display)?;
-    let sources: Vec<&dyn pgm_scan::AssociationSource> =
-        sources.iter().map(|s| s.as_ref()).collect();
-    let instances = training_instances(&pairs, &sources, clusterer.params())
-        .map_err(|e| in_data(&args.data, e))?;
-    if instances.is_empty() {
-        return Err(CliError(format!(
-            "none of the {} pairs has ground-truth labels",
-            pairs.len()
-        )));
+        Ok(ClusteringTrainer {
+            params: options.crf,
+            sources,
+            prior_variance: self.data.prior_variance,
+        })
     }
-    // Progress on stderr (indicatif hides it when stderr is not a terminal).
-    let bar = indicatif::ProgressBar::new_spinner();
-    bar.set_style(
-        indicatif::ProgressStyle::with_template("{spinner} L-BFGS {msg} [{elapsed}]")
-            .map_err(CliError::from_display)?,
-    );
-    let mut observer = |p: &pgm_core::learning::Progress| {
-        bar.set_message(format!(
-            "iteration {}: objective {:.4}, |gradient| {:.2e}",
-            p.iteration, p.objective, p.gradient_norm
-        ));
-        bar.tick();
-        std::ops::ControlFlow::Continue(())
-    };
-    let learned = learn(&instances, args.prior_variance, &mut observer);
-    bar.finish_and_clear();
-    let (weights, result) = learned.map_err(|e| in_data(&args.data, e))?;
-    let named = weights.to_weights().map_err(CliError::from_display)?;
-    weights
-        .save(&args.out)
-        .map_err(|e| CliError(format!("{}: {e}", args.out.display())))?;
-    warn_unconverged(result.converged, result.iterations);
-    let summary = serde_json::json!({
-        "model": "crf-clustering",
-        "out": args.out.display().to_string(),
-        "instances": instances.len(),
-        "pairs": pairs.len(),
-        "iterations": result.iterations,
-        "converged": result.converged,
-        "objective": result.objective,
-        "weights": serde_json::from_str::<serde_json::Value>(&named.to_json())
-            .map_err(CliError::from_display)?["weights"],
-    });
-    println!("{summary}");
-    Ok(ExitCode::SUCCESS)
+}
+
+impl TrainMatchingArgs {
+    /// The training options, `--candidates` in 1..=64 checked before the pairs are
+    /// read or simulated (the joint model's learning allocates that many states per
+    /// return).
+    fn options(&self) -> Result<TrainingOptions, CliError> {
+        super::check_output_file(&self.data.out)?;
+        if !(1..=64).contains(&self.candidates) {
+            return Err(CliError(format!(
+                "--candidates {}: expected 1..=64 candidates per return",
+                self.candidates
+            )));
+        }
+        Ok(TrainingOptions {
+            candidates: self.candidates,
+            stumps: self.stumps,
+            prior_variance: self.data.prior_variance,
+            ..TrainingOptions::default()
+        })
+    }
+
+    /// CRF-Matching's trainer.
+    fn trainer(&self) -> Result<MatchingTrainer, CliError> {
+        Ok(MatchingTrainer {
+            options: self.options()?,
+        })
+    }
+}
+
+impl TrainJointArgs {
+    /// The joint model's trainer, with the association part of
+    /// `--association-weights` when given.
+    fn trainer(&self) -> Result<JointTrainer, CliError> {
+        let options = self.common.options()?;
+        let association = self
+            .association_weights
+            .as_ref()
+            .map(|path| {
+                load_weights(path, WeightKind::Matching, |p| {
+                    pgm_joint::AssociationPart::load_matching(p)
+                })
+            })
+            .transpose()
+            .map_err(CliError::from_display)?;
+        Ok(JointTrainer {
+            options,
+            association,
+        })
+    }
 }
 
 /// A training error naming the data set it came from (`--data DIR`; simulated pairs
@@ -221,92 +225,72 @@ fn in_data(data: &Option<PathBuf>, e: impl std::fmt::Display) -> CliError {
     }
 }
 
-/// The training pairs of `--data` or `--simulate N --seed S --preset P`.
-fn training_pairs(
-    data: Option<&std::path::Path>,
-    simulate: Option<usize>,
-    seed: u64,
-    preset: &str,
-) -> Result<Vec<pgm_datasets::ScanPair>, CliError> {
-    match (data, simulate) {
-        (Some(dir), _) => pgm_datasets::read_pairs(dir).map_err(CliError::from_display),
-        (None, Some(n)) => {
-            let preset: Preset = preset.parse().map_err(CliError::from_display)?;
-            let config = SimConfig {
-                preset,
-                ..SimConfig::default()
+impl TrainingDataArgs {
+    /// The training pairs of `--data` or `--simulate N --seed S --preset P`.
+    fn pairs(&self) -> Result<Vec<pgm_datasets::ScanPair>, CliError> {
+        match (&self.data, self.simulate) {
+            (Some(dir), _) => pgm_datasets::read_pairs(dir).map_err(CliError::from_display),
+            (None, Some(n)) => {
+                let preset: Preset = self.preset.parse().map_err(CliError::from_display)?;
+                let config = SimConfig {
+                    preset,
+                    ..SimConfig::default()
+                }
+                .check()
+                .map_err(CliError::from_display)?;
+                config.check_pairs(n).map_err(CliError::from_display)?;
+                Ok(simulate_pairs(&config, self.seed, n))
             }
-            .check()
-            .map_err(CliError::from_display)?;
-            config.check_pairs(n).map_err(CliError::from_display)?;
-            Ok(simulate_pairs(&config, seed, n))
+            (None, None) => Err(CliError("give --data DIR or --simulate N".into())),
         }
-        (None, None) => Err(CliError("give --data DIR or --simulate N".into())),
     }
 }
 
-impl TrainMatchingArgs {
-    /// `--candidates` in 1..=64, checked before the pairs are read or simulated (the
-    /// joint model's learning allocates that many states per return).
-    fn check(&self) -> Result<(), CliError> {
-        super::check_output_file(&self.out)?;
-        if !(1..=64).contains(&self.candidates) {
-            return Err(CliError(format!(
-                "--candidates {}: expected 1..=64 candidates per return",
-                self.candidates
-            )));
-        }
-        Ok(())
-    }
-}
-
-/// A note on stderr when L-BFGS stopped before converging (the weights are written
-/// all the same: they are the best found).
-fn warn_unconverged(converged: bool, iterations: u64) {
-    if !converged {
-        eprintln!(
-            "pgm: warning: L-BFGS stopped after {iterations} iterations without converging; \
-             the weights written are the last iterate"
-        );
-    }
-}
-
-fn run_matching(args: TrainMatchingArgs) -> CliResult {
-    args.check()?;
-    let pairs = training_pairs(args.data.as_deref(), args.simulate, args.seed, &args.preset)?;
-    let options = TrainingOptions {
-        candidates: args.candidates,
-        stumps: args.stumps,
-        prior_variance: args.prior_variance,
-        ..TrainingOptions::default()
-    };
+/// Trains any model: reads or simulates the pairs of `data`, runs `trainer` with a
+/// progress spinner on stderr, writes the weight file to `--out` and prints one JSON
+/// object: the model, the output, what it learned from (the trainer's counts, and
+/// `extra`), the L-BFGS iterations, convergence and objective, and the named weights.
+fn train<T: ModelTrainer>(
+    data: &TrainingDataArgs,
+    trainer: &T,
+    extra: &[(&str, serde_json::Value)],
+) -> CliResult {
+    let pairs = data.pairs()?;
     let (bar, mut observer) = learning_progress()?;
-    let trained = train_matching(&pairs, &options, &mut observer);
+    let trained = trainer.train(&pairs, &mut observer);
     drop(observer);
     bar.finish_and_clear();
-    let (weights, report) = trained.map_err(|e| in_data(&args.data, e))?;
-    weights
-        .save(&args.out)
-        .map_err(|e| CliError(format!("{}: {e}", args.out.display())))?;
-    warn_unconverged(report.learning.converged, report.learning.iterations);
-    let summary = serde_json::json!({
-        "model": "crf-matching",
-        "out": args.out.display().to_string(),
-        "booster_pairs": report.booster_pairs,
-        "data_samples": report.data_samples.0,
-        "data_positives": report.data_samples.1,
-        "outlier_samples": report.outlier_samples.0,
-        "outlier_positives": report.outlier_samples.1,
-        "weight_pairs": report.weight_pairs,
-        "iterations": report.learning.iterations,
-        "converged": report.learning.converged,
-        "objective": report.learning.objective,
-        "weights": serde_json::from_str::<serde_json::Value>(
-            &weights.named().map_err(CliError::from_display)?.to_json()
-        )
-        .map_err(CliError::from_display)?["weights"],
-    });
-    println!("{summary}");
+    let trained = trained.map_err(|e| in_data(&data.data, e))?;
+    let file = trained
+        .weights
+        .to_weight_file()
+        .map_err(CliError::from_display)?;
+    file.save(&data.out)
+        .map_err(|e| CliError(format!("{}: {e}", data.out.display())))?;
+    let learning = &trained.learning;
+    if !learning.converged {
+        eprintln!(
+            "pgm: warning: L-BFGS stopped after {} iterations without converging; \
+             the weights written are the last iterate",
+            learning.iterations
+        );
+    }
+    let mut summary = serde_json::Map::new();
+    summary.insert("model".into(), T::Weights::feature_set().model().into());
+    summary.insert("out".into(), data.out.display().to_string().into());
+    for (name, value) in extra {
+        summary.insert(name.to_string(), value.clone());
+    }
+    for &(name, count) in &trained.counts {
+        summary.insert(name.into(), count.into());
+    }
+    summary.insert("iterations".into(), learning.iterations.into());
+    summary.insert("converged".into(), learning.converged.into());
+    summary.insert("objective".into(), learning.objective.into());
+    let named: serde_json::Value =
+        serde_json::from_str(&file.weights.to_json()).map_err(CliError::from_display)?;
+    summary.insert("weights".into(), named["weights"].clone());
+    println!("{}", serde_json::Value::Object(summary));
     Ok(ExitCode::SUCCESS)
 }
 
@@ -333,61 +317,4 @@ fn learning_progress() -> Result<
         std::ops::ControlFlow::Continue(())
     };
     Ok((bar, observer))
-}
-
-fn run_joint(joint_args: TrainJointArgs) -> CliResult {
-    let args = &joint_args.common;
-    args.check()?;
-    let association = joint_args
-        .association_weights
-        .as_ref()
-        .map(|path| {
-            pgm::methods::load_weights(path, pgm::methods::WeightKind::Matching, |p| {
-                pgm_joint::AssociationPart::load_matching(p)
-            })
-        })
-        .transpose()
-        .map_err(CliError::from_display)?;
-    let pairs = training_pairs(args.data.as_deref(), args.simulate, args.seed, &args.preset)?;
-    let options = pgm_joint::learning::TrainingOptions {
-        candidates: args.candidates,
-        stumps: args.stumps,
-        prior_variance: args.prior_variance,
-        ..pgm_joint::learning::TrainingOptions::default()
-    };
-    let (bar, mut observer) = learning_progress()?;
-    let trained = match &association {
-        Some(a) => pgm_joint::learning::train_clustering(&pairs, &options, a, &mut observer),
-        None => pgm_joint::learning::train(&pairs, &options, &mut observer),
-    };
-    drop(observer);
-    bar.finish_and_clear();
-    let (weights, report) = trained.map_err(|e| in_data(&args.data, e))?;
-    weights
-        .save(&args.out)
-        .map_err(|e| CliError(format!("{}: {e}", args.out.display())))?;
-    warn_unconverged(report.learning.converged, report.learning.iterations);
-    let summary = serde_json::json!({
-        "model": "joint",
-        "out": args.out.display().to_string(),
-        "association_weights": joint_args
-            .association_weights
-            .as_ref()
-            .map(|p| p.display().to_string()),
-        "booster_pairs": report.booster_pairs,
-        "data_samples": report.data_samples.0,
-        "data_positives": report.data_samples.1,
-        "outlier_samples": report.outlier_samples.0,
-        "outlier_positives": report.outlier_samples.1,
-        "weight_pairs": report.weight_pairs,
-        "iterations": report.learning.iterations,
-        "converged": report.learning.converged,
-        "objective": report.learning.objective,
-        "weights": serde_json::from_str::<serde_json::Value>(
-            &weights.named().map_err(CliError::from_display)?.to_json()
-        )
-        .map_err(CliError::from_display)?["weights"],
-    });
-    println!("{summary}");
-    Ok(ExitCode::SUCCESS)
 }

@@ -22,7 +22,9 @@ use crate::weights::MatchingWeights;
 use crate::{Error, Result};
 use pgm_core::hybrid::chain::{ChainUpdate, HybridChainParams};
 use pgm_core::param::{InvalidParameter, ParamGuard};
-use pgm_features::association_rounds::{polish_ego, problem_with_hypotheses, rounds_settled};
+use pgm_features::association_rounds::{
+    check_rounds, polish_ego, problem_with_hypotheses, rounds_settled,
+};
 use pgm_features::matching_features::StateSpace;
 use pgm_scan::association::{
     segment_motions, AssociationSource, SegmentIcp, SegmentMotions, SegmentParams,
@@ -113,28 +115,18 @@ impl ParamGuard for MatchingParams {
     type Error = Error;
 
     fn check_ref(&self) -> Result<()> {
-        if let StateSpace::Pruned(k) = self.state_space {
-            if !(1..=64).contains(&k) {
-                return Err(InvalidParameter::new("candidates", k, "1..=64 candidates").into());
-            }
-        }
+        check_rounds(
+            self.state_space,
+            self.max_sweeps,
+            self.max_rounds,
+            self.point_to_line,
+        )?;
         InvalidParameter::non_negative(
             "candidate_gate",
             self.candidate_gate,
             "a number of metres >= 0",
         )?;
-        if self.max_sweeps == 0 || self.max_rounds == 0 {
-            return Err(InvalidParameter::new(
-                "max_sweeps / max_rounds",
-                (self.max_sweeps, self.max_rounds),
-                "at least 1 each",
-            )
-            .into());
-        }
         InvalidParameter::non_negative("tolerance", self.tolerance, "a number >= 0")?;
-        if let Some(w) = self.point_to_line {
-            InvalidParameter::positive("point_to_line", w, "a positive weight")?;
-        }
         self.segments.check_ref()?;
         self.weights.check_ref()
     }

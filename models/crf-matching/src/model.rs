@@ -166,7 +166,6 @@ impl<'a> MatchingModel<'a> {
     /// (design seed 3, 30 per preset): exact association accuracy +1.7 to +3.9 points
     /// on every preset (docs/decisions.md). Returns the largest change.
     pub fn solve_motions(&mut self) -> f64 {
-        let p = self.tables.problem();
         let mut change = 0.0f64;
         let mut pairs = Vec::new();
         let limits = TrimmedFitParams {
@@ -177,15 +176,9 @@ impl<'a> MatchingModel<'a> {
         };
         for g in 0..self.motions.len() {
             // The group's associated pairs (current point, reference point, σ²).
-            pairs.clear();
-            for i in 0..self.labels.len() {
-                if self.group_of[i] != g {
-                    continue;
-                }
-                if let Some(j) = self.labels[i].and_then(|l| self.tables.partner(i, l)) {
-                    pairs.push(p.surface_pair(i, j));
-                }
-            }
+            let group_of = &self.group_of;
+            self.tables
+                .member_pairs(&self.labels, |i| group_of[i] == g, &mut pairs);
             let motion = fit_trimmed(
                 &mut pairs,
                 self.motions[g],

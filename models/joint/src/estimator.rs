@@ -36,7 +36,9 @@ use crate::weights::JointWeights;
 use crate::{Error, Result};
 use pgm_core::hybrid::chain::{ChainUpdate, Convergence, HybridChainParams};
 use pgm_core::param::{InvalidParameter, ParamGuard};
-use pgm_features::association_rounds::{polish_ego, problem_with_hypotheses, rounds_settled};
+use pgm_features::association_rounds::{
+    check_rounds, polish_ego, problem_with_hypotheses, rounds_settled,
+};
 use pgm_features::joint_clustering_features::MAX_MOTION_CLUSTERS;
 use pgm_features::matching_features::StateSpace;
 use pgm_scan::association::{segment_motions, SegmentIcp, SegmentMotions, SegmentParams};
@@ -160,11 +162,12 @@ impl ParamGuard for JointParams {
     type Error = Error;
 
     fn check_ref(&self) -> Result<()> {
-        if let StateSpace::Pruned(k) = self.state_space {
-            if !(1..=64).contains(&k) {
-                return Err(InvalidParameter::new("candidates", k, "1..=64 candidates").into());
-            }
-        }
+        check_rounds(
+            self.state_space,
+            self.max_sweeps,
+            self.max_rounds,
+            self.point_to_line,
+        )?;
         let d = match self.clusters {
             Clusters::Fixed(d) => d,
             Clusters::Adaptive { max } => max,
@@ -183,23 +186,12 @@ impl ParamGuard for JointParams {
         ] {
             InvalidParameter::non_negative(name, value, "a number >= 0")?;
         }
-        if self.max_sweeps == 0 || self.max_rounds == 0 {
-            return Err(InvalidParameter::new(
-                "max_sweeps / max_rounds",
-                (self.max_sweeps, self.max_rounds),
-                "at least 1 each",
-            )
-            .into());
-        }
         if let Some(sigma) = self.object_rotation_sigma {
             InvalidParameter::positive(
                 "object_rotation_sigma",
                 sigma,
                 "a standard deviation in rad > 0",
             )?;
-        }
-        if let Some(w) = self.point_to_line {
-            InvalidParameter::positive("point_to_line", w, "a positive weight")?;
         }
         self.segments.check_ref()?;
         self.weights.check_ref()

@@ -256,16 +256,9 @@ impl<'a> JointModel<'a> {
         pairs: &mut Vec<SurfacePair>,
         prior: Option<(f64, f64)>,
     ) -> Pose2 {
-        let p = self.tables.problem();
-        pairs.clear();
-        for i in 0..self.cluster.len() {
-            if self.cluster[i] != Some(c) {
-                continue;
-            }
-            if let Some(j) = self.association[i].and_then(|a| self.tables.partner(i, a)) {
-                pairs.push(p.surface_pair(i, j));
-            }
-        }
+        let cluster = &self.cluster;
+        self.tables
+            .member_pairs(&self.association, |i| cluster[i] == Some(c), pairs);
         let limits = TrimmedFitParams {
             inlier_sigmas: INLIER_SIGMAS,
             iterations: TRIM_ITERATIONS,

@@ -333,31 +333,25 @@ fn score_pair(
     let all = true_hypotheses(&hypotheses, &current.beams, pair, true);
     // The models as shipped, from the hypotheses they would find themselves (made
     // once here: `estimate` and `match_pair` would each make them again).
+    let by_joint = |h: &SegmentMotions| {
+        joint
+            .estimate_with_hypotheses(pair, h)
+            .expect(runs)
+            .associations
+    };
+    let by_matcher = |h: &SegmentMotions| {
+        matcher
+            .match_pair_with_hypotheses(pair, h)
+            .expect(runs)
+            .associations
+    };
     let predicted = [
-        joint
-            .estimate_with_hypotheses(pair, &hypotheses)
-            .expect(runs)
-            .associations,
-        matcher
-            .match_pair_with_hypotheses(pair, &hypotheses)
-            .expect(runs)
-            .associations,
-        matcher
-            .match_pair_with_hypotheses(pair, &own)
-            .expect(runs)
-            .associations,
-        matcher
-            .match_pair_with_hypotheses(pair, &all)
-            .expect(runs)
-            .associations,
-        joint
-            .estimate_with_hypotheses(pair, &own)
-            .expect(runs)
-            .associations,
-        joint
-            .estimate_with_hypotheses(pair, &all)
-            .expect(runs)
-            .associations,
+        by_joint(&hypotheses),
+        by_matcher(&hypotheses),
+        by_matcher(&own),
+        by_matcher(&all),
+        by_joint(&own),
+        by_joint(&all),
     ];
     for (k, predicted) in predicted.iter().enumerate() {
         for (t, p) in associations.iter().zip(predicted) {
