@@ -85,6 +85,29 @@ fn header(title: &str) {
 }
 
 fn main() -> ExitCode {
+    match tables() {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("table1: {e}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+/// Runs each row `(name, method, associations, paper figures)` on `pairs` and prints
+/// it, with the moving objects' motion errors under each CRF row.
+fn rows(pairs: &[ScanPair], rows: &[(&str, &str, &str, Option<&[f64; 6]>)]) -> Result<(), String> {
+    for &(name, method, associations, paper) in rows {
+        let report = run(pairs, method, associations).map_err(|e| format!("{name}: {e}"))?;
+        row(name, &report.summary, paper);
+        if method == "crf" {
+            motion(&report);
+        }
+    }
+    Ok(())
+}
+
+fn tables() -> Result<(), String> {
     let args: Vec<String> = std::env::args().collect();
     let quick = args.iter().any(|a| a == "--quick");
     let sim_pairs = args
@@ -94,87 +117,54 @@ fn main() -> ExitCode {
         .and_then(|v| v.parse().ok())
         .unwrap_or(if quick { 10 } else { 50 });
     let (icp, segment, truth, crf_m) = ("icp", "segment-icp", "true", "crf-matching");
-    let config = match SimConfig::default().check() {
-        Ok(c) => c,
-        Err(e) => {
-            eprintln!("table1: {e}");
-            return ExitCode::from(2);
-        }
-    };
+    let config = SimConfig::default().check().map_err(|e| e.to_string())?;
     let sim = simulate_pairs(&config, 1, sim_pairs);
     header(&format!(
         "(a) simulated pairs: preset mixed, seed 1, {sim_pairs} pairs, default selection (training used seed 1000)"
     ));
-    let rows = [
-        ("CBD", "cbd", icp, Some(&PAPER[0].1)),
-        ("K-Means (true assoc.)", "kmeans", truth, Some(&PAPER[1].1)),
-        ("K-Means (ICP assoc.)", "kmeans", icp, None),
-        ("CRF-T", "crf", truth, Some(&PAPER[2].1)),
-        ("K-Means (seg.-ICP assoc.)", "kmeans", segment, None),
-        ("CRF, ICP assoc.", "crf", icp, None),
-        ("CRF, seg.-ICP assoc.", "crf", segment, None),
-        ("K-Means (CRF-M assoc.)", "kmeans", crf_m, None),
-        ("CRF-M", "crf", crf_m, Some(&PAPER[3].1)),
-        ("one cluster", "one-cluster", icp, None),
-    ];
-    for (name, method, associations, paper) in rows {
-        match run(&sim, method, associations) {
-            Ok(report) => {
-                row(name, &report.summary, paper);
-                if method == "crf" {
-                    motion(&report);
-                }
-            }
-            Err(e) => {
-                eprintln!("table1: {name}: {e}");
-                return ExitCode::from(2);
-            }
-        }
-    }
-    let unselected = match (SimConfig {
+    rows(
+        &sim,
+        &[
+            ("CBD", "cbd", icp, Some(&PAPER[0].1)),
+            ("K-Means (true assoc.)", "kmeans", truth, Some(&PAPER[1].1)),
+            ("K-Means (ICP assoc.)", "kmeans", icp, None),
+            ("CRF-T", "crf", truth, Some(&PAPER[2].1)),
+            ("K-Means (seg.-ICP assoc.)", "kmeans", segment, None),
+            ("CRF, ICP assoc.", "crf", icp, None),
+            ("CRF, seg.-ICP assoc.", "crf", segment, None),
+            ("K-Means (CRF-M assoc.)", "kmeans", crf_m, None),
+            ("CRF-M", "crf", crf_m, Some(&PAPER[3].1)),
+            ("one cluster", "one-cluster", icp, None),
+        ],
+    )?;
+    let unselected = SimConfig {
         min_object_returns: 0,
         ..SimConfig::default()
-    })
+    }
     .check()
-    {
-        Ok(c) => simulate_pairs(&c, 1, sim_pairs),
-        Err(e) => {
-            eprintln!("table1: {e}");
-            return ExitCode::from(2);
-        }
-    };
+    .map_err(|e| e.to_string())?;
+    let unselected = simulate_pairs(&unselected, 1, sim_pairs);
     header(&format!(
         "(a') simulated pairs: preset mixed, seed 1, {sim_pairs} pairs, no selection (objects with 1-2 returns or just come into view included)"
     ));
     for (name, associations) in [("CRF-T", truth), ("CRF, seg.-ICP assoc.", segment)] {
-        match run(&unselected, "crf", associations) {
-            Ok(report) => row(name, &report.summary, None),
-            Err(e) => {
-                eprintln!("table1: {name}: {e}");
-                return ExitCode::from(2);
-            }
-        }
+        let report = run(&unselected, "crf", associations).map_err(|e| format!("{name}: {e}"))?;
+        row(name, &report.summary, None);
     }
     let Some(dir) = pgm_datasets::testdata::shared_data_dir() else {
         println!("\n(b) leigh-gtm1 skipped: shared data folder not found");
-        return ExitCode::SUCCESS;
+        return Ok(());
     };
     let base = dir.join("leigh-gtm1");
-    let loaded = (|| -> Result<_, String> {
+    let (log, people) = (|| -> Result<_, String> {
         let mut log = leigh::read_scans(base.join("scans.txt")).map_err(|e| e.to_string())?;
         let odometry = base.join("odom_at_scan.txt");
         let odo = leigh::read_odometry(&odometry).map_err(|e| e.to_string())?;
         leigh::attach_odometry(&mut log, &odo, &odometry).map_err(|e| e.to_string())?;
         let people = leigh::read_people(base.join("people_gt.txt")).map_err(|e| e.to_string())?;
         Ok((log, people))
-    })();
-    let (log, people) = match loaded {
-        Ok(x) => x,
-        Err(e) => {
-            eprintln!("table1: leigh-gtm1: {e}");
-            return ExitCode::from(2);
-        }
-    };
+    })()
+    .map_err(|e| format!("leigh-gtm1: {e}"))?;
     for (k, annotated_sector, prior) in [
         (1usize, false, true),
         (3, false, true),
@@ -187,29 +177,14 @@ fn main() -> ExitCode {
             annotated_sector,
             ..LeighPairOptions::default()
         };
-        let pairs = match leigh_pairs(&log, &people, &options) {
-            // Without the prior the methods run as on a log without odometry; the
-            // labels still come from it.
-            Ok(mut p) => {
-                if !prior {
-                    p.iter_mut().for_each(|p| p.odometry = None);
-                }
-                p
-            }
-            Err(e) => {
-                eprintln!("table1: leigh-gtm1 k={k}: {e}");
-                return ExitCode::from(2);
-            }
-        };
-        let moving = pairs
-            .iter()
-            .filter(|p| {
-                p.truth
-                    .as_ref()
-                    .and_then(|t| t.labels.as_ref())
-                    .is_some_and(|l| l.iter().any(|x| x.is_some_and(|v| v > 0)))
-            })
-            .count();
+        let mut pairs =
+            leigh_pairs(&log, &people, &options).map_err(|e| format!("leigh-gtm1 k={k}: {e}"))?;
+        // Without the prior the methods run as on a log without odometry; the labels
+        // still come from it.
+        if !prior {
+            pairs.iter_mut().for_each(|p| p.odometry = None);
+        }
+        let moving = pairs.iter().filter(|p| p.has_labelled_mover()).count();
         let scored = if annotated_sector {
             "scored inside the annotated sector"
         } else {
@@ -224,35 +199,22 @@ fn main() -> ExitCode {
         if k == 5 && !annotated_sector && prior {
             println!("(independent implementations on these pairs, from the issue: CBD V about 0.31, K-Means (ICP assoc.) about 0.10, one cluster about 0.50)");
         }
-        for (name, method, associations) in [
-            (
-                if prior {
-                    "CBD (odometry)"
-                } else {
-                    "CBD (ICP ego-motion)"
-                },
-                "cbd",
-                icp,
-            ),
-            ("K-Means (ICP assoc.)", "kmeans", icp),
-            ("CRF, ICP assoc.", "crf", icp),
-            ("CRF, seg.-ICP assoc.", "crf", segment),
-            ("CRF, CRF-M assoc.", "crf", crf_m),
-            ("one cluster", "one-cluster", icp),
-        ] {
-            match run(&pairs, method, associations) {
-                Ok(report) => {
-                    row(name, &report.summary, None);
-                    if method == "crf" {
-                        motion(&report);
-                    }
-                }
-                Err(e) => {
-                    eprintln!("table1: {name}: {e}");
-                    return ExitCode::from(2);
-                }
-            }
-        }
+        let cbd = if prior {
+            "CBD (odometry)"
+        } else {
+            "CBD (ICP ego-motion)"
+        };
+        rows(
+            &pairs,
+            &[
+                (cbd, "cbd", icp, None),
+                ("K-Means (ICP assoc.)", "kmeans", icp, None),
+                ("CRF, ICP assoc.", "crf", icp, None),
+                ("CRF, seg.-ICP assoc.", "crf", segment, None),
+                ("CRF, CRF-M assoc.", "crf", crf_m, None),
+                ("one cluster", "one-cluster", icp, None),
+            ],
+        )?;
     }
-    ExitCode::SUCCESS
+    Ok(())
 }

@@ -637,15 +637,7 @@ fn ego_motion(title: &str, source: &PairSource, near: Option<f64>) -> Result<(),
 
 /// The moving-object detection metrics of every clusterer on real pairs.
 fn detection(title: &str, pairs: &[ScanPair]) -> Result<(), String> {
-    let movers = pairs
-        .iter()
-        .filter(|p| {
-            p.truth
-                .as_ref()
-                .and_then(|t| t.labels.as_ref())
-                .is_some_and(|l| l.iter().any(|x| x.is_some_and(|v| v > 0)))
-        })
-        .count();
+    let movers = pairs.iter().filter(|p| p.has_labelled_mover()).count();
     println!(
         "\n{title}: {} pairs, {movers} with a labelled mover",
         pairs.len()

@@ -243,16 +243,27 @@ pub fn rename_by_first_appearance<T: Eq + Hash>(labels: &[Option<T>]) -> Vec<Opt
 /// with a ground-truth label, invariant to renaming clusters (see the module docs).
 pub fn clustering_edit_distance(truth: &[Option<u32>], predicted: &[Option<u32>]) -> Result<usize> {
     check_lengths("clustering edit distance", truth.len(), predicted.len())?;
-    let (t, p): (Vec<Option<u32>>, Vec<Option<u32>>) = truth
+    let (t, p) = labelled_renamed(truth, predicted, |c| *c);
+    Ok(edit_distance(&t, &p))
+}
+
+/// The labels of the beams with a ground-truth label, `label` of the truth and of the
+/// prediction, each labelling renamed by first appearance.
+fn labelled_renamed<T, L: Eq + Hash>(
+    truth: &[Option<T>],
+    predicted: &[Option<T>],
+    label: impl Fn(&Option<T>) -> Option<L>,
+) -> (Vec<Option<usize>>, Vec<Option<usize>>) {
+    let (t, p): (Vec<Option<L>>, Vec<Option<L>>) = truth
         .iter()
         .zip(predicted)
         .filter(|(t, _)| t.is_some())
-        .map(|(t, p)| (*t, *p))
+        .map(|(t, p)| (label(t), label(p)))
         .unzip();
-    Ok(edit_distance(
-        &rename_by_first_appearance(&t),
-        &rename_by_first_appearance(&p),
-    ))
+    (
+        rename_by_first_appearance(&t),
+        rename_by_first_appearance(&p),
+    )
 }
 
 /// Share (0–1) of beams with a ground-truth label whose predicted cluster, after
@@ -263,19 +274,10 @@ pub fn clustering_accuracy(
     predicted: &[Option<u32>],
 ) -> Result<Option<f64>> {
     check_lengths("clustering accuracy", truth.len(), predicted.len())?;
-    let (t, p): (Vec<Option<u32>>, Vec<Option<u32>>) = truth
-        .iter()
-        .zip(predicted)
-        .filter(|(t, _)| t.is_some())
-        .map(|(t, p)| (*t, *p))
-        .unzip();
+    let (t, p) = labelled_renamed(truth, predicted, |c| *c);
     if t.is_empty() {
         return Ok(None);
     }
-    let (t, p) = (
-        rename_by_first_appearance(&t),
-        rename_by_first_appearance(&p),
-    );
     let hits = t.iter().zip(&p).filter(|(a, b)| a == b).count();
     Ok(Some(hits as f64 / t.len() as f64))
 }
@@ -462,16 +464,8 @@ pub fn clustering_sed(
         Some(JointCluster::Object(k)) => Some(*k),
         _ => None,
     };
-    let (t, p): (Vec<Option<usize>>, Vec<Option<usize>>) = truth
-        .iter()
-        .zip(predicted)
-        .filter(|(t, _)| t.is_some())
-        .map(|(t, p)| (object(t), object(p)))
-        .unzip();
-    Ok(edit_distance(
-        &rename_by_first_appearance(&t),
-        &rename_by_first_appearance(&p),
-    ))
+    let (t, p) = labelled_renamed(truth, predicted, object);
+    Ok(edit_distance(&t, &p))
 }
 
 /// Share (0–1) of beams with a ground-truth association whose predicted association

@@ -160,21 +160,8 @@ fn associations_on_a_wall_ahead_are_the_nearest_beam() {
     // Ego drives 3 m straight towards a wall 20 m ahead: a point seen at bearing a
     // from 17 m lies at bearing atan(17 tan a / 20) from 20 m, and the nearest beam
     // there is the association.
-    let scene = Scene {
-        background: vec![Primitive::segment(
-            Point2::new(20.0, -30.0),
-            Point2::new(20.0, 30.0),
-        )],
-        objects: vec![],
-        ego: Trajectory {
-            start: Pose2::identity(),
-            speed: 10.0,
-            yaw_rate: 0.0,
-        },
-        interval: 0.3,
-    };
-    let c = noise_free(Preset::Mixed);
-    let pair = simulate_scene(&scene, &c, &mut pair_rng(0, 0), "wall".into());
+    let wall = Primitive::segment(Point2::new(20.0, -30.0), Point2::new(20.0, 30.0));
+    let pair = simulate_noise_free(&driving_3m_ahead(vec![wall], vec![]), "wall");
     let truth = pair.truth.as_ref().unwrap();
     let associations = truth.associations.as_ref().unwrap();
     let step = std::f64::consts::PI / 360.0;
@@ -193,12 +180,12 @@ fn associations_on_a_wall_ahead_are_the_nearest_beam() {
 /// A wall 15 m ahead, a car crossing at x = 9 (centre y = 0 at the reference scan,
 /// y = 3 at the current scan), ego driving 3 m forward.
 fn crossing_scene() -> Scene {
-    Scene {
-        background: vec![Primitive::segment(
+    driving_3m_ahead(
+        vec![Primitive::segment(
             Point2::new(15.0, -40.0),
             Point2::new(15.0, 40.0),
         )],
-        objects: vec![MovingObject::car(
+        vec![MovingObject::car(
             4.5,
             1.8,
             Trajectory {
@@ -207,6 +194,15 @@ fn crossing_scene() -> Scene {
                 yaw_rate: 0.0,
             },
         )],
+    )
+}
+
+/// A scene of `background` and `objects` in which the ego vehicle drives 3 m straight
+/// ahead from the origin (10 m/s for 0.3 s).
+fn driving_3m_ahead(background: Vec<Primitive>, objects: Vec<MovingObject>) -> Scene {
+    Scene {
+        background,
+        objects,
         ego: Trajectory {
             start: Pose2::identity(),
             speed: 10.0,
@@ -216,15 +212,15 @@ fn crossing_scene() -> Scene {
     }
 }
 
+/// The pair of `scene` without range noise or dropout (preset `mixed`'s laser, seed 0).
+fn simulate_noise_free(scene: &Scene, name: &str) -> ScanPair {
+    let c = noise_free(Preset::Mixed);
+    simulate_scene(scene, &c, &mut pair_rng(0, 0), name.into())
+}
+
 #[test]
 fn surfaces_hidden_at_the_reference_time_are_outliers() {
-    let c = noise_free(Preset::Mixed);
-    let pair = simulate_scene(
-        &crossing_scene(),
-        &c,
-        &mut pair_rng(0, 0),
-        "crossing".into(),
-    );
+    let pair = simulate_noise_free(&crossing_scene(), "crossing");
     let truth = pair.truth.as_ref().unwrap();
     let labels = truth.labels.as_ref().unwrap();
     let associations = truth.associations.as_ref().unwrap();
@@ -284,12 +280,12 @@ fn surfaces_hidden_at_the_reference_time_are_outliers() {
 fn surfaces_outside_the_reference_view_are_outliers() {
     // A car overtaking from behind: at the reference time it is entirely behind the
     // sensor (x < 0, outside the 180° field of view), at the current time beside it.
-    let scene = Scene {
-        background: vec![Primitive::segment(
+    let scene = driving_3m_ahead(
+        vec![Primitive::segment(
             Point2::new(-40.0, -6.0),
             Point2::new(60.0, -6.0),
         )],
-        objects: vec![MovingObject::car(
+        vec![MovingObject::car(
             4.5,
             1.8,
             Trajectory {
@@ -298,15 +294,8 @@ fn surfaces_outside_the_reference_view_are_outliers() {
                 yaw_rate: 0.0,
             },
         )],
-        ego: Trajectory {
-            start: Pose2::identity(),
-            speed: 10.0,
-            yaw_rate: 0.0,
-        },
-        interval: 0.3,
-    };
-    let c = noise_free(Preset::Mixed);
-    let pair = simulate_scene(&scene, &c, &mut pair_rng(0, 0), "behind".into());
+    );
+    let pair = simulate_noise_free(&scene, "behind");
     let truth = pair.truth.as_ref().unwrap();
     let labels = truth.labels.as_ref().unwrap();
     let associations = truth.associations.as_ref().unwrap();

@@ -444,21 +444,7 @@ impl FactorGraph {
 
     /// Checks that an assignment has one in-range state per variable.
     pub fn check_assignment(&self, assignment: &[usize]) -> Result<()> {
-        if assignment.len() != self.num_variables() {
-            return Err(Error::BadAssignment(format!(
-                "{} values for {} variables",
-                assignment.len(),
-                self.num_variables()
-            )));
-        }
-        for (i, (&x, &k)) in assignment.iter().zip(&self.cardinalities).enumerate() {
-            if x >= k {
-                return Err(Error::BadAssignment(format!(
-                    "variable {i} has state {x}, but only {k} states"
-                )));
-            }
-        }
-        Ok(())
+        check_assignment(&self.cardinalities, assignment)
     }
 
     /// Sum of all factors' log-potentials at a joint assignment (−∞ if any factor is a
@@ -545,4 +531,24 @@ impl FactorGraph {
         }
         order
     }
+}
+
+/// Checks that `assignment` has one state per variable of `cardinalities`, each in
+/// range.
+pub(crate) fn check_assignment(cardinalities: &[usize], assignment: &[usize]) -> Result<()> {
+    if assignment.len() != cardinalities.len() {
+        return Err(Error::BadAssignment(format!(
+            "{} values for {} variables",
+            assignment.len(),
+            cardinalities.len()
+        )));
+    }
+    for (i, (&x, &k)) in assignment.iter().zip(cardinalities).enumerate() {
+        if x >= k {
+            return Err(Error::BadAssignment(format!(
+                "variable {i} has state {x}, but only {k} states"
+            )));
+        }
+    }
+    Ok(())
 }

@@ -147,33 +147,22 @@ pub fn tree(
     range: f64,
     hard_zero: f64,
 ) -> BoxedStrategy<GraphSpec> {
-    (1..=max_vars)
-        .prop_flat_map(move |n| {
-            (
-                proptest::collection::vec(1..=max_card, n),
-                proptest::collection::vec(
-                    (any::<prop::sample::Index>(), any::<bool>()),
-                    n.saturating_sub(1),
-                ),
-            )
-        })
-        .prop_flat_map(move |(cards, attach)| {
-            let edges: Vec<(usize, usize)> = attach
-                .iter()
-                .enumerate()
-                .map(|(i, (idx, flip))| {
-                    let child = i + 1;
-                    let parent = idx.index(child);
-                    if *flip {
-                        (child, parent)
-                    } else {
-                        (parent, child)
-                    }
-                })
-                .collect();
-            with_factors(cards, edges, range, hard_zero)
-        })
-        .boxed()
+    let attach = (any::<prop::sample::Index>(), any::<bool>());
+    linked(max_vars, max_card, attach, range, hard_zero, |attach| {
+        attach
+            .iter()
+            .enumerate()
+            .map(|(i, (idx, flip))| {
+                let child = i + 1;
+                let parent = idx.index(child);
+                if *flip {
+                    (child, parent)
+                } else {
+                    (parent, child)
+                }
+            })
+            .collect()
+    })
 }
 
 /// Random chains in variable order (scope order random).
@@ -183,21 +172,47 @@ pub fn chain(
     range: f64,
     hard_zero: f64,
 ) -> BoxedStrategy<GraphSpec> {
+    linked(
+        max_vars,
+        max_card,
+        any::<bool>(),
+        range,
+        hard_zero,
+        |flips| {
+            flips
+                .iter()
+                .enumerate()
+                .map(|(i, &f)| if f { (i + 1, i) } else { (i, i + 1) })
+                .collect()
+        },
+    )
+}
+
+/// The edge list (pairs of variable indices) [`linked`] builds from one draw per link.
+type EdgeBuilder<T> = fn(&[T]) -> Vec<(usize, usize)>;
+
+/// Graphs of 1..=`max_vars` variables of cardinality 1..=`max_card` whose edges
+/// `edges` makes of one `link` draw per variable after the first, with the factors of
+/// [`with_factors`].
+fn linked<L>(
+    max_vars: usize,
+    max_card: usize,
+    link: L,
+    range: f64,
+    hard_zero: f64,
+    edges: EdgeBuilder<L::Value>,
+) -> BoxedStrategy<GraphSpec>
+where
+    L: Strategy + Clone + 'static,
+{
     (1..=max_vars)
         .prop_flat_map(move |n| {
             (
                 proptest::collection::vec(1..=max_card, n),
-                proptest::collection::vec(any::<bool>(), n.saturating_sub(1)),
+                proptest::collection::vec(link.clone(), n.saturating_sub(1)),
             )
         })
-        .prop_flat_map(move |(cards, flips)| {
-            let edges = flips
-                .iter()
-                .enumerate()
-                .map(|(i, &f)| if f { (i + 1, i) } else { (i, i + 1) })
-                .collect();
-            with_factors(cards, edges, range, hard_zero)
-        })
+        .prop_flat_map(move |(cards, links)| with_factors(cards, edges(&links), range, hard_zero))
         .boxed()
 }
 

@@ -594,24 +594,11 @@ impl State {
     /// variable-to-factor messages `n_{j→α} = γ_j θ̂_j − m_{α→j}`.
     fn fill_incoming(&mut self, graph: &FactorGraph, at: Incidence, decode: bool) {
         let a = at.factor;
-        let offsets =
-            &self.factor_offsets[self.factor_offsets_start[a]..self.factor_offsets_start[a + 1]];
+        let offsets = self.factor_offsets_start[a];
         if at.other_variable != usize::MAX {
             let slot = 1 - at.slot;
-            let u = at.other_variable;
-            let k = self.cardinality[u];
-            let dst = &mut self.incoming[offsets[slot]..offsets[slot] + k];
-            if decode && self.decoded_in[u] == self.passes {
-                indicator(dst, self.assignment[u]);
-            } else {
-                let start = self.variable_offset[u];
-                reweighted(
-                    dst,
-                    &self.theta_hat[start..start + k],
-                    &self.messages[at.other_message..at.other_message + k],
-                    self.gamma[u],
-                );
-            }
+            let offset = self.factor_offsets[offsets + slot];
+            self.fill_variable(offset, at.other_variable, at.other_message, decode);
             return;
         }
         for (slot, e) in graph.factor_edges(FactorId(a)).enumerate() {
@@ -619,20 +606,30 @@ impl State {
                 continue;
             }
             let u = graph.edge_variable(EdgeId(e)).0;
-            let k = self.cardinality[u];
-            let dst = &mut self.incoming[offsets[slot]..offsets[slot] + k];
-            if decode && self.decoded_in[u] == self.passes {
-                indicator(dst, self.assignment[u]);
-            } else {
-                let start = self.variable_offset[u];
-                let message = graph.message_range(EdgeId(e)).start;
-                reweighted(
-                    dst,
-                    &self.theta_hat[start..start + k],
-                    &self.messages[message..message + k],
-                    self.gamma[u],
-                );
-            }
+            let message = graph.message_range(EdgeId(e)).start;
+            let offset = self.factor_offsets[offsets + slot];
+            self.fill_variable(offset, u, message, decode);
+        }
+    }
+
+    /// Writes variable `u`'s part of `incoming`, from `offset`: its indicator when it
+    /// was decoded in this pass (with `decode`), else its reweighted
+    /// variable-to-factor message, whose factor-to-variable message starts at
+    /// `message`.
+    #[inline]
+    fn fill_variable(&mut self, offset: usize, u: usize, message: usize, decode: bool) {
+        let k = self.cardinality[u];
+        let dst = &mut self.incoming[offset..offset + k];
+        if decode && self.decoded_in[u] == self.passes {
+            indicator(dst, self.assignment[u]);
+        } else {
+            let start = self.variable_offset[u];
+            reweighted(
+                dst,
+                &self.theta_hat[start..start + k],
+                &self.messages[message..message + k],
+                self.gamma[u],
+            );
         }
     }
 

@@ -358,11 +358,14 @@ fn bad_initial_labels_are_refused() {
         .is_err());
 }
 
-/// One position whose preferred state is the other one than the continuous value
-/// remembers (the last label): every solve flips the preference, a limit cycle of
-/// period two.
+/// `chains` chains of one position each: the last one prefers the other state than
+/// the continuous value remembers (its last label), so every solve flips the
+/// preference, a limit cycle of period two; the others keep state 0. The continuous
+/// value moves by `step` at every solve.
 struct Flipper {
     value: usize,
+    chains: usize,
+    step: f64,
 }
 
 impl HybridChainModel for Flipper {
@@ -370,7 +373,7 @@ impl HybridChainModel for Flipper {
         &[1.0]
     }
     fn num_chains(&self) -> usize {
-        1
+        self.chains
     }
     fn chain_len(&self, _chain: usize) -> usize {
         1
@@ -378,16 +381,18 @@ impl HybridChainModel for Flipper {
     fn num_states(&self, _chain: usize, _i: usize) -> usize {
         2
     }
-    fn write_local<S: FeatureSink>(&self, _chain: usize, _i: usize, sink: &mut S) {
-        sink.add(1 - self.value, 0, 1.0);
+    fn write_local<S: FeatureSink>(&self, chain: usize, _i: usize, sink: &mut S) {
+        let flips = chain + 1 == self.chains;
+        sink.add(if flips { 1 - self.value } else { 0 }, 0, 1.0);
     }
     fn write_pair<S: FeatureSink>(&self, _chain: usize, _i: usize, _sink: &mut S) {}
-    fn set_label(&mut self, _chain: usize, _i: usize, _old: Option<usize>, new: usize) {
-        self.value = new;
+    fn set_label(&mut self, chain: usize, _i: usize, _old: Option<usize>, new: usize) {
+        if chain + 1 == self.chains {
+            self.value = new;
+        }
     }
     fn solve(&mut self) -> f64 {
-        // The value moves by one unit at every solve.
-        1.0
+        self.step
     }
 }
 
@@ -399,7 +404,14 @@ fn limit_cycles_stop_early_and_are_reported() {
             .max_sweeps(20)
             .check()
             .unwrap()
-            .run(&mut Flipper { value: 0 }, &[vec![0]])
+            .run(
+                &mut Flipper {
+                    value: 0,
+                    chains: 1,
+                    step: 1.0,
+                },
+                &[vec![0]],
+            )
             .unwrap()
     };
     let cycled = run(true);
@@ -411,39 +423,6 @@ fn limit_cycles_stop_early_and_are_reported() {
     assert_eq!(endless.sweeps, 20);
 }
 
-/// Two chains of one position: chain 0 keeps state 0, chain 1 flips as [`Flipper`]
-/// does, and the continuous value never moves.
-struct StillFlipper {
-    value: usize,
-}
-
-impl HybridChainModel for StillFlipper {
-    fn weights(&self) -> &[f64] {
-        &[1.0]
-    }
-    fn num_chains(&self) -> usize {
-        2
-    }
-    fn chain_len(&self, _chain: usize) -> usize {
-        1
-    }
-    fn num_states(&self, _chain: usize, _i: usize) -> usize {
-        2
-    }
-    fn write_local<S: FeatureSink>(&self, chain: usize, _i: usize, sink: &mut S) {
-        sink.add(if chain == 0 { 0 } else { 1 - self.value }, 0, 1.0);
-    }
-    fn write_pair<S: FeatureSink>(&self, _chain: usize, _i: usize, _sink: &mut S) {}
-    fn set_label(&mut self, chain: usize, _i: usize, _old: Option<usize>, new: usize) {
-        if chain == 1 {
-            self.value = new;
-        }
-    }
-    fn solve(&mut self) -> f64 {
-        0.0
-    }
-}
-
 #[test]
 fn convergence_on_the_continuous_values_alone_ignores_flipping_labels() {
     let run = |convergence: Convergence| {
@@ -453,7 +432,15 @@ fn convergence_on_the_continuous_values_alone_ignores_flipping_labels() {
             .max_sweeps(10)
             .check()
             .unwrap()
-            .run(&mut StillFlipper { value: 0 }, &[vec![0], vec![0]])
+            .run(
+                // Chain 1 flips, and the continuous value never moves.
+                &mut Flipper {
+                    value: 0,
+                    chains: 2,
+                    step: 0.0,
+                },
+                &[vec![0], vec![0]],
+            )
             .unwrap()
     };
     // Two chains: by default a label that keeps changing keeps the run going.

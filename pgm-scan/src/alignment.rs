@@ -530,6 +530,18 @@ pub fn fit_trimmed(
 mod tests {
     use super::*;
 
+    /// Asserts that `pose` is `expected` to 1e-9 (m and rad).
+    fn assert_same_pose(pose: Pose2, expected: Pose2) {
+        assert!(
+            pose.translation_error(&expected) < 1e-9,
+            "{pose:?} {expected:?}"
+        );
+        assert!(
+            pose.rotation_error(&expected) < 1e-9,
+            "{pose:?} {expected:?}"
+        );
+    }
+
     #[test]
     fn residual_matches_the_solution() {
         let truth = Pose2::new(0.4, -0.3, 0.2);
@@ -768,14 +780,7 @@ mod tests {
         // translation puts the source on its target.
         let with_prior = refine_point_to_line(start, &[pair], 0.1, Some((0.3, 1.0)));
         let expected = Pose2::new(2.0 - 0.3f64.cos(), -(0.3f64.sin()), 0.3);
-        assert!(
-            with_prior.translation_error(&expected) < 1e-9,
-            "{with_prior:?}"
-        );
-        assert!(
-            with_prior.rotation_error(&expected) < 1e-9,
-            "{with_prior:?}"
-        );
+        assert_same_pose(with_prior, expected);
     }
 
     #[test]
@@ -809,14 +814,7 @@ mod tests {
             .motion;
         let start = Pose2::new(closed.x() + 0.01, closed.y() - 0.01, closed.theta() + 0.01);
         let refined = refine_point_to_line(start, &pairs, 0.1, Some((theta0, kappa)));
-        assert!(
-            refined.translation_error(&closed) < 1e-9,
-            "{refined:?} {closed:?}"
-        );
-        assert!(
-            refined.rotation_error(&closed) < 1e-9,
-            "{refined:?} {closed:?}"
-        );
+        assert_same_pose(refined, closed);
     }
 
     #[test]

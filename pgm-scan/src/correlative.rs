@@ -1221,11 +1221,12 @@ fn floor(x: f64) -> i64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_scenes::{first_hit, uniform, Segment};
 
     /// A room 8 m × 5 m with a pillar and a box, seen from `pose` by 181 beams over
     /// 270 degrees.
     fn room_scan(pose: &Pose2) -> Scan {
-        let walls: [(f64, f64, f64, f64); 7] = [
+        let walls: [Segment; 7] = [
             (-4.0, -2.5, 4.0, -2.5),
             (4.0, -2.5, 4.0, 2.5),
             (4.0, 2.5, -4.0, 2.5),
@@ -1238,28 +1239,10 @@ mod tests {
         let ranges = angles
             .iter()
             .map(|a| {
-                let (dy, dx) = (pose.theta() + a).sin_cos();
-                walls
-                    .iter()
-                    .filter_map(|&(x1, y1, x2, y2)| {
-                        let (ex, ey) = (x2 - x1, y2 - y1);
-                        let den = dx * ey - dy * ex;
-                        let t = ((x1 - pose.x()) * ey - (y1 - pose.y()) * ex) / den;
-                        let u = ((x1 - pose.x()) * dy - (y1 - pose.y()) * dx) / den;
-                        (den.abs() > 1e-12 && t > 0.0 && (0.0..=1.0).contains(&u)).then_some(t)
-                    })
-                    .fold(f64::INFINITY, f64::min)
+                first_hit((pose.x(), pose.y()), pose.theta() + a, &walls).unwrap_or(f64::INFINITY)
             })
             .collect();
         Scan::from_ranges(angles, ranges, 30.0)
-    }
-
-    /// A deterministic stream of numbers in [0, 1).
-    fn uniform(state: &mut u64) -> f64 {
-        *state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (*state >> 11) as f64 / (1u64 << 53) as f64
     }
 
     #[test]

@@ -44,6 +44,9 @@ pub mod pair;
 pub mod pose;
 pub mod registration;
 pub mod scan;
+#[cfg(test)]
+#[path = "../tests/common/mod.rs"]
+mod test_scenes;
 
 pub use alignment::{Alignment, RigidAlignment, SurfacePair, TrimmedFitParams};
 pub use association::{AssociationSource, PointAssociations};

@@ -151,6 +151,15 @@ fn check_labels(
 }
 
 impl ScanPair {
+    /// Whether the ground truth labels a beam of the current scan with a moving object
+    /// (a label other than the background's 0).
+    pub fn has_labelled_mover(&self) -> bool {
+        self.truth
+            .as_ref()
+            .and_then(|t| t.labels.as_ref())
+            .is_some_and(|l| l.iter().any(|x| x.is_some_and(|v| v > 0)))
+    }
+
     /// Time from the reference scan to the current scan, in seconds.
     pub fn time_gap(&self) -> f64 {
         self.current.timestamp - self.reference.timestamp

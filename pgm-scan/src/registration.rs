@@ -857,13 +857,14 @@ fn cell_key(ix: f64, iy: f64) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_scenes::{first_hit, uniform, Segment};
 
     fn room_scan(pose: &Pose2) -> Scan {
         // A rectangular room 8 m x 5 m around the origin, with a pillar, seen from `pose`.
         let n = 361;
         let mut angles = Vec::new();
         let mut ranges = Vec::new();
-        let walls: [(f64, f64, f64, f64); 5] = [
+        let walls: [Segment; 5] = [
             (-4.0, -2.5, 4.0, -2.5),
             (4.0, -2.5, 4.0, 2.5),
             (4.0, 2.5, -4.0, 2.5),
@@ -872,24 +873,9 @@ mod tests {
         ];
         for k in 0..n {
             let a = -std::f64::consts::PI + k as f64 * 2.0 * std::f64::consts::PI / n as f64;
-            let dir = pose.theta() + a;
-            let (dx, dy) = (dir.cos(), dir.sin());
-            let (ox, oy) = (pose.x(), pose.y());
-            let mut best = f64::INFINITY;
-            for (x1, y1, x2, y2) in walls {
-                let (ex, ey) = (x2 - x1, y2 - y1);
-                let den = dx * ey - dy * ex;
-                if den.abs() < 1e-12 {
-                    continue;
-                }
-                let t = ((x1 - ox) * ey - (y1 - oy) * ex) / den;
-                let u = ((x1 - ox) * dy - (y1 - oy) * dx) / den;
-                if t > 0.0 && (0.0..=1.0).contains(&u) {
-                    best = best.min(t);
-                }
-            }
+            let hit = first_hit((pose.x(), pose.y()), pose.theta() + a, &walls);
             angles.push(a);
-            ranges.push(if best.is_finite() { best } else { 0.0 });
+            ranges.push(hit.unwrap_or(0.0));
         }
         Scan::from_ranges(angles, ranges, 30.0)
     }
@@ -898,12 +884,7 @@ mod tests {
     fn nearest_tree_matches_brute_force() {
         // Deterministic pseudo-random points, duplicates included.
         let mut state = 12345u64;
-        let mut next = || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((state >> 11) as f64 / (1u64 << 53) as f64) * 20.0 - 10.0
-        };
+        let mut next = || uniform(&mut state) * 20.0 - 10.0;
         for n in [1usize, 2, 7, 8, 9, 50, 361] {
             let mut points: Vec<[f64; 2]> = (0..n).map(|_| [next(), next()]).collect();
             if n > 2 {
@@ -932,12 +913,7 @@ mod tests {
     #[test]
     fn k_nearest_matches_brute_force() {
         let mut state = 99u64;
-        let mut next = || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((state >> 11) as f64 / (1u64 << 53) as f64) * 20.0 - 10.0
-        };
+        let mut next = || uniform(&mut state) * 20.0 - 10.0;
         let points: Vec<[f64; 2]> = (0..300).map(|_| [next(), next()]).collect();
         let tree = NearestTree::new(&points);
         let mut out = Vec::new();
@@ -1020,12 +996,7 @@ mod tests {
         // 20 000 returns within a few metres: the grid halves its cells until they
         // hold few points each, so a query stays cheap, and stays exact.
         let mut state = 7u64;
-        let mut next = || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut next = || uniform(&mut state);
         let points: Vec<[f64; 2]> = (0..20_000).map(|_| [5.0 * next(), next()]).collect();
         let grid = CellGrid::new(&points, 0.2);
         assert!(grid.cell < 0.2, "cell {}", grid.cell);

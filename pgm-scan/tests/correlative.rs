@@ -5,6 +5,9 @@
 //! prior moved by up to 1 m and 30 degrees (100 pairs for the success rates). Also
 //! every kind of bad input.
 
+mod common;
+
+use common::{first_hit, Segment};
 use pgm_scan::correlative::{
     CorrelativeGrid, CorrelativeIcpMatcher, CorrelativeMatcher, CorrelativeParams,
 };
@@ -14,9 +17,6 @@ use pgm_scan::{Error, ParamGuard, Pose2, Scan, ScanPair};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::f64::consts::{FRAC_PI_2, FRAC_PI_6, TAU};
-
-/// A segment of a wall or of an obstacle's outline, `(x1, y1, x2, y2)` in metres.
-type Segment = (f64, f64, f64, f64);
 
 /// The four sides of the axis-aligned box from `(x0, y0)` to `(x1, y1)`.
 fn rectangle(x0: f64, y0: f64, x1: f64, y1: f64) -> [Segment; 4] {
@@ -58,17 +58,8 @@ fn ray_cast(segments: &[Segment], pose: &Pose2, rng: &mut ChaCha8Rng) -> Scan {
     let ranges = angles
         .iter()
         .map(|a| {
-            let (dy, dx) = (pose.theta() + a).sin_cos();
-            let hit = segments
-                .iter()
-                .filter_map(|&(x1, y1, x2, y2)| {
-                    let (ex, ey) = (x2 - x1, y2 - y1);
-                    let den = dx * ey - dy * ex;
-                    let t = ((x1 - pose.x()) * ey - (y1 - pose.y()) * ex) / den;
-                    let u = ((x1 - pose.x()) * dy - (y1 - pose.y()) * dx) / den;
-                    (den.abs() > 1e-12 && t > 0.0 && (0.0..=1.0).contains(&u)).then_some(t)
-                })
-                .fold(f64::INFINITY, f64::min);
+            let hit = first_hit((pose.x(), pose.y()), pose.theta() + a, segments)
+                .unwrap_or(f64::INFINITY);
             let noise: f64 = (0..6).map(|_| rng.random::<f64>() - 0.5).sum::<f64>() * 0.014;
             hit + noise
         })

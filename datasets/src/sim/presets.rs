@@ -143,74 +143,55 @@ impl Preset {
         b.buildings();
         b.parked_cars(density);
         b.furniture(density);
+        use Count::{Chance, Range};
         match self {
-            Preset::Overtaking => {
-                let n = b.rng.random_range(1..=2);
-                b.repeat(n, Builder::overtaking_car);
-                let n = b.chance(0.5);
-                b.repeat(n, Builder::lead_car);
-                let n = b.chance(0.3);
-                b.repeat(n, Builder::oncoming_car);
-            }
-            Preset::Intersection => {
-                let n = b.rng.random_range(1..=2);
-                b.repeat(n, Builder::crossing_car);
-                let n = b.chance(0.5);
-                b.repeat(n, Builder::turning_car);
-                let n = b.rng.random_range(0..=2);
-                b.repeat(n, Builder::crossing_pedestrian);
-                let n = b.chance(0.3);
-                b.repeat(n, Builder::lead_car);
-            }
-            Preset::Oncoming => {
-                let n = b.rng.random_range(1..=3);
-                b.repeat(n, Builder::oncoming_car);
-                let n = b.chance(0.3);
-                b.repeat(n, Builder::lead_car);
-            }
-            Preset::Pedestrians => {
-                let n = b.rng.random_range(2..=4);
-                b.repeat(n, Builder::sidewalk_pedestrian);
-                let n = b.rng.random_range(1..=2);
-                b.repeat(n, Builder::crossing_pedestrian);
-                let n = b.chance(0.2);
-                b.repeat(n, Builder::lead_car);
-            }
+            Preset::Overtaking => b.populate(&[
+                (Range(1, 2), Builder::overtaking_car),
+                (Chance(0.5), Builder::lead_car),
+                (Chance(0.3), Builder::oncoming_car),
+            ]),
+            Preset::Intersection => b.populate(&[
+                (Range(1, 2), Builder::crossing_car),
+                (Chance(0.5), Builder::turning_car),
+                (Range(0, 2), Builder::crossing_pedestrian),
+                (Chance(0.3), Builder::lead_car),
+            ]),
+            Preset::Oncoming => b.populate(&[
+                (Range(1, 3), Builder::oncoming_car),
+                (Chance(0.3), Builder::lead_car),
+            ]),
+            Preset::Pedestrians => b.populate(&[
+                (Range(2, 4), Builder::sidewalk_pedestrian),
+                (Range(1, 2), Builder::crossing_pedestrian),
+                (Chance(0.2), Builder::lead_car),
+            ]),
             Preset::Mixed => {
-                let n = b.rng.random_range(1..=2);
-                b.repeat(n, Builder::oncoming_car);
-                let n = b.chance(0.6);
-                b.repeat(n, Builder::overtaking_car);
-                let n = b.chance(0.4);
-                b.repeat(n, Builder::lead_car);
+                b.populate(&[
+                    (Range(1, 2), Builder::oncoming_car),
+                    (Chance(0.6), Builder::overtaking_car),
+                    (Chance(0.4), Builder::lead_car),
+                ]);
                 if intersection {
-                    let n = b.rng.random_range(1..=2);
-                    b.repeat(n, Builder::crossing_car);
-                    let n = b.chance(0.3);
-                    b.repeat(n, Builder::turning_car);
+                    b.populate(&[
+                        (Range(1, 2), Builder::crossing_car),
+                        (Chance(0.3), Builder::turning_car),
+                    ]);
                 }
-                let n = b.rng.random_range(0..=1);
-                b.repeat(n, Builder::sidewalk_pedestrian);
-                let n = b.rng.random_range(0..=1);
-                b.repeat(n, Builder::crossing_pedestrian);
+                b.populate(&[
+                    (Range(0, 1), Builder::sidewalk_pedestrian),
+                    (Range(0, 1), Builder::crossing_pedestrian),
+                ]);
             }
             Preset::Following => {}
-            Preset::Random => {
-                let n = b.rng.random_range(0..=1);
-                b.repeat(n, Builder::lead_car);
-                let n = b.rng.random_range(0..=2);
-                b.repeat(n, Builder::overtaking_car);
-                let n = b.rng.random_range(0..=3);
-                b.repeat(n, Builder::oncoming_car);
-                let n = b.rng.random_range(0..=2);
-                b.repeat(n, Builder::crossing_car);
-                let n = b.rng.random_range(0..=1);
-                b.repeat(n, Builder::turning_car);
-                let n = b.rng.random_range(0..=3);
-                b.repeat(n, Builder::sidewalk_pedestrian);
-                let n = b.rng.random_range(0..=2);
-                b.repeat(n, Builder::crossing_pedestrian);
-            }
+            Preset::Random => b.populate(&[
+                (Range(0, 1), Builder::lead_car),
+                (Range(0, 2), Builder::overtaking_car),
+                (Range(0, 3), Builder::oncoming_car),
+                (Range(0, 2), Builder::crossing_car),
+                (Range(0, 1), Builder::turning_car),
+                (Range(0, 3), Builder::sidewalk_pedestrian),
+                (Range(0, 2), Builder::crossing_pedestrian),
+            ]),
         }
         b.finish()
     }
@@ -357,6 +338,17 @@ fn car_circles(length: f64, width: f64) -> Vec<(Point2<f64>, f64)> {
     ]
 }
 
+/// How many objects of one kind a preset places: a uniform draw from `low..=high`,
+/// or one with probability `p`.
+#[derive(Clone, Copy)]
+enum Count {
+    Range(usize, usize),
+    Chance(f64),
+}
+
+/// A placement routine of [`Builder`]: proposes one object, or `None` when it cannot.
+type Place<'a, R> = fn(&mut Builder<'a, R>) -> Option<Candidate>;
+
 struct Builder<'a, R> {
     rng: &'a mut R,
     layout: Layout,
@@ -390,9 +382,16 @@ impl<'a, R: Rng> Builder<'a, R> {
         }
     }
 
-    /// 1 with probability `p`, else 0.
-    fn chance(&mut self, p: f64) -> usize {
-        usize::from(self.rng.random_bool(p))
+    /// Draws each entry's number of objects and places them, in the order given (the
+    /// order of the random draws).
+    fn populate(&mut self, plan: &[(Count, Place<'a, R>)]) {
+        for &(count, place) in plan {
+            let n = match count {
+                Count::Range(low, high) => self.rng.random_range(low..=high),
+                Count::Chance(p) => usize::from(self.rng.random_bool(p)),
+            };
+            self.repeat(n, place);
+        }
     }
 
     fn finish(self) -> Scene {
@@ -435,7 +434,7 @@ impl<'a, R: Rng> Builder<'a, R> {
     }
 
     /// Places `n` objects proposed by `place`, each with up to 40 attempts.
-    fn repeat(&mut self, n: usize, place: fn(&mut Self) -> Option<Candidate>) {
+    fn repeat(&mut self, n: usize, place: Place<'a, R>) {
         for _ in 0..n {
             for _ in 0..PLACEMENT_ATTEMPTS {
                 let Some(candidate) = place(self) else {

@@ -235,23 +235,14 @@ impl HybridInference {
                 hook.refresh(a, &mut p);
             }
         }
-        let propagation = self.bp.with_hook(graph, &mut hook).propagate(schedule)?;
+        let mut propagation = self.bp.with_hook(graph, &mut hook).propagate(schedule)?;
         if let Some(e) = hook.error.take() {
             return Err(e);
         }
         let messages_converged = propagation.residual <= self.bp_tolerance();
-        let crate::bp::Propagation {
-            mut messages,
-            iterations,
-            converged,
-            residual,
-            out_of_time,
-            stopped_by_observer,
-            contradictions,
-        } = propagation;
         // Algorithm 1, lines 16-21: re-solve from the decoded state, refresh, decode.
         if self.policy != UpdatePolicy::Frozen {
-            let _ = hook.sync_all(graph, &messages);
+            let _ = hook.sync_all(graph, &propagation.messages);
             hook.solve();
             let mut p = Potentials::new(graph);
             for &a in &dependent {
@@ -260,19 +251,11 @@ impl HybridInference {
             if let Some(e) = hook.error.take() {
                 return Err(e);
             }
-            messages = refresh_single_variable_messages(graph, messages, self.bp.mode());
+            propagation.messages =
+                refresh_single_variable_messages(graph, propagation.messages, self.bp.mode());
         }
         let continuous_change = hook.last_change;
         let continuous_converged = continuous_change <= self.continuous_tolerance;
-        let propagation = crate::bp::Propagation {
-            messages,
-            iterations,
-            converged,
-            residual,
-            out_of_time,
-            stopped_by_observer,
-            contradictions,
-        };
         let discrete = self.bp.finish(graph, propagation);
         let joint_log_score = discrete.log_score;
         Ok(HybridResult {

@@ -535,21 +535,7 @@ impl LogLinearModel {
     }
 
     fn check_assignment(&self, assignment: &[usize]) -> Result<()> {
-        if assignment.len() != self.cardinalities.len() {
-            return Err(Error::BadAssignment(format!(
-                "{} values for {} variables",
-                assignment.len(),
-                self.cardinalities.len()
-            )));
-        }
-        for (i, (&x, &k)) in assignment.iter().zip(&self.cardinalities).enumerate() {
-            if x >= k {
-                return Err(Error::BadAssignment(format!(
-                    "variable {i} has state {x}, but only {k} states"
-                )));
-            }
-        }
-        Ok(())
+        crate::graph::check_assignment(&self.cardinalities, assignment)
     }
 
     /// The factor graph of this instance for `weights`: one [`TableFactor`] per clique
