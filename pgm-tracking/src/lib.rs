@@ -99,11 +99,13 @@ mod backward;
 mod forward;
 mod geometry;
 mod objects;
+pub mod online;
 mod params;
 mod tracker;
 
 pub use geometry::time_order;
 pub use objects::{Tracked, TrackedClusterer, TrackedObject, TrackingCounts};
+pub use online::{OnlineParams, OnlineTracker, ScanReport, TrackState};
 pub use params::TrackingParams;
 pub use tracker::Tracker;
 

@@ -9,6 +9,7 @@ pub mod eval_clustering;
 pub mod infer;
 pub mod joint;
 pub mod matching;
+pub mod online;
 pub mod plot;
 pub mod sim;
 pub mod track;

@@ -23,12 +23,13 @@ use super::data::{
     load_pairs, pair_source, parse_pose, BagArgs, CarmenLaserArgs, LeighArgs, SourceArgs,
 };
 use super::eval_clustering::MethodArgs;
+use super::online::{scan_sequence, track_scans, NamedReport, OnlineArgs};
 use super::{check_not_an_input, check_output_file, resolved_output, CliError, CliResult};
 use clap::Args;
 use nalgebra::Point2;
 use pgm::plot::{TrackPicture, TrackedScan};
 use pgm_scan::{ParamGuard, Pose2};
-use pgm_tracking::{time_order, TrackedObject, TrackingCounts, TrackingParams};
+use pgm_tracking::{TrackState, TrackingCounts, TrackingParams};
 use serde::Serialize;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -50,18 +51,9 @@ pub struct TrackArgs {
     /// scans.
     #[arg(long)]
     pub k: Option<usize>,
-    /// Steps with evidence of motion a track needs for its objects to be reported (1
-    /// drops only the detections that the previous scan shows slower than the speed
-    /// that counts).
-    #[arg(long, default_value_t = TrackingParams::default().min_evidence, hide_short_help = true)]
-    pub min_evidence: usize,
-    /// Slowest speed (m/s) that counts as moving.
-    #[arg(long, default_value_t = TrackingParams::default().min_speed, hide_short_help = true)]
-    pub min_speed: f64,
-    /// Do not follow confirmed tracks backward in time (the scans before an object's
-    /// first detection keep the method's output).
-    #[arg(long, hide_short_help = true)]
-    pub forward_only: bool,
+    /// The online tracker's options.
+    #[command(flatten)]
+    pub online: OnlineArgs,
     /// Write the JSON here (atomically) instead of printing it.
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -132,12 +124,23 @@ impl SequenceSourceArgs {
 
 #[derive(Serialize)]
 struct Output<'a> {
+    mode: &'a str,
     method: &'a str,
     associations: Option<&'a str>,
     data: String,
     weights: &'a str,
-    tracking: TrackingFields,
-    scans: Vec<ScanObjects>,
+    tracking: OnlineFields,
+    scans: Vec<NamedReport>,
+}
+
+/// The `tracking` object of `pgm track`'s JSON: the tracker's options.
+#[derive(Serialize)]
+struct OnlineFields {
+    k: usize,
+    min_speed: f64,
+    max_speed: f64,
+    max_yaw_rate: f64,
+    sequences: usize,
 }
 
 /// The `tracking` object of the JSON output (also `pgm eval clustering --track`'s):
@@ -149,22 +152,6 @@ pub(super) struct TrackingFields {
     pub(super) backward: bool,
     #[serde(flatten)]
     pub(super) counts: TrackingCounts,
-}
-
-#[derive(Serialize)]
-struct ScanObjects {
-    pair: String,
-    time: f64,
-    ego_motion: Option<Pose2>,
-    converged: bool,
-    objects: Vec<Object>,
-}
-
-#[derive(Serialize)]
-struct Object {
-    #[serde(flatten)]
-    object: TrackedObject,
-    motion: Option<Pose2>,
 }
 
 /// Options that only make sense together: bag topics without a bag, and a scan
@@ -226,14 +213,12 @@ pub fn run(args: TrackArgs) -> CliResult {
         args.pairs.as_deref(),
         &args.source.source(),
         &LeighArgs::default(),
-        args.k.unwrap_or(1),
+        // The scans come from the consecutive pairs; the tracker pairs them k apart.
+        1,
     )?;
     let options = args.method.options()?;
-    let tracker = tracker(
-        (args.min_evidence, "--min-evidence"),
-        (args.min_speed, "--min-speed"),
-        !args.forward_only,
-    )?;
+    let params = args.online.params(args.k.unwrap_or(1));
+    params.check_ref().map_err(CliError::from_display)?;
     let inputs: Vec<&std::path::Path> = [
         args.pairs.as_deref(),
         args.source.bag.as_deref(),
@@ -270,55 +255,55 @@ pub fn run(args: TrackArgs) -> CliResult {
             }
         )));
     }
-    let built = args.method.build(&options, &pairs)?;
-    let tracked = tracker
-        .track(&pairs, built.method.as_ref())
-        .map_err(|e| CliError(format!("{source}: {e}")))?;
-    let order = time_order(&pairs);
-    let scans: Vec<ScanObjects> = order
-        .iter()
-        .map(|&i| {
-            let clustering = &tracked.clusterings[i];
-            ScanObjects {
-                pair: pairs[i].name.clone(),
-                time: pairs[i].current.timestamp,
-                ego_motion: clustering.ego_motion,
-                converged: clustering.converged,
-                objects: tracked.objects[i]
-                    .iter()
-                    .map(|object| Object {
-                        motion: clustering
-                            .motions
-                            .iter()
-                            .find(|m| m.label == object.label)
-                            .map(|m| m.motion),
-                        object: object.clone(),
-                    })
-                    .collect(),
-            }
-        })
-        .collect();
+    // The tracker pairs scans n − k and n itself: those pairs carry no ground truth,
+    // so the default association source is the automatic one and `true` is refused.
+    if args.method.associations.as_deref() == Some("true") {
+        return Err(CliError(
+            "--associations true: the online tracker pairs each scan with the one k scans \
+             before it, and those pairs have no ground-truth associations (use an automatic \
+             source: icp, segment-icp, crf-matching)"
+                .into(),
+        ));
+    }
+    let built = args.method.build(&options, &[])?;
+    let sequence = scan_sequence(&pairs);
+    let n_scans = sequence.len();
+    let svg_scans: Vec<pgm_scan::Scan> = if args.svg.is_some() {
+        sequence.iter().map(|(_, s)| s.clone()).collect()
+    } else {
+        Vec::new()
+    };
+    let reports = track_scans(sequence, built.method.as_ref(), &params, args.online.smooth)
+        .map_err(|e| CliError(format!("{source}: {}", e.0)))?;
+    let shown = |o: &&pgm_tracking::online::TrackedObject| o.state != TrackState::Tentative;
     if let Some(path) = &args.svg {
         // The longest sequence, scans in time order.
-        let mut length = vec![0usize; tracked.counts.sequences];
-        for &q in &tracked.sequences {
-            length[q] += 1;
+        let mut length = std::collections::BTreeMap::<usize, usize>::new();
+        for r in &reports {
+            *length.entry(r.report.sequence).or_default() += 1;
         }
-        let longest = (0..length.len()).max_by_key(|&q| (length[q], std::cmp::Reverse(q)));
-        let scans = order
+        let longest = length
             .iter()
-            .filter(|&&i| Some(tracked.sequences[i]) == longest)
-            .map(|&i| TrackedScan {
-                scan: &pairs[i].current,
-                pose: tracked.poses[i],
-                objects: tracked.objects[i]
+            .max_by_key(|(q, n)| (**n, std::cmp::Reverse(**q)))
+            .map(|(q, _)| *q);
+        let scans = reports
+            .iter()
+            .zip(&svg_scans)
+            .filter(|(r, _)| Some(r.report.sequence) == longest)
+            .map(|(r, scan)| TrackedScan {
+                scan,
+                pose: r.report.pose,
+                objects: r
+                    .report
+                    .objects
                     .iter()
-                    .filter_map(|o| Some((o.track?, Point2::new(o.centre[0], o.centre[1]))))
+                    .filter(shown)
+                    .map(|o| (o.track as usize, Point2::new(o.centre[0], o.centre[1])))
                     .collect(),
             })
             .collect::<Vec<_>>();
         let title = format!(
-            "{}: {} scans, tracks shown: {} ({}{})",
+            "{}: {} scans, tracks shown: {} ({}{}, {})",
             super::joint::pair_sets(&pairs).join(", "),
             scans.len(),
             scans
@@ -331,6 +316,11 @@ pub fn run(args: TrackArgs) -> CliResult {
                 .associations
                 .as_deref()
                 .map_or(String::new(), |a| format!(", {a} associations")),
+            if args.online.smooth {
+                "smoothed"
+            } else {
+                "online"
+            },
         );
         TrackPicture {
             scans,
@@ -340,25 +330,38 @@ pub fn run(args: TrackArgs) -> CliResult {
         .write_svg(path)
         .map_err(CliError::from_display)?;
     }
-    let counts = tracked.counts;
-    let reported: usize = scans.iter().map(|s| s.objects.len()).sum();
-    let reported_tracks = scans
+    let reported: usize = reports
         .iter()
-        .flat_map(|s| s.objects.iter().filter_map(|o| o.object.track))
+        .map(|r| r.report.objects.iter().filter(shown).count())
+        .sum();
+    let tracks = reports
+        .iter()
+        .flat_map(|r| r.report.objects.iter().filter(shown).map(|o| o.track))
+        .collect::<std::collections::BTreeSet<_>>()
+        .len();
+    let sequences = reports
+        .iter()
+        .map(|r| r.report.sequence)
         .collect::<std::collections::BTreeSet<_>>()
         .len();
     let output = Output {
+        mode: if args.online.smooth {
+            "smoothed"
+        } else {
+            "online"
+        },
         method: &args.method.method,
         associations: built.associations.as_deref(),
         data: source.to_string(),
         weights: &built.weights,
-        tracking: TrackingFields {
-            min_evidence: args.min_evidence,
-            min_speed: args.min_speed,
-            backward: !args.forward_only,
-            counts,
+        tracking: OnlineFields {
+            k: params.k,
+            min_speed: params.min_speed,
+            max_speed: params.ego.max_speed,
+            max_yaw_rate: params.ego.max_yaw_rate,
+            sequences,
         },
-        scans,
+        scans: reports,
     };
     let json = serde_json::to_string(&output).map_err(CliError::from_display)?;
     match &args.out {
@@ -367,16 +370,13 @@ pub fn run(args: TrackArgs) -> CliResult {
         None => println!("{json}"),
     }
     eprintln!(
-        "pgm: pairs: {} of {source}; moving objects reported: {reported}, on tracks: \
-         {reported_tracks} (tracks started: {}; sequences: {}; objects added from tracks: {} \
-         following them, {} before their first detection; detections dropped as unconfirmed: \
-         {}){}",
-        pairs.len(),
-        counts.tracks,
-        counts.sequences,
-        counts.tracked_objects,
-        counts.backward_objects,
-        counts.dropped,
+        "pgm: {n_scans} scans of {source} tracked {}; objects reported (confirmed, stopped or \
+         coasting): {reported} on {tracks} tracks; sequences: {sequences}{}",
+        if args.online.smooth {
+            "and smoothed"
+        } else {
+            "online"
+        },
         [("", &args.out), ("picture ", &args.svg)]
             .iter()
             .filter_map(|(what, p)| p

@@ -1,0 +1,308 @@
+//! Ego-motion over a sequence: each scan's motion predicted from the previous steps
+//! (a constant-velocity model, as KISS-ICP does: I. Vizzo et al., "KISS-ICP: In
+//! Defense of Point-to-Point ICP", RA-L 2023) or taken from the wheel odometry, then
+//! registered against the previous scan without the returns of the tracked movers,
+//! within the platform's motion limits.
+//!
+//! **Why not the pair alone.** Registration of two scans finds the motion that brings
+//! the most returns into agreement. A person walking just ahead of the robot at its
+//! speed, or a car beside it, can hold most of the returns of a sparse scene; their
+//! motion is then the one ICP finds, and the world seems to move. Three things keep
+//! the background the world here:
+//! - the *prediction* (the last step's motion, scaled to this step's duration, or the
+//!   odometry) starts the registration where the world will be, and the hypothesis
+//!   that ICP reaches from it competes with the one it reaches from rest;
+//! - the *support* of a hypothesis counts the current scan's returns once per cell of
+//!   a grid of [`EgoParams::voxel`] metres (a person 1 m ahead covers a few cells
+//!   whatever the number of its returns; the background's posts, trunks and walls many
+//!   cells), and the returns of the tracks reported moving are left out of both scans;
+//! - hypotheses that the platform cannot drive ([`EgoParams::max_speed`],
+//!   [`EgoParams::max_yaw_rate`]) are refused.
+
+use super::scale;
+use pgm_core::{InvalidParameter, ParamGuard};
+use pgm_scan::alignment::{refine_point_to_line, SurfacePair, POINT_TO_POINT_WEIGHT};
+use pgm_scan::pair::Association;
+use pgm_scan::registration::{Icp, IcpParams, IcpResult};
+use pgm_scan::scan::surface_model;
+use pgm_scan::{Pose2, Result, Scan};
+use std::collections::HashSet;
+
+/// Parameters of [`EgoMotion`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EgoParams {
+    /// Fastest the platform drives (m/s); a hypothesis implying more is refused (3.0:
+    /// above a wheelchair's, a walking robot's and an indoor platform's top speed; set
+    /// it to the platform's for a car).
+    pub max_speed: f64,
+    /// Fastest the platform turns (rad/s); a hypothesis implying more is refused (3.0).
+    pub max_yaw_rate: f64,
+    /// Cell size (m) of the grid by which a hypothesis's support counts returns once
+    /// per cell (0.2).
+    pub voxel: f64,
+    /// Distance (m) within which a current return agrees with the previous scan (0.1,
+    /// ICP's final correspondence distance).
+    pub inlier_distance: f64,
+    /// The registration (point-to-point ICP).
+    pub icp: IcpParams,
+}
+
+impl Default for EgoParams {
+    fn default() -> Self {
+        Self {
+            max_speed: 3.0,
+            max_yaw_rate: 3.0,
+            voxel: 0.2,
+            inlier_distance: 0.1,
+            icp: IcpParams::default(),
+        }
+    }
+}
+
+impl ParamGuard for EgoParams {
+    type Checked = EgoMotion;
+    type Error = pgm_scan::Error;
+
+    fn check_ref(&self) -> Result<()> {
+        InvalidParameter::positive("max_speed", self.max_speed, "a speed in m/s > 0")?;
+        InvalidParameter::positive("max_yaw_rate", self.max_yaw_rate, "a rate in rad/s > 0")?;
+        InvalidParameter::positive("voxel", self.voxel, "a cell size in metres > 0")?;
+        InvalidParameter::positive(
+            "inlier_distance",
+            self.inlier_distance,
+            "a distance in metres > 0",
+        )?;
+        self.icp.check_ref()
+    }
+
+    fn check(self) -> Result<EgoMotion> {
+        self.check_ref()?;
+        Ok(EgoMotion {
+            params: self,
+            velocity: None,
+        })
+    }
+}
+
+/// Where a step's ego-motion came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EgoSource {
+    /// Registration started from the wheel odometry.
+    Odometry,
+    /// Registration started from the constant-velocity prediction.
+    Prediction,
+    /// Registration started from rest (the identity).
+    Rest,
+    /// No hypothesis was feasible and supported: the prediction (or the odometry)
+    /// itself.
+    Predicted,
+}
+
+/// One step's ego-motion.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct EgoStep {
+    /// The pose of the current sensor frame in the previous one (maps current points
+    /// into the previous frame), m and rad.
+    pub motion: Pose2,
+    /// Seconds since the previous scan.
+    pub dt: f64,
+    /// Which hypothesis won.
+    pub source: EgoSource,
+    /// Grid cells of the current scan's returns (movers left out) that agree with the
+    /// previous scan under `motion`, and the cells there were.
+    pub support: usize,
+    /// Cells there were.
+    pub cells: usize,
+}
+
+/// The sequence ego-motion estimator (checked [`EgoParams`]); it keeps the last
+/// step's velocity for the next prediction.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EgoMotion {
+    params: EgoParams,
+    /// The last step's motion and its duration.
+    velocity: Option<(Pose2, f64)>,
+}
+
+impl EgoMotion {
+    /// The parameters.
+    pub fn params(&self) -> &EgoParams {
+        &self.params
+    }
+
+    /// Forgets the velocity (a new sequence).
+    pub fn reset(&mut self) {
+        self.velocity = None;
+    }
+
+    /// The prior of the step from `previous` to `current`: the wheel odometry when
+    /// both scans have it, else the last step's motion scaled to this step's duration
+    /// (the identity at a sequence's start).
+    pub fn predict(&self, previous: &Scan, current: &Scan) -> (Pose2, EgoSource) {
+        let dt = current.timestamp - previous.timestamp;
+        match (previous.laser_odometry(), current.laser_odometry()) {
+            (Some(a), Some(b)) => (a.between(&b), EgoSource::Odometry),
+            _ => match self.velocity {
+                Some((m, dt0)) if dt0 > 0.0 => (scale(&m, dt / dt0), EgoSource::Prediction),
+                _ => (Pose2::identity(), EgoSource::Rest),
+            },
+        }
+    }
+
+    /// Whether the platform can drive `motion` in `dt` seconds.
+    pub fn feasible(&self, motion: &Pose2, dt: f64) -> bool {
+        let p = &self.params;
+        motion.is_finite()
+            && motion.translation().norm() <= p.max_speed * dt
+            && motion.theta().abs() <= p.max_yaw_rate * dt
+    }
+
+    /// The motion from `previous` to `current` (see the module docs), leaving out the
+    /// beams whose entry in `previous_movers` / `current_movers` is true (empty slices
+    /// leave out nothing), and remembers it for the next prediction.
+    ///
+    /// # Errors
+    /// The registration's parameter errors (scans without returns fall back to the
+    /// prediction).
+    pub fn estimate(
+        &mut self,
+        previous: &Scan,
+        previous_movers: &[bool],
+        current: &Scan,
+        current_movers: &[bool],
+    ) -> Result<EgoStep> {
+        let p = self.params;
+        let dt = current.timestamp - previous.timestamp;
+        let (prior, prior_source) = self.predict(previous, current);
+        let reference = without(previous, previous_movers);
+        let source = cells_of(&without(current, current_movers), p.voxel);
+        let cells = source.valid_count();
+        let mut best = EgoStep {
+            motion: prior,
+            dt,
+            source: EgoSource::Predicted,
+            support: 0,
+            cells,
+        };
+        if reference.valid_count() >= 2 && cells >= 2 {
+            let icp = Icp::new(&reference, p.icp)?;
+            best.support = support(&icp, &source, &prior, p.inlier_distance);
+            let narrow = IcpParams {
+                initial_max_distance: (4.0 * p.inlier_distance).max(p.icp.final_max_distance),
+                ..p.icp
+            };
+            let narrow_icp = Icp::new(&reference, narrow)?;
+            let mut hypotheses: Vec<(&Icp, Pose2, EgoSource)> = vec![
+                (&narrow_icp, prior, prior_source),
+                (&icp, prior, prior_source),
+            ];
+            if prior_source != EgoSource::Odometry {
+                hypotheses.push((&icp, Pose2::identity(), EgoSource::Rest));
+            }
+            for (matcher, start, from) in hypotheses {
+                let Ok(run) = matcher.align(&source, start) else {
+                    continue;
+                };
+                let motion = point_to_line(&reference, &source, &run);
+                if !self.feasible(&motion, dt) {
+                    continue;
+                }
+                let s = support(&icp, &source, &motion, p.inlier_distance);
+                // More support wins; a tie goes to the earlier (nearer the prior).
+                if s > best.support || (best.source == EgoSource::Predicted && s == best.support) {
+                    best = EgoStep {
+                        motion,
+                        dt,
+                        source: from,
+                        support: s,
+                        cells,
+                    };
+                }
+            }
+        }
+        if best.source == EgoSource::Predicted && !self.feasible(&best.motion, dt) {
+            best.motion = Pose2::identity();
+        }
+        self.velocity = (dt > 0.0).then_some((best.motion, dt));
+        Ok(best)
+    }
+}
+
+/// ICP's motion refined by the point-to-line metric on its final correspondences
+/// ([`refine_point_to_line`]): point-to-point ICP on surfaces sampled at the beam
+/// spacing pins each return to a sampled one, which holds the motion back along walls
+/// seen at a grazing angle.
+fn point_to_line(reference: &Scan, source: &Scan, run: &IcpResult) -> Pose2 {
+    let (points, beams) = reference.points();
+    let model = surface_model(&points, reference.angle_increment());
+    let mut index = vec![usize::MAX; reference.len()];
+    for (i, &b) in beams.iter().enumerate() {
+        index[b] = i;
+    }
+    let pairs: Vec<SurfacePair> = run
+        .associations
+        .iter()
+        .enumerate()
+        .filter_map(|(b, a)| match a {
+            Some(Association::Point(k)) if index[*k] != usize::MAX => {
+                let m = &model[index[*k]];
+                Some(SurfacePair {
+                    source: source.beam_point(b),
+                    target: m.point,
+                    normal: m.normal,
+                    variance: 1.0,
+                })
+            }
+            _ => None,
+        })
+        .collect();
+    if pairs.len() < 3 {
+        return run.motion;
+    }
+    let refined = refine_point_to_line(run.motion, &pairs, POINT_TO_POINT_WEIGHT, None);
+    if refined.is_finite() {
+        refined
+    } else {
+        run.motion
+    }
+}
+
+/// `scan` without the beams marked in `movers`.
+fn without(scan: &Scan, movers: &[bool]) -> Scan {
+    let mut out = scan.clone();
+    for (v, &m) in out.valid.iter_mut().zip(movers) {
+        if m {
+            *v = false;
+        }
+    }
+    out
+}
+
+/// `scan` with one return per grid cell of `voxel` metres (the first in beam order).
+fn cells_of(scan: &Scan, voxel: f64) -> Scan {
+    let mut out = scan.clone();
+    let mut seen = HashSet::new();
+    for b in 0..out.len() {
+        if out.valid[b] {
+            let q = scan.beam_point(b);
+            let cell = ((q.x / voxel).floor() as i64, (q.y / voxel).floor() as i64);
+            if !seen.insert(cell) {
+                out.valid[b] = false;
+            }
+        }
+    }
+    out
+}
+
+/// Returns of `source` that have a reference return within `inlier` metres under
+/// `motion`.
+fn support(icp: &Icp, source: &Scan, motion: &Pose2, inlier: f64) -> usize {
+    (0..source.len())
+        .filter(|&b| source.valid[b])
+        .filter(|&b| {
+            icp.nearest_reference(&motion.transform_point(&source.beam_point(b)), inlier)
+                .is_some()
+        })
+        .count()
+}
