@@ -122,6 +122,7 @@ fn ego_motion_pair(name: String, reference: Scan, current: Scan, ego_motion: Pos
             motion: ego_motion,
             kind: "background".into(),
         }],
+        objects: None,
     };
     ScanPair {
         name,
@@ -745,6 +746,7 @@ fn labelled_pair(
         )),
         associations: None,
         motions,
+        objects: None,
     };
     ScanPair {
         name: format!("{}:{}-{}", options.name, reference.index, current.index),

@@ -298,6 +298,7 @@ pub fn mocap_pair(
             reference_labels: labels_i,
             associations: None,
             motions,
+            objects: None,
         }),
     })
 }

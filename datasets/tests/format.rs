@@ -4,7 +4,7 @@ use pgm_datasets::format::{read_pair, INDEX_FILE};
 use pgm_datasets::{
     read_pairs, write_pairs, Association, ClusterMotion, Error, GroundTruth, ScanPair,
 };
-use pgm_scan::{Pose2, Scan};
+use pgm_scan::{ObjectCentre, Pose2, Scan};
 use std::path::PathBuf;
 
 fn temp_dir(name: &str) -> PathBuf {
@@ -56,6 +56,12 @@ fn pair(name: &str) -> ScanPair {
                 motion: Pose2::new(0.5, 0.0, 0.031),
                 kind: "person 3".into(),
             }],
+            objects: Some(vec![ObjectCentre {
+                id: 3,
+                x: 2.5,
+                y: -0.75,
+                moving: Some(true),
+            }]),
         }),
         reference,
         current,

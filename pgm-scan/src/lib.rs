@@ -53,7 +53,7 @@ pub use association::{AssociationSource, PointAssociations};
 pub use correlative::{CorrelativeMatcher, CorrelativeParams, Hypothesis};
 pub use error::{Error, Result};
 pub use methods::{MotionClusterer, ScanMatcher};
-pub use pair::{Association, ClusterMotion, GroundTruth, ScanPair};
+pub use pair::{Association, ClusterMotion, GroundTruth, ObjectCentre, ScanPair};
 pub use pgm_core::param::{InvalidParameter, ParamGuard};
 pub use pose::{wrap_angle, Pose2};
 pub use scan::Scan;

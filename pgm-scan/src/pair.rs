@@ -74,6 +74,28 @@ pub struct GroundTruth {
     /// True motion of each cluster, background included when known.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub motions: Vec<ClusterMotion>,
+    /// The objects to track in the current scan, with their true centres, for
+    /// tracking metrics (CLEAR-MOT). `None`: the scan is not annotated for tracking;
+    /// `Some(vec![])`: annotated, and no object is there.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub objects: Option<Vec<ObjectCentre>>,
+}
+
+/// One object's true centre in the current scan (see [`GroundTruth::objects`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ObjectCentre {
+    /// The object's identity, the same in every scan of a sequence (a person id of
+    /// an annotation, a simulated body's index, a motion-capture rigid body).
+    pub id: u64,
+    /// Centre (m) in the current scan's sensor frame: a person's body centre between
+    /// the legs, a car's box centre.
+    pub x: f64,
+    /// See `x`.
+    pub y: f64,
+    /// Whether the object moves at this scan, when the source knows (leigh-gtm1: the
+    /// data README's track rule; the simulator: its trajectory).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub moving: Option<bool>,
 }
 
 /// Two scans, the prior on the sensor's motion between them, and the ground truth.
@@ -235,6 +257,21 @@ impl ScanPair {
         }
         for (k, m) in truth.motions.iter().enumerate() {
             check_pose(&format!("truth.motions[{k}].motion"), &m.motion)?;
+        }
+        let objects = truth.objects.as_deref().unwrap_or(&[]);
+        for (k, o) in objects.iter().enumerate() {
+            if !(o.x.is_finite() && o.y.is_finite()) {
+                return Err(violation(
+                    format!("truth.objects[{k}]"),
+                    format!("centre ({}, {}) is not finite", o.x, o.y),
+                ));
+            }
+            if objects[..k].iter().any(|p| p.id == o.id) {
+                return Err(violation(
+                    format!("truth.objects[{k}].id"),
+                    format!("object {} appears twice in the scan", o.id),
+                ));
+            }
         }
         Ok(())
     }

@@ -120,6 +120,7 @@ pub(crate) fn ground_truth(
         reference_labels: Some(reference_labels),
         associations: Some(associations),
         motions,
+        objects: None,
     }
 }
 
