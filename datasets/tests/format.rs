@@ -61,6 +61,7 @@ fn pair(name: &str) -> ScanPair {
                 x: 2.5,
                 y: -0.75,
                 moving: Some(true),
+                returns: Some(7),
             }]),
         }),
         reference,

@@ -96,6 +96,9 @@ pub struct ObjectCentre {
     /// data README's track rule; the simulator: its trajectory).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub moving: Option<bool>,
+    /// How many returns of the current scan hit the object, when the source knows.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub returns: Option<usize>,
 }
 
 /// Two scans, the prior on the sensor's motion between them, and the ground truth.
