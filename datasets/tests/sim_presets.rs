@@ -262,7 +262,8 @@ fn an_unmet_pair_selection_is_reported() {
 fn the_presets_streams_are_unchanged() {
     // Checksums of the first pairs of every preset before the `following` preset and
     // the selection report were added (FNV-1a over the pair's JSON, seed 1): the
-    // README's figures depend on these streams.
+    // README's figures depend on these streams. The tracking truth
+    // (`GroundTruth::objects`) came later and is left out.
     fn fnv(bytes: &[u8]) -> u64 {
         bytes.iter().fold(0xcbf29ce484222325u64, |h, b| {
             (h ^ u64::from(*b)).wrapping_mul(0x100000001b3)
@@ -276,7 +277,10 @@ fn the_presets_streams_are_unchanged() {
         }
         .check()
         .unwrap();
-        let pairs = simulate_pairs(&c, 1, 4);
+        let mut pairs = simulate_pairs(&c, 1, 4);
+        for p in &mut pairs {
+            p.truth.as_mut().unwrap().objects = None;
+        }
         sums.push(fnv(serde_json::to_string(&pairs).unwrap().as_bytes()));
     }
     assert_eq!(sums, EXPECTED_SUMS.to_vec());

@@ -192,6 +192,7 @@ fn crossing_scene() -> Scene {
                 start: Pose2::new(9.0, 0.0, std::f64::consts::FRAC_PI_2),
                 speed: 10.0,
                 yaw_rate: 0.0,
+                lateral_speed: 0.0,
             },
         )],
     )
@@ -207,6 +208,7 @@ fn driving_3m_ahead(background: Vec<Primitive>, objects: Vec<MovingObject>) -> S
             start: Pose2::identity(),
             speed: 10.0,
             yaw_rate: 0.0,
+            lateral_speed: 0.0,
         },
         interval: 0.3,
     }
@@ -292,6 +294,7 @@ fn surfaces_outside_the_reference_view_are_outliers() {
                 start: Pose2::new(-3.0, 3.3, 0.0),
                 speed: 20.0,
                 yaw_rate: 0.0,
+                lateral_speed: 0.0,
             },
         )],
     );
@@ -456,4 +459,131 @@ fn configuration_errors_name_the_offending_value() {
     let pair = simulate_pair(&c, 1, 0);
     assert_eq!(pair.reference.len(), 181);
     pair.validate().unwrap();
+}
+
+/// The label of each tracking-truth object of `pair` (the label of the labelled current
+/// return nearest its centre), after checking the truth is consistent with the labels:
+/// unique ids, one object for every label with a current return, `returns` the count of
+/// that label's returns, and every return within a leg pair (pedestrian) or a box
+/// (car) of the centre.
+fn object_labels(pair: &ScanPair) -> Vec<u32> {
+    let truth = pair.truth.as_ref().unwrap();
+    let labels = truth.labels.as_ref().unwrap();
+    let objects = truth
+        .objects
+        .as_ref()
+        .unwrap_or_else(|| panic!("{}: no tracking truth", pair.name));
+    let mut counts = std::collections::BTreeMap::<u32, usize>::new();
+    for l in labels.iter().flatten().filter(|&&l| l > 0) {
+        *counts.entry(*l).or_default() += 1;
+    }
+    let ids: BTreeSet<u64> = objects.iter().map(|o| o.id).collect();
+    assert_eq!(ids.len(), objects.len(), "{}: repeated ids", pair.name);
+    assert!(objects.iter().all(|o| o.id >= 1), "{}", pair.name);
+    let mut found = Vec::new();
+    for o in objects {
+        let centre = Point2::new(o.x, o.y);
+        let nearest = (0..labels.len())
+            .filter(|&k| labels[k].is_some_and(|l| l > 0))
+            .min_by(|&a, &b| {
+                let da = (pair.current.beam_point(a) - centre).norm();
+                let db = (pair.current.beam_point(b) - centre).norm();
+                da.total_cmp(&db)
+            })
+            .unwrap_or_else(|| panic!("{}: object {} without returns", pair.name, o.id));
+        let label = labels[nearest].unwrap();
+        assert_eq!(
+            o.returns,
+            Some(counts[&label]),
+            "{}: object {} and label {label}",
+            pair.name,
+            o.id
+        );
+        let kind = &truth
+            .motions
+            .iter()
+            .find(|m| m.label == label)
+            .unwrap()
+            .kind;
+        // Legs: half a stride (≤ 0.175 m) and 0.09 m apart sideways, radius ≤ 0.08 m;
+        // a car's half diagonal ≤ 2.64 m; and five standard deviations of noise.
+        let reach = if kind == "pedestrian" { 0.45 } else { 2.8 };
+        for k in (0..labels.len()).filter(|&k| labels[k] == Some(label)) {
+            let d = (pair.current.beam_point(k) - centre).norm();
+            assert!(
+                d <= reach,
+                "{}: {kind} {}'s return {k} {d} m from its centre",
+                pair.name,
+                o.id
+            );
+        }
+        found.push(label);
+    }
+    let distinct: BTreeSet<u32> = found.iter().copied().collect();
+    assert_eq!(distinct.len(), found.len(), "{}: {found:?}", pair.name);
+    assert_eq!(
+        distinct,
+        counts.keys().copied().collect::<BTreeSet<u32>>(),
+        "{}: every object seen in the current scan is in the tracking truth",
+        pair.name
+    );
+    found
+}
+
+#[test]
+fn tracking_truth_lists_every_object_seen_with_its_centre_and_returns() {
+    for preset in Preset::ALL {
+        let c = config(preset);
+        let mut objects = 0;
+        for pair in simulate_pairs(&c, 12, 12) {
+            objects += object_labels(&pair).len();
+            pair.validate()
+                .unwrap_or_else(|v| panic!("{}: {v}", pair.name));
+        }
+        assert!(objects >= 12, "{preset}: {objects} objects");
+    }
+    // The urban presets' objects all move (the slowest, a person keeping pace with a
+    // robot, at 0.76 m/s).
+    for preset in [Preset::Mixed, Preset::Following, Preset::Pedestrians] {
+        for pair in simulate_pairs(&config(preset), 13, 10) {
+            let truth = pair.truth.unwrap();
+            assert!(truth
+                .objects
+                .unwrap()
+                .iter()
+                .all(|o| o.moving == Some(true)));
+        }
+    }
+}
+
+#[test]
+fn tracking_ids_follow_one_body_along_a_sequence() {
+    use pgm_datasets::sim::simulate_sequence;
+    // Pair a's current scan is pair a + 1's reference scan; an object's centre is a
+    // point of its body, so the true motion of its label in pair a + 1 puts its centre
+    // there onto its centre in pair a.
+    for preset in [
+        Preset::Overtaking,
+        Preset::Pedestrians,
+        Preset::Mixed,
+        Preset::Following,
+    ] {
+        let pairs = simulate_sequence(&config(preset), 21, 0, 16, 1);
+        let mut followed = 0;
+        for w in pairs.windows(2) {
+            let before = w[0].truth.as_ref().unwrap().objects.clone().unwrap();
+            let labels = object_labels(&w[1]);
+            let truth = w[1].truth.as_ref().unwrap();
+            for (o, label) in truth.objects.as_ref().unwrap().iter().zip(labels) {
+                let Some(p) = before.iter().find(|p| p.id == o.id) else {
+                    continue;
+                };
+                let moved = motion_of(&w[1], label).transform_point(&Point2::new(o.x, o.y));
+                let d = (moved - Point2::new(p.x, p.y)).norm();
+                assert!(d < 1e-6, "{}: object {} off by {d} m", w[1].name, o.id);
+                followed += 1;
+            }
+        }
+        assert!(followed >= 10, "{preset}: {followed} objects followed");
+    }
 }

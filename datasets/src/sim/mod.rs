@@ -59,9 +59,11 @@ pub mod stats;
 pub mod truth;
 
 pub use presets::Preset;
-pub use scene::{MovingObject, ObjectKind, Primitive, Scene, Trajectory};
+pub use scene::{
+    MovingObject, ObjectKind, Path, Primitive, Scene, Script, ScriptedObject, Trajectory,
+};
 pub use stats::DatasetStats;
-pub use truth::association_tolerance;
+pub use truth::{association_tolerance, MOVING_SPEED};
 
 use crate::pair::ScanPair;
 use pgm_scan::ParamGuard;
@@ -459,10 +461,12 @@ pub fn try_simulate_pairs(config: &ValidSimConfig, seed: u64, n: usize) -> Resul
 /// `0..scans - k`, each with its complete ground truth. Pairs are named
 /// `sim:PRESET:SEED:INDEX:A-B`; their scans carry time stamps `1000 · INDEX + t` (s), so
 /// that the sequences of one data set never join (`pgm_tracking` ends a
-/// sequence at a gap above 1 s). The scene is drawn from stream `index` of `seed` like
-/// [`simulate_pair`]'s, without its pair selection; the noise of each pair is drawn
-/// after it, pair by pair, so one scan is simulated once per pair it belongs to (with
-/// noise of its own each time).
+/// sequence at a gap above 1 s). The scene ([`Preset::script`]) is drawn from stream
+/// `index` of `seed` like [`simulate_pair`]'s, without its pair selection; the noise of
+/// each pair is drawn after it, pair by pair, so one scan is simulated once per pair it
+/// belongs to (with noise of its own each time). An object keeps its tracking-truth id
+/// ([`GroundTruth::objects`](crate::GroundTruth::objects), its body index) in every
+/// pair of the sequence.
 ///
 /// # Panics
 /// If `k` is 0 or not below `scans`.
@@ -479,32 +483,20 @@ pub fn simulate_sequence(
     );
     let mut rng = pair_rng(seed, index);
     let preset = config.params().preset;
-    let scene = preset.scene(config, &mut rng);
-    let period = scene.interval / k as f64;
+    let script = preset.script(config, &mut rng, scans, k);
+    let period = script.period;
     let offset = 1000.0 * index as f64;
-    let rebased = |t: Trajectory, at: f64| Trajectory {
-        start: t.pose_at(at),
-        ..t
-    };
+    // Surfaces beyond the laser's range (and a metre more) are never hit.
+    let reach = config.params().max_range + 1.0;
     (0..scans - k)
         .map(|a| {
             let b = a + k;
             let at = a as f64 * period;
-            let shifted = Scene {
-                background: scene.background.clone(),
-                objects: scene
-                    .objects
-                    .iter()
-                    .map(|o| MovingObject {
-                        trajectory: rebased(o.trajectory, at),
-                        ..o.clone()
-                    })
-                    .collect(),
-                ego: rebased(scene.ego, at),
-                interval: k as f64 * period,
-            };
+            let interval = k as f64 * period;
+            let scene = script.scene_at(at, interval, reach);
+            let speeds = script.speeds_before(at + interval);
             let name = format!("sim:{}:{seed}:{index}:{a}-{b}", preset.name());
-            let mut pair = simulate_scene(&shifted, config, &mut rng, name);
+            let mut pair = scan_scene_pair(&scene, config, &mut rng, name, &speeds);
             pair.reference.timestamp = offset + at;
             pair.current.timestamp = offset + b as f64 * period;
             pair
@@ -525,11 +517,23 @@ pub fn simulate_scene<R: Rng>(
     rng: &mut R,
     name: String,
 ) -> ScanPair {
+    scan_scene_pair(scene, config, rng, name, &scene.speeds())
+}
+
+/// [`simulate_scene`] with each body's speed over the ground at the current scan's time
+/// given (m/s, background first), for the tracking truth's `moving`.
+fn scan_scene_pair<R: Rng>(
+    scene: &Scene,
+    config: &ValidSimConfig,
+    rng: &mut R,
+    name: String,
+    speeds: &[f64],
+) -> ScanPair {
     let reference_pose = scene.reference_sensor();
     let current_pose = scene.current_sensor();
     let mut reference = sensor::scan_scene(scene, config, &reference_pose, 0.0, rng);
     let mut current = sensor::scan_scene(scene, config, &current_pose, scene.interval, rng);
-    let truth = truth::ground_truth(scene, config, &reference, &current);
+    let truth = truth::ground_truth(scene, config, &reference, &current, speeds);
     let ego = truth.ego_motion.unwrap_or_else(|| scene.body_motion(0));
     let odometry = noisy_odometry(config, &ego, rng);
     reference.scan.odometry = Some(reference_pose);

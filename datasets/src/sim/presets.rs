@@ -25,7 +25,9 @@
 //! static to a method that compares the scans in the sensor frame and moving to one
 //! that compares them in the world (after the ego-motion).
 
-use super::scene::{heading, polygon, rectangle, MovingObject, Primitive, Scene, Trajectory};
+use super::scene::{
+    heading, polygon, rectangle, MovingObject, Primitive, Scene, Script, Trajectory,
+};
 use super::{uniform, SimError, ValidSimConfig};
 use nalgebra::{Point2, Vector2};
 use pgm_scan::Pose2;
@@ -110,6 +112,7 @@ impl Preset {
             start: Pose2::new(0.0, uniform(rng, -0.3, 0.3), uniform(rng, -0.02, 0.02)),
             speed: ego_speed,
             yaw_rate: curvature * ego_speed,
+            lateral_speed: 0.0,
         };
         let intersection = match self {
             Preset::Intersection => true,
@@ -214,6 +217,7 @@ fn following_scene<R: Rng>(config: &ValidSimConfig, rng: &mut R) -> Scene {
         start: Pose2::new(0.0, uniform(rng, -0.3, 0.3), uniform(rng, -0.02, 0.02)),
         speed: ego_speed,
         yaw_rate: curvature * ego_speed,
+        lateral_speed: 0.0,
     };
     let layout = Layout::random(rng, 2, false);
     let mut b = Builder::new(rng, layout, ego, interval, ego_speed);
@@ -227,6 +231,23 @@ fn following_scene<R: Rng>(config: &ValidSimConfig, rng: &mut R) -> Scene {
         b.repeat(1, Builder::pacing_next_lane_car);
     }
     b.finish()
+}
+
+impl Preset {
+    /// The scene of a sequence of `scans` scans whose pairs are `k` scans apart
+    /// ([`crate::sim::simulate_sequence`]): one scene of [`Preset::scene`] whose
+    /// motions go on unchanged, scanned `interval / k` seconds apart, however many
+    /// scans there are.
+    pub fn script<R: Rng>(
+        &self,
+        config: &ValidSimConfig,
+        rng: &mut R,
+        _scans: usize,
+        k: usize,
+    ) -> Script {
+        let scene = self.scene(config, rng);
+        Script::from_scene(&scene, scene.interval / k as f64)
+    }
 }
 
 impl fmt::Display for Preset {
@@ -660,6 +681,7 @@ impl<'a, R: Rng> Builder<'a, R> {
             start: Pose2::new(x, y, h),
             speed,
             yaw_rate: 0.0,
+            lateral_speed: 0.0,
         }))
     }
 
@@ -673,6 +695,7 @@ impl<'a, R: Rng> Builder<'a, R> {
             start: Pose2::new(x, y, h),
             speed,
             yaw_rate: self.ego.yaw_rate,
+            lateral_speed: 0.0,
         }))
     }
 
@@ -686,6 +709,7 @@ impl<'a, R: Rng> Builder<'a, R> {
             start: Pose2::new(x, y, h),
             speed: self.ego_speed,
             yaw_rate: self.ego.yaw_rate,
+            lateral_speed: 0.0,
         }))
     }
 
@@ -699,6 +723,7 @@ impl<'a, R: Rng> Builder<'a, R> {
             start: Pose2::new(x, y, h),
             speed,
             yaw_rate: self.ego.yaw_rate,
+            lateral_speed: 0.0,
         }))
     }
 
@@ -713,6 +738,7 @@ impl<'a, R: Rng> Builder<'a, R> {
             start: Pose2::new(x, y, h),
             speed,
             yaw_rate: 0.0,
+            lateral_speed: 0.0,
         }))
     }
 
@@ -727,6 +753,7 @@ impl<'a, R: Rng> Builder<'a, R> {
             start: Pose2::new(x, y, h),
             speed,
             yaw_rate: 0.0,
+            lateral_speed: 0.0,
         }))
     }
 
@@ -748,6 +775,7 @@ impl<'a, R: Rng> Builder<'a, R> {
             start: Pose2::new(x, y, h),
             speed,
             yaw_rate: 0.0,
+            lateral_speed: 0.0,
         }))
     }
 
@@ -777,6 +805,7 @@ impl<'a, R: Rng> Builder<'a, R> {
             start: arc_start,
             speed,
             yaw_rate: yaw_sign * speed / radius,
+            lateral_speed: 0.0,
         };
         let duration = FRAC_PI_2 * radius / speed;
         let offset = uniform(self.rng, 0.0, (duration - self.interval).max(0.0));
@@ -801,6 +830,7 @@ impl<'a, R: Rng> Builder<'a, R> {
             start: Pose2::new(x, y, h),
             speed,
             yaw_rate: 0.0,
+            lateral_speed: 0.0,
         }))
     }
 
@@ -826,6 +856,7 @@ impl<'a, R: Rng> Builder<'a, R> {
             start: Pose2::new(x, y, h),
             speed,
             yaw_rate: 0.0,
+            lateral_speed: 0.0,
         }))
     }
 }

@@ -108,7 +108,10 @@ impl ObjectKind {
 }
 
 /// Motion at constant speed and constant turn rate (a unicycle), integrated exactly:
-/// straight lines when `yaw_rate` is zero, circular arcs otherwise.
+/// straight lines when `yaw_rate` is zero, circular arcs otherwise. A lateral speed
+/// makes it any constant motion of the plane (a constant body twist), which is what
+/// joins two arbitrary poses ([`Trajectory::between`]); the presets' objects have
+/// none.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Trajectory {
     /// Pose (body frame in world frame) at time 0, the reference scan's time.
@@ -117,6 +120,9 @@ pub struct Trajectory {
     pub speed: f64,
     /// Turn rate in rad/s (positive turns left, counter-clockwise).
     pub yaw_rate: f64,
+    /// Speed across the heading in m/s, to the left (body y); 0 for a unicycle.
+    #[serde(default)]
+    pub lateral_speed: f64,
 }
 
 impl Trajectory {
@@ -126,23 +132,136 @@ impl Trajectory {
             start: pose,
             speed: 0.0,
             yaw_rate: 0.0,
+            lateral_speed: 0.0,
         }
+    }
+
+    /// The constant motion that is at `from` at time 0 and at `to` at time `duration`
+    /// (the twist of `from⁻¹ · to` over `duration`; the rotation is taken the short
+    /// way, within ±π). `duration` must be positive.
+    pub fn between(from: Pose2, to: Pose2, duration: f64) -> Self {
+        let d = from.between(&to);
+        let (dx, dy, dtheta) = (d.x(), d.y(), d.theta());
+        // The displacement of a constant twist (v, w, ω) over T is V(ωT) · (v, w) T
+        // with V(θ) = [[a, −b], [b, a]], a = sin θ/θ, b = (1 − cos θ)/θ.
+        let (a, b) = twist_factors(dtheta);
+        let det = a * a + b * b;
+        let (vx, vy) = ((a * dx + b * dy) / det, (a * dy - b * dx) / det);
+        Trajectory {
+            start: from,
+            speed: vx / duration,
+            yaw_rate: if dtheta.abs() < 1e-12 {
+                0.0
+            } else {
+                dtheta / duration
+            },
+            lateral_speed: vy / duration,
+        }
+    }
+
+    /// Speed of the body's origin over the ground (m/s).
+    pub fn ground_speed(&self) -> f64 {
+        self.speed.hypot(self.lateral_speed)
     }
 
     /// Pose of the body in the world frame at time `t` (seconds after the reference scan).
     pub fn pose_at(&self, t: f64) -> Pose2 {
         let (x0, y0, h0) = (self.start.x(), self.start.y(), self.start.theta());
         let h1 = h0 + self.yaw_rate * t;
+        let w = self.lateral_speed;
         if (self.yaw_rate * t).abs() < 1e-12 {
             let d = self.speed * t;
-            Pose2::new(x0 + d * h0.cos(), y0 + d * h0.sin(), h0)
-        } else {
+            if w == 0.0 {
+                Pose2::new(x0 + d * h0.cos(), y0 + d * h0.sin(), h0)
+            } else {
+                let e = w * t;
+                let (s, c) = h0.sin_cos();
+                Pose2::new(x0 + d * c - e * s, y0 + d * s + e * c, h1)
+            }
+        } else if w == 0.0 {
             let r = self.speed / self.yaw_rate;
             Pose2::new(
                 x0 + r * (h1.sin() - h0.sin()),
                 y0 - r * (h1.cos() - h0.cos()),
                 h1,
             )
+        } else {
+            // V(θ) · (v, w) t in the start frame (see `between`), which stays exact
+            // for small turns.
+            let (a, b) = twist_factors(self.yaw_rate * t);
+            let (u, v) = ((a * self.speed - b * w) * t, (b * self.speed + a * w) * t);
+            let (s, c) = h0.sin_cos();
+            Pose2::new(x0 + u * c - v * s, y0 + u * s + v * c, h1)
+        }
+    }
+}
+
+/// `(sin θ/θ, (1 − cos θ)/θ)`, exact for small `θ` too.
+fn twist_factors(theta: f64) -> (f64, f64) {
+    if theta.abs() < 1e-6 {
+        (1.0 - theta * theta / 6.0, theta / 2.0)
+    } else {
+        let half = (theta / 2.0).sin();
+        (theta.sin() / theta, 2.0 * half * half / theta)
+    }
+}
+
+/// A motion made of [`Trajectory`] pieces one after the other: piece `i` holds from
+/// `starts[i]` (s) to the next piece's start, the last one for ever, the first one also
+/// before its start. Each piece's `start` is the pose at its own start time, so
+/// [`Path::pose_at`] is exact wherever the pieces join as they should.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Path {
+    /// When each piece starts (s), increasing.
+    pub starts: Vec<f64>,
+    /// The pieces, each with time measured from its own start.
+    pub pieces: Vec<Trajectory>,
+}
+
+impl Path {
+    /// A path of one piece from time 0.
+    pub fn single(trajectory: Trajectory) -> Self {
+        Path {
+            starts: vec![0.0],
+            pieces: vec![trajectory],
+        }
+    }
+
+    /// The index of the piece that holds at `t`. With `before`, a start exactly at `t`
+    /// belongs to the piece before it (the motion that arrives at `t`).
+    fn piece(&self, t: f64, before: bool) -> usize {
+        let n = if before {
+            self.starts.partition_point(|&s| s < t)
+        } else {
+            self.starts.partition_point(|&s| s <= t)
+        };
+        n.saturating_sub(1)
+    }
+
+    /// Pose at time `t`.
+    pub fn pose_at(&self, t: f64) -> Pose2 {
+        let i = self.piece(t, false);
+        self.pieces[i].pose_at(t - self.starts[i])
+    }
+
+    /// Speed over the ground of the motion that arrives at `t` (m/s).
+    pub fn speed_before(&self, t: f64) -> f64 {
+        self.pieces[self.piece(t, true)].ground_speed()
+    }
+
+    /// The motion from time `t0` over `duration`: the piece that holds there when both
+    /// ends lie in one piece, else the constant motion between the two poses
+    /// ([`Trajectory::between`]).
+    pub fn from_time(&self, t0: f64, duration: f64) -> Trajectory {
+        let i = self.piece(t0, false);
+        if self.piece(t0 + duration, true) == i {
+            let piece = self.pieces[i];
+            Trajectory {
+                start: piece.pose_at(t0 - self.starts[i]),
+                ..piece
+            }
+        } else {
+            Trajectory::between(self.pose_at(t0), self.pose_at(t0 + duration), duration)
         }
     }
 }
@@ -231,6 +350,13 @@ impl Scene {
             .compose(&current_sensor)
     }
 
+    /// Speed over the ground (m/s) of each body (0 = background, then the objects).
+    pub fn speeds(&self) -> Vec<f64> {
+        std::iter::once(0.0)
+            .chain(self.objects.iter().map(|o| o.trajectory.ground_speed()))
+            .collect()
+    }
+
     /// Every primitive of the scene at time `t` in the world frame, with its body index.
     pub fn world_primitives(&self, t: f64) -> Vec<(Primitive, usize)> {
         let mut out: Vec<(Primitive, usize)> = self.background.iter().map(|p| (*p, 0)).collect();
@@ -239,6 +365,110 @@ impl Scene {
             out.extend(object.shape.iter().map(|p| (p.transformed(&pose), i + 1)));
         }
         out
+    }
+}
+
+/// A moving object over a whole sequence of scans (see [`Script`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ScriptedObject {
+    /// Car or pedestrian.
+    pub kind: ObjectKind,
+    /// Outline in the body frame.
+    pub shape: Vec<Primitive>,
+    /// Where the body is over time.
+    pub path: Path,
+}
+
+/// A scene over a whole sequence of scans taken `period` seconds apart, from time 0:
+/// the static background, the moving objects and the ego vehicle on [`Path`]s. Object
+/// `i` is body `i + 1` in every pair's [`Scene`] ([`Script::scene_at`]), so its
+/// identity is the same all along the sequence.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Script {
+    /// Static surfaces in the world frame.
+    pub background: Vec<Primitive>,
+    /// Moving objects, in scene order.
+    pub objects: Vec<ScriptedObject>,
+    /// The ego vehicle (and laser).
+    pub ego: Path,
+    /// Seconds between consecutive scans.
+    pub period: f64,
+}
+
+impl Script {
+    /// The script of a two-scan scene whose motions go on unchanged, scanned every
+    /// `period` seconds.
+    pub fn from_scene(scene: &Scene, period: f64) -> Self {
+        Script {
+            background: scene.background.clone(),
+            objects: scene
+                .objects
+                .iter()
+                .map(|o| ScriptedObject {
+                    kind: o.kind,
+                    shape: o.shape.clone(),
+                    path: Path::single(o.trajectory),
+                })
+                .collect(),
+            ego: Path::single(scene.ego),
+            period,
+        }
+    }
+
+    /// The two-scan scene from time `t0` over `interval` seconds: every body's motion
+    /// over that time ([`Path::from_time`]), and the background surfaces that come
+    /// within `reach` metres of the sensor at either time (all of them for an infinite
+    /// `reach`; a surface farther away than the laser's maximum range is never hit, so
+    /// leaving it out changes nothing).
+    pub fn scene_at(&self, t0: f64, interval: f64, reach: f64) -> Scene {
+        let ego = self.ego.from_time(t0, interval);
+        let sensors =
+            [ego.pose_at(0.0), ego.pose_at(interval)].map(|p| Point2::from(p.translation()));
+        let background = self
+            .background
+            .iter()
+            .filter(|p| reach.is_infinite() || sensors.iter().any(|s| distance_to(p, s) <= reach))
+            .copied()
+            .collect();
+        Scene {
+            background,
+            objects: self
+                .objects
+                .iter()
+                .map(|o| MovingObject {
+                    kind: o.kind,
+                    shape: o.shape.clone(),
+                    trajectory: o.path.from_time(t0, interval),
+                })
+                .collect(),
+            ego,
+            interval,
+        }
+    }
+
+    /// Speed over the ground (m/s) of each body (0 = background, then the objects)
+    /// in the motion that arrives at time `t`.
+    pub fn speeds_before(&self, t: f64) -> Vec<f64> {
+        std::iter::once(0.0)
+            .chain(self.objects.iter().map(|o| o.path.speed_before(t)))
+            .collect()
+    }
+}
+
+/// Distance (m) from `point` to the nearest point of `primitive` (0 inside a circle).
+pub fn distance_to(primitive: &Primitive, point: &Point2<f64>) -> f64 {
+    match *primitive {
+        Primitive::Segment { start, end } => {
+            let e = end - start;
+            let length2 = e.norm_squared();
+            let u = if length2 > 0.0 {
+                ((point - start).dot(&e) / length2).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            (start + e * u - point).norm()
+        }
+        Primitive::Circle { center, radius } => ((center - point).norm() - radius).max(0.0),
     }
 }
 
@@ -257,6 +487,7 @@ mod tests {
             start: Pose2::new(1.0, 2.0, std::f64::consts::FRAC_PI_2),
             speed: 2.0,
             yaw_rate: 0.0,
+            lateral_speed: 0.0,
         };
         let p = straight.pose_at(1.5);
         assert!((p.x() - 1.0).abs() < 1e-12 && (p.y() - 5.0).abs() < 1e-12);
@@ -266,11 +497,57 @@ mod tests {
             start: Pose2::identity(),
             speed: 4.0,
             yaw_rate: 1.0,
+            lateral_speed: 0.0,
         };
         let q = arc.pose_at(std::f64::consts::FRAC_PI_2);
         assert!((q.x() - 4.0).abs() < 1e-12, "{q:?}");
         assert!((q.y() - 4.0).abs() < 1e-12, "{q:?}");
         assert!((q.theta() - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+    }
+
+    #[test]
+    fn between_joins_any_two_poses_and_paths_are_continuous() {
+        let from = Pose2::new(1.0, -2.0, 0.7);
+        for to in [
+            Pose2::new(1.3, -1.1, 2.9),
+            Pose2::new(0.2, -2.0, 0.7),
+            Pose2::new(1.0, -2.0, -1.0),
+            Pose2::new(1.0 + 1e-3, -2.0, 0.7 + 1e-11),
+        ] {
+            let t = Trajectory::between(from, to, 0.3);
+            let end = t.pose_at(0.3);
+            assert!(end.translation_error(&to) < 1e-12, "{end:?} vs {to:?}");
+            assert!(end.rotation_error(&to) < 1e-12, "{end:?} vs {to:?}");
+        }
+        // A unicycle's own end pose gives it back, without lateral speed.
+        let arc = Trajectory {
+            start: from,
+            speed: 0.8,
+            yaw_rate: 0.4,
+            lateral_speed: 0.0,
+        };
+        let again = Trajectory::between(from, arc.pose_at(0.5), 0.5);
+        assert!((again.speed - 0.8).abs() < 1e-12 && again.lateral_speed.abs() < 1e-12);
+        assert!((again.yaw_rate - 0.4).abs() < 1e-12);
+        // A path of two pieces: within one piece its motion is that piece; across the
+        // joint it meets both ends.
+        let second = Trajectory {
+            start: arc.pose_at(1.0),
+            speed: 0.0,
+            yaw_rate: -1.0,
+            lateral_speed: 0.0,
+        };
+        let path = Path {
+            starts: vec![0.0, 1.0],
+            pieces: vec![arc, second],
+        };
+        assert_eq!(path.from_time(0.2, 0.8).speed, 0.8);
+        assert_eq!(path.speed_before(1.0), 0.8);
+        assert_eq!(path.speed_before(1.1), 0.0);
+        let across = path.from_time(0.5, 1.0);
+        let end = across.pose_at(1.0);
+        assert!(end.translation_error(&path.pose_at(1.5)) < 1e-12);
+        assert!(end.rotation_error(&path.pose_at(1.5)) < 1e-12);
     }
 
     #[test]
@@ -284,12 +561,14 @@ mod tests {
                     start: Pose2::new(10.0, 3.0, 0.0),
                     speed: 10.0,
                     yaw_rate: 0.0,
+                    lateral_speed: 0.0,
                 },
             )],
             ego: Trajectory {
                 start: Pose2::new(0.0, 0.0, 0.1),
                 speed: 10.0,
                 yaw_rate: 0.05,
+                lateral_speed: 0.0,
             },
             interval: 0.3,
         };

@@ -25,12 +25,28 @@
 //! nearest one is at most half a spacing away, and one missing neighbour still leaves
 //! a partner within one spacing; a longer gap makes the point an outlier. Noise does
 //! not enter the choice, so the truth is the same for any noise level.
+//!
+//! Tracking truth ([`GroundTruth::objects`]): every moving object of the scene (a car,
+//! a pedestrian, also one standing still at the moment) with at least one return in
+//! the current scan, identified by its body index (object `i` of the scene is body
+//! `i + 1`, the same in every pair of a sequence of [`crate::sim::simulate_sequence`]),
+//! with its true centre in the current sensor frame (the origin of its body frame: a
+//! pedestrian's point midway between the legs, a car's box centre), `moving` when its
+//! true speed over the ground at the current scan's time exceeds [`MOVING_SPEED`], and
+//! `returns`, its returns in the current scan (the beams labelled with its label).
 
 use super::scene::Scene;
 use super::sensor::{beam_spacing, SimulatedScan};
 use super::ValidSimConfig;
-use crate::pair::{Association, ClusterMotion, GroundTruth};
+use crate::pair::{Association, ClusterMotion, GroundTruth, ObjectCentre};
+use nalgebra::Point2;
 use pgm_scan::Pose2;
+
+/// Speed over the ground (m/s) above which an object counts as moving in the tracking
+/// truth ([`ObjectCentre::moving`]): 0.1 m/s, a tenth of a slow walk; a
+/// simulated object either stands (0 m/s) or moves at 0.1 m/s and more only while it
+/// starts or stops.
+pub const MOVING_SPEED: f64 = 0.1;
 
 /// Incidence angles beyond 80° count as 80° in [`association_tolerance`], which keeps
 /// the tolerance finite for surfaces seen edge-on.
@@ -44,12 +60,14 @@ pub fn association_tolerance(range: f64, incidence_cos: f64, beam_spacing: f64) 
     range * beam_spacing / incidence_cos.abs().max(floor)
 }
 
-/// Builds the ground truth of a pair from the two simulated scans.
+/// Builds the ground truth of a pair from the two simulated scans; `speeds` holds each
+/// body's speed over the ground at the current scan's time (m/s, background first).
 pub(crate) fn ground_truth(
     scene: &Scene,
     config: &ValidSimConfig,
     reference: &SimulatedScan,
     current: &SimulatedScan,
+    speeds: &[f64],
 ) -> GroundTruth {
     let bodies = scene.objects.len() + 1;
     // Label of every body, assigned in order of first appearance.
@@ -120,8 +138,33 @@ pub(crate) fn ground_truth(
         reference_labels: Some(reference_labels),
         associations: Some(associations),
         motions,
-        objects: None,
+        objects: Some(tracked_objects(scene, current, speeds)),
     }
+}
+
+/// The objects of the current scan for tracking (module docs), in body order.
+fn tracked_objects(scene: &Scene, current: &SimulatedScan, speeds: &[f64]) -> Vec<ObjectCentre> {
+    let mut returns = vec![0usize; scene.objects.len() + 1];
+    for (t, &v) in current.truth.iter().zip(&current.scan.valid) {
+        if let (true, Some(t)) = (v, t) {
+            returns[t.body] += 1;
+        }
+    }
+    let to_sensor = scene.current_sensor().inverse();
+    (1..returns.len())
+        .filter(|&b| returns[b] > 0)
+        .map(|b| {
+            let body = scene.body_pose(b, scene.interval);
+            let centre = to_sensor.transform_point(&Point2::from(body.translation()));
+            ObjectCentre {
+                id: b as u64,
+                x: centre.x,
+                y: centre.y,
+                moving: Some(speeds[b] > MOVING_SPEED),
+                returns: Some(returns[b]),
+            }
+        })
+        .collect()
 }
 
 /// The association of a surface point of `body` that lies at `q` in the reference
