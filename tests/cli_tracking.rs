@@ -150,9 +150,10 @@ fn track_refuses_bad_options_and_writes_its_output_whole() {
             vec!["is a directory"],
         ),
         // Options that mean nothing here, and outputs that would destroy the input.
+        (track(&pairs, &["--k", "0"]), vec!["k", "at least 1"]),
         (
-            track(&pairs, &["--k", "3"]),
-            vec!["--k 3", "stored data set"],
+            track(&pairs, &["--k", "3", "--reference-gap", "0.5"]),
+            vec!["--reference-gap"],
         ),
         (
             track(&pairs, &["--annotated-sector"]),

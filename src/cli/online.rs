@@ -17,6 +17,11 @@ pub struct OnlineArgs {
     /// drop the tracks never confirmed.
     #[arg(long)]
     pub smooth: bool,
+    /// Shortest time (s) from the detector's reference scan to the current scan, when
+    /// --k is not given: an object at --min-speed moves 0.15 m (CRF-Clustering's
+    /// smallest displacement) in the default time.
+    #[arg(long, default_value_t = OnlineParams::default().reference_gap, hide_short_help = true)]
+    pub reference_gap: f64,
     /// Slowest speed (m/s) that counts as moving.
     #[arg(long, default_value_t = OnlineParams::default().min_speed, hide_short_help = true)]
     pub min_speed: f64,
@@ -29,11 +34,13 @@ pub struct OnlineArgs {
 }
 
 impl OnlineArgs {
-    /// The tracker's parameters, for detector pairs `k` scans apart.
-    pub fn params(&self, k: usize) -> OnlineParams {
+    /// The tracker's parameters, for detector pairs `k` scans apart (`None`: the
+    /// tracker's reference gap in time).
+    pub fn params(&self, k: Option<usize>) -> OnlineParams {
         let d = OnlineParams::default();
         OnlineParams {
             k,
+            reference_gap: self.reference_gap,
             min_speed: self.min_speed,
             ego: EgoParams {
                 max_speed: self.max_speed,

@@ -46,10 +46,9 @@ pub struct TrackArgs {
     /// The log or bag.
     #[command(flatten)]
     pub source: SequenceSourceArgs,
-    /// Scan distance of the pairs the detector runs on (bags and leigh-gtm1 logs;
-    /// default 1). A stored data set has its pairs, a CARMEN `--log` gives consecutive
-    /// scans.
-    #[arg(long)]
+    /// The detector runs on scans n − k and n (default: on scan n and the latest scan
+    /// at least --reference-gap seconds before it).
+    #[arg(long, conflicts_with = "reference_gap")]
     pub k: Option<usize>,
     /// The online tracker's options.
     #[command(flatten)]
@@ -136,7 +135,10 @@ struct Output<'a> {
 /// The `tracking` object of `pgm track`'s JSON: the tracker's options.
 #[derive(Serialize)]
 struct OnlineFields {
-    k: usize,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    k: Option<usize>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    reference_gap: Option<f64>,
     min_speed: f64,
     max_speed: f64,
     max_yaw_rate: f64,
@@ -169,12 +171,6 @@ fn refuse_inconsistent_options(args: &TrackArgs) -> Result<(), CliError> {
                 "{name}: an option of --bag input, given without --bag"
             )));
         }
-    }
-    if let (Some(k), true) = (args.k, args.pairs.is_some() || args.source.log.is_some()) {
-        return Err(CliError(format!(
-            "--k {k}: a stored data set has its pairs and a CARMEN log gives consecutive scans; \
-             --k sets the scan distance of bag and leigh-gtm1 pairs only"
-        )));
     }
     Ok(())
 }
@@ -217,7 +213,7 @@ pub fn run(args: TrackArgs) -> CliResult {
         1,
     )?;
     let options = args.method.options()?;
-    let params = args.online.params(args.k.unwrap_or(1));
+    let params = args.online.params(args.k);
     params.check_ref().map_err(CliError::from_display)?;
     let inputs: Vec<&std::path::Path> = [
         args.pairs.as_deref(),
@@ -356,6 +352,7 @@ pub fn run(args: TrackArgs) -> CliResult {
         weights: &built.weights,
         tracking: OnlineFields {
             k: params.k,
+            reference_gap: params.k.is_none().then_some(params.reference_gap),
             min_speed: params.min_speed,
             max_speed: params.ego.max_speed,
             max_yaw_rate: params.ego.max_yaw_rate,

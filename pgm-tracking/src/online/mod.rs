@@ -8,7 +8,8 @@
 //!    confirmed moving tracks (where their filters put them now, and where they were
 //!    found in scan `n − 1`), within the platform's limits.
 //! 3. The detector (any pair-wise [`MotionClusterer`]) runs on the pair of scan
-//!    `n − k` and scan `n`, with that sequence's ego-motion as the pair's odometry
+//!    `n − k` (by default the latest scan [`OnlineParams::reference_gap`] seconds
+//!    before scan `n`) and scan `n`, with that sequence's ego-motion as the pair's odometry
 //!    prior: every pair-wise method sees the same motion model. Its moving objects
 //!    with at least [`OnlineParams::min_returns`] returns whose returns come within
 //!    [`OnlineParams::merge_distance`] of each other are one object (a walker's two
@@ -35,10 +36,11 @@
 //!    birth, over the time since, is at least [`OnlineParams::min_speed`] and the
 //!    displacement at least twice the noise of the difference of two measured
 //!    centres: clutter found in place does not move on, and a centre's jitter over
-//!    one step is no speed), within
-//!    [`OnlineParams::confirm_window`] scans of its birth, else ends; a track not
-//!    found for more than [`OnlineParams::max_coast`] scans ends (a tentative one
-//!    after two).
+//!    one step is no speed), the confirming step itself one of found displaced (a
+//!    detector that reports the same static clutter again and again does not make
+//!    it a mover), within [`OnlineParams::confirm_time`] seconds of its birth, else
+//!    ends; a track not found for more than [`OnlineParams::max_coast`] scans ends
+//!    (a tentative one after two).
 //!
 //! A scan less than [`OnlineParams::min_step`] or more than [`OnlineParams::max_gap`]
 //! seconds after the previous (or before it) starts a new sequence: its tracks end
@@ -78,8 +80,15 @@ pub(crate) fn scale(motion: &Pose2, factor: f64) -> Pose2 {
 /// Parameters of the [`OnlineTracker`] (checked by [`ParamGuard::check`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct OnlineParams {
-    /// The detector runs on scans `n − k` and `n` (1).
-    pub k: usize,
+    /// The detector runs on scans `n − k` and `n`; `None` (the default): on scan `n`
+    /// and the latest scan at least [`OnlineParams::reference_gap`] seconds before it.
+    pub k: Option<usize>,
+    /// With `k` unset, the shortest time (s) from the detector's reference scan to the
+    /// current scan (0.3: an object at [`OnlineParams::min_speed`], 0.5 m/s, moves
+    /// 0.15 m in that time, CRF-Clustering's smallest displacement of a moving object;
+    /// over one scan of a 7.5-12.5 Hz scanner a walker moves less than that and is not
+    /// seen to move).
+    pub reference_gap: f64,
     /// The sequence ego-motion.
     pub ego: EgoParams,
     /// Slowest speed (m/s) that counts as moving (0.5: the walking-speed threshold by
@@ -99,10 +108,14 @@ pub struct OnlineParams {
     pub max_extent: f64,
     /// Fewest returns of a detected object (3, CRF-Clustering's smallest object).
     pub min_returns: usize,
-    /// Detections that confirm a track (2).
+    /// Steps with evidence of motion that confirm a track (2), the last of them with
+    /// the track displaced since its birth (see the module docs).
     pub confirm: usize,
-    /// Scans after its birth within which a track must be confirmed (8).
-    pub confirm_window: usize,
+    /// Time (s) after its birth within which a track must be confirmed (2.0: an
+    /// object at [`OnlineParams::min_speed`] moves twice the noise of two measured
+    /// centres, 0.42 m at the default noise, in 0.85 s; the rest allows for scans in
+    /// which it is not found).
+    pub confirm_time: f64,
     /// Scans a confirmed track survives without being found (5).
     pub max_coast: usize,
     /// Standard deviation (m) of a measured centre per axis (0.15: the visible legs of
@@ -126,7 +139,8 @@ pub struct OnlineParams {
 impl Default for OnlineParams {
     fn default() -> Self {
         Self {
-            k: 1,
+            k: None,
+            reference_gap: 0.3,
             ego: EgoParams::default(),
             min_speed: 0.5,
             gate: 0.5,
@@ -135,7 +149,7 @@ impl Default for OnlineParams {
             max_extent: 5.0,
             min_returns: 3,
             confirm: 2,
-            confirm_window: 8,
+            confirm_time: 2.0,
             max_coast: 5,
             measurement_sigma: 0.15,
             acceleration: 1.0,
@@ -174,8 +188,16 @@ impl ParamGuard for OnlineParams {
     type Error = Error;
 
     fn check_ref(&self) -> Result<()> {
-        if self.k == 0 {
+        if self.k == Some(0) {
             return Err(InvalidParameter::new("k", 0, "at least 1").into());
+        }
+        if !(self.reference_gap >= 0.0 && self.reference_gap.is_finite()) {
+            return Err(InvalidParameter::new(
+                "reference_gap",
+                self.reference_gap,
+                "a finite time in seconds >= 0",
+            )
+            .into());
         }
         self.ego.check_ref()?;
         if !(self.min_speed >= 0.0 && self.min_speed.is_finite()) {
@@ -218,14 +240,10 @@ impl ParamGuard for OnlineParams {
                 InvalidParameter::new("min_returns", self.min_returns, "at least 2").into(),
             );
         }
-        if self.confirm == 0 || self.confirm > self.confirm_window {
-            return Err(InvalidParameter::new(
-                "confirm",
-                self.confirm,
-                "at least 1 and at most confirm_window",
-            )
-            .into());
+        if self.confirm == 0 {
+            return Err(InvalidParameter::new("confirm", 0, "at least 1").into());
         }
+        InvalidParameter::positive("confirm_time", self.confirm_time, "a time in seconds > 0")?;
         InvalidParameter::positive("max_gap", self.max_gap, "a time in seconds > 0")?;
         if !(self.min_step >= 0.0 && self.min_step < self.max_gap) {
             return Err(InvalidParameter::new(
@@ -314,9 +332,96 @@ struct Track {
     evidence: usize,
     /// Where (sequence frame) and when (s) it started.
     birth: (Point2<f64>, f64),
+    /// The scan it started in and that scan's pose (shared by the tracks born in it);
+    /// `None` once confirmed.
+    birth_scan: Option<std::sync::Arc<(Scan, Pose2)>>,
+    /// The returns (sequence frame) of that scan within [`OnlineParams::max_extent`]
+    /// of its first centre, each with the distance (m) within which a return of the
+    /// same static surface lies (see [`Track::left_birth_surfaces`]); emptied once
+    /// confirmed.
+    birth_returns: Vec<(Point2<f64>, f64)>,
     age: usize,
     coast: usize,
     llr: f64,
+}
+
+impl Track {
+    /// Whether most of `points` (the current scan's frame, whose pose is `pose`), and
+    /// at least `min_returns` of them (as many as a detection needs: one or two
+    /// returns on a far, sparsely seen surface say little), lie where the scan the
+    /// track started in saw no static surface: static clutter
+    /// whose measured centre jitters (a box completed behind a changing visible part,
+    /// a wall piece sliding along the wall) is still on the surfaces it was seen on,
+    /// a mover has left them. A point has left them when that scan saw the space at
+    /// it free (more than the surface tolerance in front of its return; or no return
+    /// on that bearing and the point within half the maximum range: beyond that,
+    /// dark or grazing surfaces often give no return, such as datmo's arena walls at
+    /// 7 m of an 8 m laser), or when that scan could not see it (hidden behind nearer
+    /// returns, or outside its field of view: a walker going away from the sensor is
+    /// behind where it was) and it lies farther than the tolerance from every return
+    /// of that scan. The tolerance is the beam spacing at the range plus 0.1 m of
+    /// noise (range noise and the ego-motion's error).
+    fn left_birth_surfaces(
+        &self,
+        points: &[Point2<f64>],
+        pose: &Pose2,
+        min_returns: usize,
+    ) -> bool {
+        let Some(birth) = &self.birth_scan else {
+            return true;
+        };
+        let (scan, birth_pose) = &**birth;
+        let to_birth = birth_pose.inverse().compose(pose);
+        let spacing = scan.angle_increment().abs();
+        let off = points
+            .iter()
+            .filter(|q| {
+                let b = to_birth.transform_point(q);
+                let tolerance = 0.1 + b.coords.norm() * spacing;
+                let range = b.coords.norm();
+                if scan.beam_near_bearing(b.y.atan2(b.x)).is_none() {
+                    // Outside its field of view.
+                    return self.off_birth_returns(&pose.transform_point(q));
+                }
+                match scan.range_towards(&b) {
+                    None => range + tolerance < scan.max_range / 2.0,
+                    Some(r) if range < r - tolerance => true,
+                    Some(r) if range > r + tolerance => {
+                        self.off_birth_returns(&pose.transform_point(q))
+                    }
+                    Some(_) => false,
+                }
+            })
+            .count();
+        2 * off >= points.len() && off >= min_returns
+    }
+
+    /// Whether `q` (sequence frame) lies beyond the tolerance of every return of the
+    /// track's first scan near it.
+    fn off_birth_returns(&self, q: &Point2<f64>) -> bool {
+        !self
+            .birth_returns
+            .iter()
+            .any(|(r, within)| (r - q).norm() <= *within)
+    }
+}
+
+/// The returns of `scan` (pose `pose`) within `radius` of `centre` (sequence frame),
+/// with their surface tolerance (see [`Track::left_birth_surfaces`]).
+fn birth_returns(
+    scan: &Scan,
+    pose: &Pose2,
+    centre: &Point2<f64>,
+    radius: f64,
+) -> Vec<(Point2<f64>, f64)> {
+    let spacing = scan.angle_increment().abs();
+    let (points, beams) = scan.points();
+    points
+        .iter()
+        .zip(beams)
+        .map(|(q, k)| (pose.transform_point(q), 0.1 + scan.ranges[k] * spacing))
+        .filter(|(q, _)| (q - centre).norm() <= radius)
+        .collect()
 }
 
 /// A set of returns of the current scan taken as one object's measurement.
@@ -334,6 +439,8 @@ const LLR_MISSED: f64 = -1.0;
 const LLR_RANGE: (f64, f64) = (-6.0, 8.0);
 
 /// The online tracker (see the module docs): built by [`OnlineParams::tracker`].
+/// A clone carries on from the same state (a bench measures one step that way).
+#[derive(Clone)]
 pub struct OnlineTracker<'d> {
     params: OnlineParams,
     ego: EgoMotion,
@@ -417,7 +524,7 @@ impl OnlineTracker<'_> {
             .estimate(previous, &self.previous_movers, &scan, &movers)?;
         self.pose = previous_pose.compose(&step.motion);
         // The detector on scans n − k and n, with the sequence's ego-motion as prior.
-        let (reference, reference_pose) = &self.history[self.history.len().saturating_sub(p.k)];
+        let (reference, reference_pose) = &self.history[self.reference_at(scan.timestamp)];
         let pair = ScanPair {
             name: name.clone(),
             reference: reference.clone(),
@@ -449,7 +556,21 @@ impl OnlineTracker<'_> {
             }
         }
         self.history.push_back((scan, self.pose));
-        while self.history.len() > p.k + 1 {
+        // Keep what the next scan's reference can be: k scans, or every scan after
+        // the latest one more than the reference gap before this one (the next scan
+        // comes later, so earlier ones are never its reference).
+        let keep = match p.k {
+            Some(k) => k,
+            None => {
+                let now = self.history.back().expect("just pushed").0.timestamp;
+                self.history
+                    .iter()
+                    .rev()
+                    .position(|(s, _)| now - s.timestamp >= p.reference_gap)
+                    .unwrap_or(self.history.len() - 1)
+            }
+        };
+        while self.history.len() > keep + 1 {
             self.history.pop_front();
         }
         Ok(ScanReport {
@@ -461,6 +582,21 @@ impl OnlineTracker<'_> {
             converged: clustering.converged,
             objects,
         })
+    }
+
+    /// The detector's reference scan for a scan at `time`: the index in the history
+    /// of scan `n − k`, or of the latest at least the reference gap before `time`
+    /// (the oldest kept when none is).
+    fn reference_at(&self, time: f64) -> usize {
+        let p = &self.params;
+        match p.k {
+            Some(k) => self.history.len().saturating_sub(k),
+            None => self
+                .history
+                .iter()
+                .rposition(|(s, _)| time - s.timestamp >= p.reference_gap)
+                .unwrap_or(0),
+        }
     }
 
     /// Beams of `scan` near where the confirmed moving tracks are predicted, the scan's
@@ -685,6 +821,7 @@ impl OnlineTracker<'_> {
     ) -> Vec<TrackedObject> {
         let p = self.params;
         let mut beams_of: Vec<Option<(Vec<usize>, bool)>> = vec![None; self.tracks.len()];
+        let mut born_in: Option<std::sync::Arc<(Scan, Pose2)>> = None;
         for (t, m) in measured {
             let points: Vec<Point2<f64>> = points_of(scan, &m.beams);
             match t {
@@ -693,9 +830,17 @@ impl OnlineTracker<'_> {
                     let velocity = track.filter.velocity();
                     let axis = axis_of(&points, &self.pose, velocity, p.min_speed);
                     let (_, seen) = shape::visible_box(&points, &axis);
-                    let extent = Extent {
-                        length: track.extent.length.max(seen.length).min(p.max_extent),
-                        width: track.extent.width.max(seen.width).min(p.max_extent),
+                    // The extent grows with what the detector shows moving only: a
+                    // segment a track finds by itself may hold background next to
+                    // the object, and a track whose extent grew on it would reach
+                    // ever farther (a wall).
+                    let extent = if m.detected {
+                        Extent {
+                            length: track.extent.length.max(seen.length).min(p.max_extent),
+                            width: track.extent.width.max(seen.width).min(p.max_extent),
+                        }
+                    } else {
+                        track.extent
                     };
                     let c = self.pose.transform_point(&shape::centre(
                         &points,
@@ -714,7 +859,7 @@ impl OnlineTracker<'_> {
                     track.filter.update(&c, p.measurement_sigma);
                     track.coast = 0;
                     let elapsed = scan.timestamp - track.birth.1;
-                    let displaced = (track.filter.centre() - track.birth.0).norm();
+                    let displaced = (c - track.birth.0).norm();
                     // Significant against two measurements' noise, and fast enough.
                     let noise = 2.0 * std::f64::consts::SQRT_2 * p.measurement_sigma;
                     let moving_since_birth =
@@ -728,8 +873,14 @@ impl OnlineTracker<'_> {
                     } else {
                         track.llr += LLR_FOUND;
                     }
-                    if !track.confirmed && track.evidence >= p.confirm {
+                    if !track.confirmed
+                        && track.evidence >= p.confirm
+                        && moving_since_birth
+                        && track.left_birth_surfaces(&points, &self.pose, p.min_returns)
+                    {
                         track.confirmed = true;
+                        track.birth_returns = Vec::new();
+                        track.birth_scan = None;
                     }
                     beams_of[t] = Some((m.beams, m.detected));
                 }
@@ -757,6 +908,14 @@ impl OnlineTracker<'_> {
                         confirmed: p.confirm <= 1,
                         evidence: 1,
                         birth: (c, scan.timestamp),
+                        birth_returns: birth_returns(scan, &self.pose, &c, p.max_extent),
+                        birth_scan: Some(
+                            born_in
+                                .get_or_insert_with(|| {
+                                    std::sync::Arc::new((scan.clone(), self.pose))
+                                })
+                                .clone(),
+                        ),
                         age: 0,
                         coast: 0,
                         llr: LLR_START + LLR_DETECTED,
@@ -782,7 +941,7 @@ impl OnlineTracker<'_> {
                 if t.confirmed {
                     t.coast <= p.max_coast
                 } else {
-                    t.coast <= 1 && t.age < p.confirm_window
+                    t.coast <= 1 && scan.timestamp - t.birth.1 < p.confirm_time
                 }
             })
             .collect();

@@ -343,3 +343,73 @@ fn bad_scans_are_errors_naming_the_scan() {
     let e = bad.tracker(&FreeSpace).err().expect("refused").to_string();
     assert!(e.contains("gate"), "{e}");
 }
+
+/// A detector that calls a stretch of static surface moving in every pair (clutter a
+/// real detector keeps reporting, e.g. a shadow edge on a wall): the returns within
+/// 0.4 m of a world point that steps 0.35 m along x and back, scan by scan (0, 1, 2
+/// steps), so the measured centre jumps by up to 0.7 m, as much as a walker moves.
+struct Clutter {
+    at: Point2<f64>,
+}
+
+impl MotionClusterer for Clutter {
+    fn name(&self) -> String {
+        "clutter".into()
+    }
+
+    fn cluster(&self, pair: &ScanPair) -> Result<MotionClustering> {
+        let pose = pair
+            .current
+            .odometry
+            .expect("the test's scans carry odometry");
+        let step = (pair.current.timestamp * 10.0).round() as i64 % 3;
+        let at = self.at + Vector2::new(0.35 * step as f64, 0.0);
+        let labels = (0..pair.current.len())
+            .map(|b| {
+                pair.current.valid[b].then(|| {
+                    let q = pose.transform_point(&pair.current.beam_point(b));
+                    u32::from((q - at).norm() < 0.4)
+                })
+            })
+            .collect();
+        Ok(MotionClustering {
+            labels,
+            motions: Vec::new(),
+            ego_motion: pair.odometry,
+            iterations: 0,
+            converged: true,
+        })
+    }
+}
+
+#[test]
+fn static_clutter_detected_in_every_scan_is_never_confirmed() {
+    // The sensor drives along the room; the detector flags a stretch of its south
+    // wall (y = −8 m) in every scan.
+    let detector = Clutter {
+        at: Point2::new(6.0, -8.0),
+    };
+    let mut tracker = OnlineParams::default().tracker(&detector).unwrap();
+    let mut tentative = 0;
+    for k in 0..60 {
+        let t = 0.1 * k as f64;
+        let pose = Pose2::new(0.8 * t, 0.0, 0.0);
+        let mut s = scan(pose, t, &room());
+        s.odometry = Some(pose);
+        let r = tracker.push(s).unwrap();
+        for o in &r.objects {
+            assert_eq!(
+                o.state,
+                TrackState::Tentative,
+                "scan {k}: static clutter reported as {:?} (track {})",
+                o.state,
+                o.track
+            );
+            tentative += 1;
+        }
+    }
+    assert!(
+        tentative > 10,
+        "the clutter was detected ({tentative} reports)"
+    );
+}
