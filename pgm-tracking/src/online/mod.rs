@@ -191,23 +191,13 @@ impl ParamGuard for OnlineParams {
         if self.k == Some(0) {
             return Err(InvalidParameter::new("k", 0, "at least 1").into());
         }
-        if !(self.reference_gap >= 0.0 && self.reference_gap.is_finite()) {
-            return Err(InvalidParameter::new(
-                "reference_gap",
-                self.reference_gap,
-                "a finite time in seconds >= 0",
-            )
-            .into());
-        }
+        InvalidParameter::non_negative(
+            "reference_gap",
+            self.reference_gap,
+            "a finite time in seconds >= 0",
+        )?;
         self.ego.check_ref()?;
-        if !(self.min_speed >= 0.0 && self.min_speed.is_finite()) {
-            return Err(InvalidParameter::new(
-                "min_speed",
-                self.min_speed,
-                "a finite speed in m/s >= 0",
-            )
-            .into());
-        }
+        InvalidParameter::non_negative("min_speed", self.min_speed, "a finite speed in m/s >= 0")?;
         for (name, value) in [
             ("gate", self.gate),
             ("merge_distance", self.merge_distance),
@@ -227,14 +217,11 @@ impl ParamGuard for OnlineParams {
             self.initial_speed_sigma,
             "a speed in m/s > 0",
         )?;
-        if !(self.min_depth >= 0.0 && self.min_depth.is_finite()) {
-            return Err(InvalidParameter::new(
-                "min_depth",
-                self.min_depth,
-                "a finite distance in metres >= 0",
-            )
-            .into());
-        }
+        InvalidParameter::non_negative(
+            "min_depth",
+            self.min_depth,
+            "a finite distance in metres >= 0",
+        )?;
         if self.min_returns < 2 {
             return Err(
                 InvalidParameter::new("min_returns", self.min_returns, "at least 2").into(),
