@@ -96,8 +96,9 @@ use crate::error::{Error, Result};
 use crate::leigh::{IndexedScan, LeighScans, PersonAnnotation};
 use crate::pair::{ClusterMotion, GroundTruth, ScanPair};
 use crate::relations::Relation;
+use crate::tracking_truth::returns_near;
 use nalgebra::Point2;
-use pgm_scan::{Pose2, Scan};
+use pgm_scan::{ObjectCentre, Pose2, Scan};
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -667,6 +668,7 @@ fn leigh_pair(
     let mut centres_i = Vec::new();
     let mut centres_j = Vec::new();
     let mut motions = Vec::new();
+    let mut objects = Vec::new();
     let mut next_label = 1;
     for (&person, &c_j) in people_j {
         let c_i = people_i.get(&person).copied();
@@ -686,6 +688,13 @@ fn leigh_pair(
                 (None, _) => options.unannotated == Unannotated::Moving,
                 (Some(_), d) => d.is_some_and(|d| d >= options.moving_threshold),
             };
+        objects.push(ObjectCentre {
+            id: u64::from(person),
+            x: c_j.x,
+            y: c_j.y,
+            moving: (!every_person).then_some(moving),
+            returns: Some(returns_near(&current.scan, &c_j, options.person_radius)),
+        });
         if !moving {
             continue;
         }
@@ -712,6 +721,7 @@ fn leigh_pair(
         prior,
         [&centres_i, &centres_j],
         motions,
+        objects,
         options,
         sector,
     ))
@@ -727,6 +737,7 @@ fn labelled_pair(
     prior: Option<Pose2>,
     centres: [&[(u32, Point2<f64>)]; 2],
     motions: Vec<ClusterMotion>,
+    objects: Vec<ObjectCentre>,
     options: &LeighPairOptions,
     sector: Option<[f64; 2]>,
 ) -> ScanPair {
@@ -746,7 +757,7 @@ fn labelled_pair(
         )),
         associations: None,
         motions,
-        objects: None,
+        objects: Some(objects),
     };
     ScanPair {
         name: format!("{}:{}-{}", options.name, reference.index, current.index),
@@ -862,9 +873,18 @@ fn track_pair(
     let mut centres_i = Vec::new();
     let mut centres_j = Vec::new();
     let mut motions = Vec::new();
+    let mut objects = Vec::new();
     let mut next_label = 1;
     for (&person, &c_j) in people_j {
-        let Some(fit) = track_fit(&tracks.world, person, lo, hi, tracks.period) else {
+        let fit = track_fit(&tracks.world, person, lo, hi, tracks.period);
+        objects.push(ObjectCentre {
+            id: u64::from(person),
+            x: c_j.x,
+            y: c_j.y,
+            moving: fit.map(|f| f.speed >= options.walking_speed),
+            returns: Some(returns_near(&current.scan, &c_j, options.person_radius)),
+        });
+        let Some(fit) = fit else {
             continue;
         };
         if fit.speed < options.walking_speed {
@@ -893,6 +913,7 @@ fn track_pair(
         Some(prior),
         [&centres_i, &centres_j],
         motions,
+        objects,
         options,
         sector,
     ))

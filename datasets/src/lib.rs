@@ -42,6 +42,7 @@ pub mod sim;
 pub mod source;
 pub mod testdata;
 mod text;
+pub mod tracking_truth;
 
 pub use error::{Error, Result};
 pub use format::{read_chosen_pair, read_pairs, write_pairs};

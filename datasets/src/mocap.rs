@@ -283,6 +283,9 @@ pub fn mocap_pair(
         }
         None => (None, None),
     };
+    let objects = object.and_then(|o| {
+        crate::tracking_truth::mocap_object(current, ego_track, mount, &o, options).map(|c| vec![c])
+    });
     let mut reference = reference.clone();
     let mut current = current.clone();
     reference.laser_offset = *mount;
@@ -298,7 +301,7 @@ pub fn mocap_pair(
             reference_labels: labels_i,
             associations: None,
             motions,
-            objects: None,
+            objects,
         }),
     })
 }

@@ -27,6 +27,9 @@ use crate::builders::{
 };
 use crate::carmen::CarmenOptions;
 use crate::error::Result;
+use crate::tracking_truth::{
+    bag_objects, leigh_objects, leigh_what, stored_objects, TrackingTruth,
+};
 use crate::{carmen, leigh, relations, ScanPair};
 use std::collections::BTreeMap;
 use std::fmt;
@@ -302,5 +305,65 @@ impl PairSource {
             }
         };
         Ok(LoadedPairs { pairs, kind, notes })
+    }
+
+    /// The source's tracking truth scan by scan ([`crate::tracking_truth`]): a stored
+    /// data set's objects, a leigh-gtm1 log's annotated people (every annotated scan,
+    /// whether or not it forms a pair), a bag's people topic or motion-captured object.
+    ///
+    /// # Errors
+    /// A reader's error; [`crate::Error::Mismatch`] for a source with no tracking truth
+    /// (CARMEN logs, a bag without people or object topics).
+    pub fn tracking_truth(&self) -> Result<TrackingTruth> {
+        match self {
+            PairSource::Stored(path) => {
+                let pairs = crate::read_pairs(path)?;
+                let truth = stored_objects(&pairs);
+                if truth.scans.is_empty() {
+                    return Err(crate::Error::Mismatch {
+                        what: format!(
+                            "{}: no pair holds tracking truth (ground-truth `objects`;                              `pgm sim` writes them)",
+                            path.display()
+                        ),
+                    });
+                }
+                Ok(truth)
+            }
+            PairSource::CarmenRelations { log, .. } | PairSource::ConsecutiveLog { log, .. } => {
+                Err(crate::Error::Mismatch {
+                    what: format!(
+                        "{}: a CARMEN log has no tracking truth (annotated people or a                          motion-captured object)",
+                        log.display()
+                    ),
+                })
+            }
+            PairSource::Leigh {
+                scans,
+                people,
+                odometry,
+                options,
+            } => {
+                let mut notes = Vec::new();
+                let (log, annotations) =
+                    read_leigh(scans, people, odometry.as_deref(), &mut notes)?;
+                let objects = leigh_objects(&log, &annotations, options, &mut notes);
+                Ok(TrackingTruth {
+                    scans: objects
+                        .into_iter()
+                        .map(|(j, o)| (format!("{}:{j}", options.name), o))
+                        .collect(),
+                    what: leigh_what(options),
+                    notes,
+                })
+            }
+            PairSource::Bag {
+                path,
+                topics,
+                options,
+            } => {
+                let log = read_bag(path, topics)?;
+                bag_objects(&log, options)
+            }
+        }
     }
 }

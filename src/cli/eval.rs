@@ -57,6 +57,9 @@ pub enum EvalCommand {
     /// Joint methods: associations, clusters with the outlier cluster, object motions
     /// and ego-motion against the truth (Tables I-III of the joint paper).
     Joint(super::joint::JointEvalArgs),
+    /// Tracking: CLEAR-MOT (MOTA, MOTP, ID switches) of a tracker's output under the
+    /// leg_tracker benchmark's protocol and the standard one.
+    Tracking(super::eval_tracking::TrackingEvalArgs),
 }
 
 /// `pgm eval matching`.
@@ -114,6 +117,7 @@ pub fn run(args: EvalArgs) -> CliResult {
         EvalCommand::Clustering(a) => super::eval_clustering::run(a),
         EvalCommand::Association(a) => super::matching::run_eval_association(a),
         EvalCommand::Joint(a) => super::joint::run_eval_joint(a),
+        EvalCommand::Tracking(a) => super::eval_tracking::run(a),
     }
 }
 
