@@ -90,6 +90,9 @@ pub struct TrackingEvalArgs {
     /// Print one JSON object instead of the table.
     #[arg(long)]
     pub json: bool,
+    /// The JSON lists every scored scan's matches, misses and false positives.
+    #[arg(long, hide_short_help = true)]
+    pub per_scan: bool,
     /// Also write the JSON object here (atomically).
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -169,6 +172,20 @@ struct Output {
     standard: Scores,
     moving: Option<ObjectScore>,
     objects: BTreeMap<u64, ObjectScore>,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    scans: Vec<ScanScore>,
+}
+
+/// One scored scan (`--per-scan`), benchmark protocol.
+#[derive(Serialize)]
+struct ScanScore {
+    scan: String,
+    /// `(track, person, distance m, id switch)`.
+    matches: Vec<(u64, u64, f64, bool)>,
+    /// Annotations matched to nothing: `(person, x, y)`.
+    misses: Vec<(u64, f64, f64)>,
+    /// Estimates matched to nothing: `(track, x, y)`.
+    false_positives: Vec<(u64, f64, f64)>,
 }
 
 /// The source with its truth topics removed: the scans a tracker sees.
@@ -329,6 +346,7 @@ pub fn run(args: TrackingEvalArgs) -> CliResult {
     let mut moving = ObjectScore::default();
     let any_moving_flag = truth.scans.values().flatten().any(|o| o.moving.is_some());
     let (mut frames, mut left_out, mut unseen) = (0usize, 0u64, 0usize);
+    let mut scan_scores = Vec::new();
     for frames_of_log in logs.values_mut() {
         frames_of_log.sort_by_key(|f| f.0);
         let mut scorers = [Protocol::Benchmark, Protocol::Standard].map(|protocol| {
@@ -377,6 +395,29 @@ pub fn run(args: TrackingEvalArgs) -> CliResult {
                     .map_err(|e| CliError(format!("{name}: {e}")))?;
                 if p != 0 {
                     continue;
+                }
+                if args.per_scan {
+                    let at = |id: u64, list: &[(u64, f64, f64)]| {
+                        list.iter().copied().find(|a| a.0 == id)
+                    };
+                    scan_scores.push(ScanScore {
+                        scan: name.to_string(),
+                        matches: result
+                            .matches
+                            .iter()
+                            .map(|m| (m.track, m.person, m.distance_m, m.id_switch))
+                            .collect(),
+                        misses: result
+                            .unmatched_persons
+                            .iter()
+                            .filter_map(|&id| at(id, &annotations))
+                            .collect(),
+                        false_positives: result
+                            .unmatched_tracks
+                            .iter()
+                            .filter_map(|&id| at(id, &estimates))
+                            .collect(),
+                    });
                 }
                 let window = options.bearing_window;
                 for o in &kept {
@@ -439,6 +480,7 @@ pub fn run(args: TrackingEvalArgs) -> CliResult {
         standard: Scores::from(&standard),
         moving: any_moving_flag.then_some(moving),
         objects: per_object,
+        scans: scan_scores,
     };
     let json = serde_json::to_string(&output).map_err(CliError::from_display)?;
     if let Some(path) = &args.out {
