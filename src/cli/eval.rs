@@ -60,6 +60,9 @@ pub enum EvalCommand {
     /// Tracking: CLEAR-MOT (MOTA, MOTP, ID switches) of a tracker's output under the
     /// leg_tracker benchmark's protocol and the standard one.
     Tracking(super::eval_tracking::TrackingEvalArgs),
+    /// Ego-motion over a sequence: the online tracker's (with or without the wheel
+    /// odometry) beside ICP from the odometry prior.
+    EgoMotion(super::eval_ego::EgoEvalArgs),
 }
 
 /// `pgm eval matching`.
@@ -118,6 +121,7 @@ pub fn run(args: EvalArgs) -> CliResult {
         EvalCommand::Association(a) => super::matching::run_eval_association(a),
         EvalCommand::Joint(a) => super::joint::run_eval_joint(a),
         EvalCommand::Tracking(a) => super::eval_tracking::run(a),
+        EvalCommand::EgoMotion(a) => super::eval_ego::run(a),
     }
 }
 

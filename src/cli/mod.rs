@@ -6,6 +6,7 @@ pub mod data;
 pub mod demo;
 pub mod eval;
 pub mod eval_clustering;
+pub mod eval_ego;
 pub mod eval_tracking;
 pub mod infer;
 pub mod joint;

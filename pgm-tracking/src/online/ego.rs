@@ -80,6 +80,7 @@ impl ParamGuard for EgoParams {
         Ok(EgoMotion {
             params: self,
             velocity: None,
+            periods: std::collections::VecDeque::with_capacity(PERIODS),
         })
     }
 }
@@ -123,7 +124,13 @@ pub struct EgoMotion {
     params: EgoParams,
     /// The last step's motion and its duration.
     velocity: Option<(Pose2, f64)>,
+    /// The durations of the last [`PERIODS`] steps (over every sequence: a property
+    /// of the sensor).
+    periods: std::collections::VecDeque<f64>,
 }
+
+/// Steps over which the sensor's typical scan period is taken ([`EgoMotion::feasible`]).
+const PERIODS: usize = 25;
 
 impl EgoMotion {
     /// The parameters.
@@ -150,9 +157,24 @@ impl EgoMotion {
         }
     }
 
-    /// Whether the platform can drive `motion` in `dt` seconds.
+    /// The sensor's typical scan period (s): the median duration of the last 25
+    /// steps; `None` before the first.
+    pub fn period(&self) -> Option<f64> {
+        let mut d: Vec<f64> = self.periods.iter().copied().collect();
+        if d.is_empty() {
+            return None;
+        }
+        d.sort_by(f64::total_cmp);
+        Some(d[d.len() / 2])
+    }
+
+    /// Whether the platform can drive `motion` in `dt` seconds, or in the sensor's
+    /// typical period when that is longer ([`EgoMotion::period`]): a log whose stamps
+    /// run late or early (intel-lab's go backwards 97 times, and two scans half a
+    /// second apart may be stamped 0.03 s apart) must not have its true motion refused.
     pub fn feasible(&self, motion: &Pose2, dt: f64) -> bool {
         let p = &self.params;
+        let dt = self.period().map_or(dt, |period| dt.max(period));
         motion.is_finite()
             && motion.translation().norm() <= p.max_speed * dt
             && motion.theta().abs() <= p.max_yaw_rate * dt
@@ -176,7 +198,8 @@ impl EgoMotion {
         let dt = current.timestamp - previous.timestamp;
         let (prior, prior_source) = self.predict(previous, current);
         let reference = without(previous, previous_movers);
-        let source = cells_of(&without(current, current_movers), p.voxel);
+        let full = without(current, current_movers);
+        let source = cells_of(&full, p.voxel);
         let cells = source.valid_count();
         let mut best = EgoStep {
             motion: prior,
@@ -201,10 +224,11 @@ impl EgoMotion {
                 hypotheses.push((&icp, Pose2::identity(), EgoSource::Rest));
             }
             for (matcher, start, from) in hypotheses {
-                let Ok(run) = matcher.align(&source, start) else {
+                // Registered on every return; the support counts one per cell.
+                let Ok(run) = matcher.align(&full, start) else {
                     continue;
                 };
-                let motion = point_to_line(&reference, &source, &run);
+                let motion = point_to_line(&reference, &full, &run);
                 if !self.feasible(&motion, dt) {
                     continue;
                 }
@@ -225,6 +249,12 @@ impl EgoMotion {
             best.motion = Pose2::identity();
         }
         self.velocity = (dt > 0.0).then_some((best.motion, dt));
+        if dt > 0.0 && dt.is_finite() {
+            if self.periods.len() == PERIODS {
+                self.periods.pop_front();
+            }
+            self.periods.push_back(dt);
+        }
         Ok(best)
     }
 }
@@ -305,4 +335,63 @@ fn support(icp: &Icp, source: &Scan, motion: &Pose2, inlier: f64) -> usize {
                 .is_some()
         })
         .count()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A room of four walls seen from `(x, 0)`, 361 beams over 360°, stamped `t`.
+    fn room(x: f64, theta: f64, t: f64) -> Scan {
+        let n = 361;
+        let angles: Vec<f64> = (0..n)
+            .map(|k| -std::f64::consts::PI + k as f64 * 2.0 * std::f64::consts::PI / n as f64)
+            .collect();
+        let ranges = angles
+            .iter()
+            .map(|a| {
+                let (s, c) = (a + theta).sin_cos();
+                // Walls at x = -3 and 5, y = -2 and 4 (a non-square room).
+                let tx = if c > 0.0 {
+                    (5.0 - x) / c
+                } else {
+                    (-3.0 - x) / c
+                };
+                let ty = if s > 0.0 { 4.0 / s } else { -2.0 / s };
+                tx.min(ty)
+            })
+            .collect();
+        let mut scan = Scan::from_ranges(angles, ranges, 20.0);
+        scan.timestamp = t;
+        scan
+    }
+
+    #[test]
+    fn a_late_stamp_does_not_refuse_the_true_motion() {
+        let mut ego = EgoParams::default().check().unwrap();
+        // Ten steps at rest, 0.5 s apart: the typical period is 0.5 s.
+        for k in 0..10 {
+            let (a, b) = (
+                room(0.0, 0.0, 0.5 * k as f64),
+                room(0.0, 0.0, 0.5 * (k + 1) as f64),
+            );
+            ego.estimate(&a, &[], &b, &[]).unwrap();
+        }
+        assert_eq!(ego.period(), Some(0.5));
+        // Then a turn of 0.25 rad stamped only 0.03 s after the previous scan: 8 rad/s
+        // by the stamps, beyond the 3 rad/s limit, but within it over the period.
+        let previous = room(0.0, 0.0, 5.5);
+        let current = room(0.0, 0.25, 5.53);
+        let step = ego.estimate(&previous, &[], &current, &[]).unwrap();
+        assert!(
+            (step.motion.theta() - 0.25).abs() < 0.01,
+            "{:?} from {:?}",
+            step.motion,
+            step.source
+        );
+        // Without the history (a fresh estimator) the stamps alone refuse it.
+        let mut fresh = EgoParams::default().check().unwrap();
+        let step = fresh.estimate(&previous, &[], &current, &[]).unwrap();
+        assert!(step.motion.theta().abs() < 0.1, "{:?}", step.motion);
+    }
 }
