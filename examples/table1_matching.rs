@@ -133,7 +133,9 @@ fn main() -> ExitCode {
             ""
         );
     }
-    for preset in Preset::ALL {
+    // The urban presets: the paper's situations with its laser (person-following
+    // brings a laser of its own).
+    for preset in Preset::URBAN {
         let config = match (SimConfig {
             preset,
             ..SimConfig::default()

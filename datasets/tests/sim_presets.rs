@@ -40,7 +40,13 @@ fn object_speeds_and_sizes_are_plausible() {
         for i in 0..20 {
             let scene = preset.scene(&c, &mut pair_rng(5, i));
             let travel = scene.ego.speed * scene.interval;
-            assert!((2.0..=4.0).contains(&travel), "{preset}: {travel}");
+            // A robot following a person drives at most 1 m/s for 0.3-0.8 s.
+            let apart = if preset == Preset::PersonFollowing {
+                0.0..=0.8
+            } else {
+                2.0..=4.0
+            };
+            assert!(apart.contains(&travel), "{preset}: {travel}");
             for o in &scene.objects {
                 let v = o.trajectory.speed.abs();
                 match o.kind {
@@ -49,11 +55,13 @@ fn object_speeds_and_sizes_are_plausible() {
                         assert_eq!(o.shape.len(), 4);
                     }
                     ObjectKind::Pedestrian => {
-                        // A person keeping pace with a slow robot walks at its 0.8-1.6 m/s.
-                        let walking = if preset == Preset::Following {
-                            0.76..=1.68
-                        } else {
-                            1.0..=1.8
+                        // A person keeping pace with a slow robot walks at its 0.8-1.6 m/s;
+                        // a followed person stands or walks at 0.4-0.8 m/s, passers-by
+                        // at 1-1.5 m/s.
+                        let walking = match preset {
+                            Preset::Following => 0.76..=1.68,
+                            Preset::PersonFollowing => 0.0..=1.5,
+                            _ => 1.0..=1.8,
                         };
                         assert!(walking.contains(&v), "{preset}: pedestrian at {v} m/s")
                     }

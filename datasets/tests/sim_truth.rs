@@ -12,24 +12,26 @@ use pgm_datasets::{Association, ScanPair};
 use pgm_scan::Pose2;
 use std::collections::BTreeSet;
 
+/// The preset's default configuration, its own laser included (person-following's
+/// 245 beams over 86°; the urban presets' 361 over 180°).
 fn config(preset: Preset) -> ValidSimConfig {
+    SimConfig::for_preset(preset).check().unwrap()
+}
+
+fn noise_free(preset: Preset) -> ValidSimConfig {
     SimConfig {
-        preset,
-        ..SimConfig::default()
+        range_noise: 0.0,
+        dropout: 0.0,
+        ..SimConfig::for_preset(preset)
     }
     .check()
     .unwrap()
 }
 
-fn noise_free(preset: Preset) -> ValidSimConfig {
-    SimConfig {
-        preset,
-        range_noise: 0.0,
-        dropout: 0.0,
-        ..SimConfig::default()
-    }
-    .check()
-    .unwrap()
+/// Angle between neighbouring beams of `config`'s laser.
+fn spacing_of(config: &ValidSimConfig) -> f64 {
+    let c = config.params();
+    c.field_of_view / (c.beams - 1) as f64
 }
 
 fn motion_of(pair: &ScanPair, label: u32) -> Pose2 {
@@ -64,12 +66,21 @@ fn associated_distances(pair: &ScanPair) -> Vec<(usize, usize, u32, f64, f64)> {
 fn every_preset_gives_valid_consistent_pairs() {
     for preset in Preset::ALL {
         let c = config(preset);
+        let (beams, half_view) = (c.params().beams, c.params().field_of_view / 2.0);
+        assert_eq!(
+            beams,
+            if preset == Preset::PersonFollowing {
+                245
+            } else {
+                361
+            }
+        );
         for pair in simulate_pairs(&c, 11, 15) {
             pair.validate()
                 .unwrap_or_else(|v| panic!("{}: {v}", pair.name));
-            assert_eq!(pair.current.len(), 361);
-            assert!((pair.current.angles[0] + std::f64::consts::FRAC_PI_2).abs() < 1e-12);
-            assert!((pair.current.angles[360] - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+            assert_eq!(pair.current.len(), beams);
+            assert!((pair.current.angles[0] + half_view).abs() < 1e-12);
+            assert!((pair.current.angles[beams - 1] - half_view).abs() < 1e-12);
             assert!(pair.time_gap() > 0.0);
             let truth = pair.truth.as_ref().unwrap();
             let labels = truth.labels.as_ref().unwrap();
@@ -101,11 +112,17 @@ fn every_preset_gives_valid_consistent_pairs() {
             for m in &truth.motions[1..] {
                 assert!(m.kind == "car" || m.kind == "pedestrian", "{}", m.kind);
             }
-            // The background's motion is the ego-motion; the pair is 2-4 m apart.
+            // The background's motion is the ego-motion; the pair is 2-4 m apart (a
+            // following robot's at most 0.8 s at 1 m/s).
             let ego = truth.ego_motion.unwrap();
             assert_eq!(truth.motions[0].motion, ego);
             let travel = ego.translation().norm();
-            assert!((2.0..=4.0).contains(&travel), "{}: {travel}", pair.name);
+            let apart = if preset == Preset::PersonFollowing {
+                0.0..=0.8
+            } else {
+                2.0..=4.0
+            };
+            assert!(apart.contains(&travel), "{}: {travel}", pair.name);
             // Associated points carry the same label in both scans.
             for (i, j, label, _, _) in associated_distances(&pair) {
                 assert_eq!(
@@ -121,8 +138,8 @@ fn every_preset_gives_valid_consistent_pairs() {
 
 #[test]
 fn true_motions_put_points_on_their_partners_within_noise() {
-    let spacing = std::f64::consts::PI / 360.0;
     for preset in Preset::ALL {
+        let spacing = spacing_of(&config(preset));
         // Noise-free: the distance is only the sampling offset, at most one beam
         // spacing on the surface (the documented tolerance), and typically half of it.
         let mut ratios = Vec::new();

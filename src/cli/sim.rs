@@ -1,5 +1,5 @@
-//! `pgm sim`: simulate urban scan pairs with complete ground truth, write them as a
-//! data set, print their statistics, draw one of them.
+//! `pgm sim`: simulate scan pairs (urban streets, or a robot following a person) with
+//! complete ground truth, write them as a data set, print their statistics, draw one of them.
 
 use super::{CliError, CliResult};
 use clap::Args;
@@ -16,7 +16,9 @@ use std::process::ExitCode;
 #[derive(Args, Debug)]
 pub struct SimArgs {
     /// Scene preset: overtaking, intersection, oncoming, pedestrians, mixed, random,
-    /// following.
+    /// following (urban streets, 361 beams over 180°, 80 m, wheel odometry), or
+    /// person-following (a robot following a walking person outdoors, with its own
+    /// laser: 10 Hz, 245 beams over 86°, 5.6 m; no odometry in its pairs or scans).
     #[arg(long, default_value = "mixed")]
     pub preset: String,
     /// Seed of the random streams (pair i uses ChaCha8 stream i of this seed).
@@ -40,25 +42,38 @@ pub struct SimArgs {
     /// Which pair --svg draws (index from 0).
     #[arg(long, default_value_t = 0)]
     pub svg_pair: usize,
-    /// Number of laser beams over the 180° field of view.
-    #[arg(long, default_value_t = 361, hide_short_help = true)]
-    pub beams: usize,
+    /// Number of laser beams over the field of view [default: the preset's laser: 361,
+    /// person-following 245].
+    #[arg(long, hide_short_help = true)]
+    pub beams: Option<usize>,
+    /// Field of view of the laser in degrees, centred ahead [default: the preset's
+    /// laser: 180, person-following 86].
+    #[arg(long, value_name = "DEGREES", hide_short_help = true)]
+    pub field_of_view: Option<f64>,
+    /// Maximum range of the laser in metres [default: the preset's laser: 80,
+    /// person-following 5.6].
+    #[arg(long, value_name = "METRES", hide_short_help = true)]
+    pub max_range: Option<f64>,
     /// Standard deviation of the range noise in metres.
     #[arg(long, default_value_t = 0.03, hide_short_help = true)]
     pub range_noise: f64,
     /// Probability of a missing return.
     #[arg(long, default_value_t = 0.01, hide_short_help = true)]
     pub dropout: f64,
-    /// Smallest ego travel between the two scans of a pair, in metres.
+    /// Smallest ego travel between the two scans of a pair, in metres (not used by
+    /// person-following, whose pairs are 0.3-0.8 s of its 10 Hz scans apart).
     #[arg(long, default_value_t = 2.0, hide_short_help = true)]
     pub min_distance: f64,
-    /// Largest ego travel between the two scans of a pair, in metres.
+    /// Largest ego travel between the two scans of a pair, in metres (not used by
+    /// person-following).
     #[arg(long, default_value_t = 4.0, hide_short_help = true)]
     pub max_distance: f64,
-    /// Odometry noise: standard deviation of the x and y error per metre travelled.
+    /// Odometry noise: standard deviation of the x and y error per metre travelled
+    /// (person-following has no odometry).
     #[arg(long, default_value_t = 0.02, hide_short_help = true)]
     pub odometry_translation_noise: f64,
-    /// Odometry noise: standard deviation of the heading error (rad) per metre travelled.
+    /// Odometry noise: standard deviation of the heading error (rad) per metre travelled
+    /// (person-following has no odometry).
     #[arg(long, default_value_t = 0.003, hide_short_help = true)]
     pub odometry_rotation_noise: f64,
     /// Pair selection: every moving object in the current scan must have at least this
@@ -72,7 +87,8 @@ pub struct SimArgs {
     #[arg(long)]
     pub sequence: Option<usize>,
     /// With --sequence: the scan distance of the pairs (1; each pair spans the
-    /// preset's interval between two scans).
+    /// preset's interval between two scans; person-following scans every 0.1 s
+    /// whatever --k, so its pairs span k × 0.1 s).
     #[arg(long, requires = "sequence")]
     pub k: Option<usize>,
 }
@@ -80,16 +96,22 @@ pub struct SimArgs {
 /// Runs `pgm sim`.
 pub fn run(args: SimArgs) -> CliResult {
     let preset: Preset = args.preset.parse().map_err(CliError::from_display)?;
+    // The preset's own laser unless a flag says otherwise.
+    let base = SimConfig::for_preset(preset);
     let config = SimConfig {
         preset,
-        beams: args.beams,
+        beams: args.beams.unwrap_or(base.beams),
+        field_of_view: args
+            .field_of_view
+            .map_or(base.field_of_view, f64::to_radians),
+        max_range: args.max_range.unwrap_or(base.max_range),
         range_noise: args.range_noise,
         dropout: args.dropout,
         pair_distance: [args.min_distance, args.max_distance],
         odometry_translation_noise: args.odometry_translation_noise,
         odometry_rotation_noise: args.odometry_rotation_noise,
         min_object_returns: args.min_object_returns,
-        ..SimConfig::default()
+        ..base
     }
     .check()
     .map_err(CliError::from_display)?;

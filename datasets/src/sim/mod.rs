@@ -24,6 +24,12 @@
 //! - an odometry prior: the true ego-motion with noise growing with the distance
 //!   travelled.
 //!
+//! One preset leaves the street: `person-following` ([`person_following`]) puts a
+//! small robot behind a walking person outdoors, with the scanner of the
+//! `leg_tracker` benchmark's person-following logs (10 Hz, 245 beams over 86°, 5.6 m;
+//! [`Preset::default_laser`], applied by [`SimConfig::for_preset`]) and no wheel
+//! odometry: its pairs and scans carry none ([`Preset::wheel_odometry`]).
+//!
 //! Everything is a function of the configuration and a seed (ChaCha8, one stream per
 //! pair index), so `simulate_pairs(&config, seed, n)` returns byte-identical data for
 //! the same seed, and pair `i` does not depend on `n`. (Sines, cosines and arc
@@ -51,6 +57,7 @@
 //! assert!((2.0..=4.0).contains(&travelled));
 //! ```
 
+pub mod person_following;
 pub mod presets;
 mod raycast;
 pub mod scene;
@@ -58,7 +65,7 @@ mod sensor;
 pub mod stats;
 pub mod truth;
 
-pub use presets::Preset;
+pub use presets::{Preset, PresetLaser};
 pub use scene::{
     MovingObject, ObjectKind, Path, Primitive, Scene, Script, ScriptedObject, Trajectory,
 };
@@ -200,6 +207,25 @@ impl Default for SimConfig {
             odometry_rotation_noise: 0.003,
             min_object_returns: 3,
         }
+    }
+}
+
+impl SimConfig {
+    /// The default configuration of `preset`: [`SimConfig::default`] with that preset,
+    /// and with the preset's own laser ([`Preset::default_laser`]: beams, field of
+    /// view, maximum range) where it has one. For the urban presets this is
+    /// `SimConfig { preset, ..SimConfig::default() }` exactly.
+    pub fn for_preset(preset: Preset) -> Self {
+        let mut config = SimConfig {
+            preset,
+            ..SimConfig::default()
+        };
+        if let Some(laser) = preset.default_laser() {
+            config.beams = laser.beams;
+            config.field_of_view = laser.field_of_view;
+            config.max_range = laser.max_range;
+        }
+        config
     }
 }
 
@@ -457,7 +483,8 @@ pub fn try_simulate_pairs(config: &ValidSimConfig, seed: u64, n: usize) -> Resul
 
 /// A sequence of scans of one scene, as pairs `k` scans apart: `scans` scans taken
 /// `scene.interval / k` seconds apart (so that each pair spans the preset's interval,
-/// as a pair of [`simulate_pair`] does), and the pairs `(a, a + k)` for every `a` in
+/// as a pair of [`simulate_pair`] does; `person-following` scans every 0.1 s whatever
+/// `k`, [`Preset::scan_period`]), and the pairs `(a, a + k)` for every `a` in
 /// `0..scans - k`, each with its complete ground truth. Pairs are named
 /// `sim:PRESET:SEED:INDEX:A-B`; their scans carry time stamps `1000 · INDEX + t` (s), so
 /// that the sequences of one data set never join (`pgm_tracking` ends a
@@ -506,11 +533,14 @@ pub fn simulate_sequence(
 
 /// Scans a given scene twice (reference at time 0, current at `scene.interval`) and
 /// builds the pair with its ground truth and odometry prior. The preset in `config`
-/// is ignored; the laser, noise and odometry parameters are used.
+/// only says whether there is odometry ([`Preset::wheel_odometry`]); the laser, noise
+/// and odometry parameters are used.
 ///
 /// Each scan's [`pgm_scan::Scan::odometry`] is set consistently with the pair's
 /// prior: the reference scan carries the true world pose of the ego vehicle, the
-/// current scan that pose composed with the noisy odometry.
+/// current scan that pose composed with the noisy odometry. Without wheel odometry
+/// the pair's prior and both scans' odometry are `None` (and no odometry noise is
+/// drawn).
 pub fn simulate_scene<R: Rng>(
     scene: &Scene,
     config: &ValidSimConfig,
@@ -534,15 +564,20 @@ fn scan_scene_pair<R: Rng>(
     let mut reference = sensor::scan_scene(scene, config, &reference_pose, 0.0, rng);
     let mut current = sensor::scan_scene(scene, config, &current_pose, scene.interval, rng);
     let truth = truth::ground_truth(scene, config, &reference, &current, speeds);
-    let ego = truth.ego_motion.unwrap_or_else(|| scene.body_motion(0));
-    let odometry = noisy_odometry(config, &ego, rng);
-    reference.scan.odometry = Some(reference_pose);
-    current.scan.odometry = Some(reference_pose.compose(&odometry));
+    let odometry = if config.params().preset.wheel_odometry() {
+        let ego = truth.ego_motion.unwrap_or_else(|| scene.body_motion(0));
+        let odometry = noisy_odometry(config, &ego, rng);
+        reference.scan.odometry = Some(reference_pose);
+        current.scan.odometry = Some(reference_pose.compose(&odometry));
+        Some(odometry)
+    } else {
+        None
+    };
     ScanPair {
         name,
         reference: reference.scan,
         current: current.scan,
-        odometry: Some(odometry),
+        odometry,
         truth: Some(truth),
     }
 }

@@ -1,6 +1,7 @@
 //! Scene presets: urban streets and intersections with the driving situations of the
 //! papers' experiments (section V of the CRF-Clustering paper: "cars overtaking other
-//! cars, crossing by and moving on the opposite lane").
+//! cars, crossing by and moving on the opposite lane"), and one outdoor scene of a
+//! robot following a person (`person-following`, with a sensor of its own).
 //!
 //! World frame: the ego car starts at the origin driving along +x in the rightmost
 //! lane (right-hand traffic), lanes are 3.3 m wide. The main street runs along x
@@ -20,15 +21,26 @@
 //! | `mixed` (default) | straight or intersection | the above together: oncoming, overtaking, lead, crossing, turning cars and pedestrians (typically 3-6 objects) |
 //! | `random` | any | 0-3 of every kind, random densities |
 //! | `following` | straight, 2 lanes per direction | objects that keep pace with the ego vehicle: a lead car at the ego speed within 5 % and a car in the next lane at the ego speed (two scenes in three), or a person walking 1.5-4 m ahead of a slow robot (0.8-1.6 m/s) at its speed within 5 % |
+//! | `person-following` | outdoors, sparse: tree trunks (r 0.1-0.3 m), posts (r 0.05-0.1 m), a few walls and building corners, most of the view empty | a robot (0.4-0.8 m/s, up to 1 m/s catching up; gentle turns) following a person 1.1-1.4 m ahead at the person's speed; the person stops, turns on the spot by 40-90° and walks on, again and again (the robot stops, turns and follows); 0-3 other pedestrians per 20 s crossing or walking the other way. Its own laser (10 Hz, 245 beams over 86°, 5.6 m; [`Preset::default_laser`]) and no wheel odometry ([`Preset::wheel_odometry`]); details in [`crate::sim::person_following`] |
 //!
 //! An object that keeps pace stays where it was in the sensor frame, so it looks
 //! static to a method that compares the scans in the sensor frame and moving to one
 //! that compares them in the world (after the ego-motion).
+//!
+//! The urban presets scan pairs 2-4 m of ego travel apart ([`SimConfig::pair_distance`]
+//! over [`SimConfig::ego_speed`]) with the configured laser. `person-following` ignores
+//! both ranges: its sequences are scanned at its scanner's 10 Hz whatever `k`
+//! ([`Preset::scan_period`]), its pairs are 0.3-0.8 s (3-8 scans) of a 24 s walk, and
+//! its pairs and scans carry no odometry at all (`None`: the data format's way of
+//! saying there is none).
+//!
+//! [`SimConfig::pair_distance`]: crate::sim::SimConfig::pair_distance
+//! [`SimConfig::ego_speed`]: crate::sim::SimConfig::ego_speed
 
 use super::scene::{
     heading, polygon, rectangle, MovingObject, Primitive, Scene, Script, Trajectory,
 };
-use super::{uniform, SimError, ValidSimConfig};
+use super::{person_following, uniform, SimError, ValidSimConfig};
 use nalgebra::{Point2, Vector2};
 use pgm_scan::Pose2;
 use rand::Rng;
@@ -64,11 +76,40 @@ pub enum Preset {
     Random,
     /// Objects that keep pace with the ego vehicle (module docs).
     Following,
+    /// A robot following a walking person outdoors, with its own laser and no
+    /// odometry (module docs, [`crate::sim::person_following`]).
+    #[serde(rename = "person-following")]
+    PersonFollowing,
+}
+
+/// A preset's own laser ([`Preset::default_laser`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PresetLaser {
+    /// Number of beams.
+    pub beams: usize,
+    /// Field of view in radians.
+    pub field_of_view: f64,
+    /// Maximum range in metres.
+    pub max_range: f64,
 }
 
 impl Preset {
     /// Every preset, in the order of [`Preset::NAMES`].
-    pub const ALL: [Preset; 7] = [
+    pub const ALL: [Preset; 8] = [
+        Preset::Overtaking,
+        Preset::Intersection,
+        Preset::Oncoming,
+        Preset::Pedestrians,
+        Preset::Mixed,
+        Preset::Random,
+        Preset::Following,
+        Preset::PersonFollowing,
+    ];
+
+    /// The urban street presets, the papers' situations scanned by the configured
+    /// laser from a car (every preset but [`Preset::PersonFollowing`]), in the order
+    /// of [`Preset::ALL`].
+    pub const URBAN: [Preset; 7] = [
         Preset::Overtaking,
         Preset::Intersection,
         Preset::Oncoming,
@@ -79,7 +120,7 @@ impl Preset {
     ];
 
     /// The preset names accepted by [`Preset::from_str`].
-    pub const NAMES: [&'static str; 7] = [
+    pub const NAMES: [&'static str; 8] = [
         "overtaking",
         "intersection",
         "oncoming",
@@ -87,6 +128,7 @@ impl Preset {
         "mixed",
         "random",
         "following",
+        "person-following",
     ];
 
     /// The preset's name (lower case).
@@ -95,13 +137,51 @@ impl Preset {
         Preset::NAMES[i]
     }
 
+    /// The preset's own laser, when it models a sensor of its own: `person-following`
+    /// has 245 beams over 86° and a 5.6 m range. `None` for the urban presets, which
+    /// take [`SimConfig::default`](crate::sim::SimConfig::default)'s 361 beams over
+    /// 180° and 80 m. [`SimConfig::for_preset`](crate::sim::SimConfig::for_preset)
+    /// applies it; a configuration given otherwise keeps its own laser.
+    pub fn default_laser(&self) -> Option<PresetLaser> {
+        match self {
+            Preset::PersonFollowing => Some(PresetLaser {
+                beams: person_following::BEAMS,
+                field_of_view: person_following::FIELD_OF_VIEW_DEGREES.to_radians(),
+                max_range: person_following::MAX_RANGE,
+            }),
+            _ => None,
+        }
+    }
+
+    /// Whether the simulated platform has wheel odometry: its pairs carry the noisy
+    /// odometry prior and its scans their poses ([`crate::sim::simulate_scene`]).
+    /// `false` for `person-following`, whose pairs' [`crate::ScanPair::odometry`] and
+    /// scans' [`pgm_scan::Scan::odometry`] are `None` whatever the odometry noise.
+    pub fn wheel_odometry(&self) -> bool {
+        *self != Preset::PersonFollowing
+    }
+
+    /// The preset's own scan period (s), when its sensor has one: sequences of
+    /// `person-following` are scanned every 0.1 s (10 Hz) whatever `k`. `None` for the
+    /// urban presets, whose sequences take the pair's interval over `k`
+    /// ([`Preset::script`]).
+    pub fn scan_period(&self) -> Option<f64> {
+        match self {
+            Preset::PersonFollowing => Some(person_following::SCAN_PERIOD),
+            _ => None,
+        }
+    }
+
     /// Builds one random scene of this preset, ego trajectory and scan interval
     /// included, from the laser-independent parts of `config` (pair distance and ego
-    /// speed ranges).
+    /// speed ranges; `person-following` uses neither, see the module docs).
     pub fn scene<R: Rng>(&self, config: &ValidSimConfig, rng: &mut R) -> Scene {
         if *self == Preset::Following {
             // Its own draw order, so the other presets' streams stay as they were.
             return following_scene(config, rng);
+        }
+        if *self == Preset::PersonFollowing {
+            return person_following::scene(rng);
         }
         let c = config.params();
         let ego_speed = uniform(rng, c.ego_speed[0], c.ego_speed[1]);
@@ -119,7 +199,7 @@ impl Preset {
             Preset::Overtaking | Preset::Oncoming => false,
             Preset::Pedestrians => rng.random_bool(0.4),
             Preset::Mixed | Preset::Random => rng.random_bool(0.5),
-            Preset::Following => false,
+            Preset::Following | Preset::PersonFollowing => false,
         };
         let lanes = match self {
             Preset::Overtaking => {
@@ -185,7 +265,7 @@ impl Preset {
                     (Range(0, 1), Builder::crossing_pedestrian),
                 ]);
             }
-            Preset::Following => {}
+            Preset::Following | Preset::PersonFollowing => {}
             Preset::Random => b.populate(&[
                 (Range(0, 1), Builder::lead_car),
                 (Range(0, 2), Builder::overtaking_car),
@@ -235,16 +315,21 @@ fn following_scene<R: Rng>(config: &ValidSimConfig, rng: &mut R) -> Scene {
 
 impl Preset {
     /// The scene of a sequence of `scans` scans whose pairs are `k` scans apart
-    /// ([`crate::sim::simulate_sequence`]): one scene of [`Preset::scene`] whose
-    /// motions go on unchanged, scanned `interval / k` seconds apart, however many
-    /// scans there are.
+    /// ([`crate::sim::simulate_sequence`]): for the urban presets one scene of
+    /// [`Preset::scene`] whose motions go on unchanged, scanned `interval / k` seconds
+    /// apart, however many scans there are; for `person-following` a walk with its
+    /// stops and turns scripted for `scans` scans (so the scene depends on `scans`),
+    /// scanned every 0.1 s whatever `k`.
     pub fn script<R: Rng>(
         &self,
         config: &ValidSimConfig,
         rng: &mut R,
-        _scans: usize,
+        scans: usize,
         k: usize,
     ) -> Script {
+        if *self == Preset::PersonFollowing {
+            return person_following::script(rng, scans);
+        }
         let scene = self.scene(config, rng);
         Script::from_scene(&scene, scene.interval / k as f64)
     }
