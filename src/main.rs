@@ -24,7 +24,7 @@ enum Command {
     Data(cli::data::DataArgs),
     /// Evaluate methods against ground truth (`pgm eval matching …`).
     Eval(cli::eval::EvalArgs),
-    /// Simulate urban scan pairs with complete ground truth (`pgm sim --preset mixed --pairs 100 --out DIR`).
+    /// Simulate scan pairs and sequences (urban streets, person following) with complete ground truth (`pgm sim --preset mixed --pairs 100 --out DIR`).
     Sim(cli::sim::SimArgs),
     /// Draw one pair of a data set as SVG, coloured by ground truth.
     Plot(cli::plot::PlotArgs),

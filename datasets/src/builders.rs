@@ -730,7 +730,9 @@ fn leigh_pair(
 /// The pair of `reference` and `current` with the odometry `prior`, every return of
 /// both scans labelled by the nearest person centre of its scan within the person
 /// radius (`centres[0]` the reference's, `centres[1]` the current's; 0 elsewhere,
-/// unlabelled outside the annotated `sector`), and the people's `motions`.
+/// unlabelled outside the annotated `sector`), the people's `motions` and the current
+/// scan's tracking truth `objects`.
+#[allow(clippy::too_many_arguments)]
 fn labelled_pair(
     reference: &IndexedScan,
     current: &IndexedScan,

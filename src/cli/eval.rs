@@ -59,10 +59,10 @@ pub enum EvalCommand {
     Joint(super::joint::JointEvalArgs),
     /// Tracking: CLEAR-MOT (MOTA, MOTP, ID switches) of a tracker's output under the
     /// leg_tracker benchmark's protocol and the standard one.
-    Tracking(super::eval_tracking::TrackingEvalArgs),
+    Tracking(Box<super::eval_tracking::TrackingEvalArgs>),
     /// Ego-motion over a sequence: the online tracker's (with or without the wheel
     /// odometry) beside ICP from the odometry prior.
-    EgoMotion(super::eval_ego::EgoEvalArgs),
+    EgoMotion(Box<super::eval_ego::EgoEvalArgs>),
 }
 
 /// `pgm eval matching`.
@@ -120,8 +120,8 @@ pub fn run(args: EvalArgs) -> CliResult {
         EvalCommand::Clustering(a) => super::eval_clustering::run(a),
         EvalCommand::Association(a) => super::matching::run_eval_association(a),
         EvalCommand::Joint(a) => super::joint::run_eval_joint(a),
-        EvalCommand::Tracking(a) => super::eval_tracking::run(a),
-        EvalCommand::EgoMotion(a) => super::eval_ego::run(a),
+        EvalCommand::Tracking(a) => super::eval_tracking::run(*a),
+        EvalCommand::EgoMotion(a) => super::eval_ego::run(*a),
     }
 }
 

@@ -120,6 +120,9 @@ fn parse_window(text: &str) -> Result<(f64, f64), String> {
     Ok((lo, hi))
 }
 
+/// One annotated scan of a log: its index, name and objects.
+type AnnotatedScan<'a> = (usize, &'a str, &'a Vec<ObjectCentre>);
+
 /// What the tracker reported in one scan: `(track, state, centre, score)`.
 type Reported = Vec<(u64, String, [f64; 2], Option<f64>)>;
 
@@ -261,76 +264,74 @@ pub fn run(args: TrackingEvalArgs) -> CliResult {
     }
     // The tracker's output, scan by scan.
     let (tracker, reported): (String, Vec<(String, Reported)>) = {
-        {
-            let method = &args.detector;
-            let sequence_source = match &truth_source {
-                PairSource::Bag { .. } => {
-                    pair_source(None, &without_truth(&args.source), &LeighArgs::default(), 1)?
-                }
-                other => other.clone(),
-            };
-            let pairs = load_pairs(&sequence_source)?.pairs;
-            if pairs.is_empty() {
-                return Err(CliError(format!("{sequence_source}: no pair to track")));
+        let method = &args.detector;
+        let sequence_source = match &truth_source {
+            PairSource::Bag { .. } => {
+                pair_source(None, &without_truth(&args.source), &LeighArgs::default(), 1)?
             }
-            if method.associations.as_deref() == Some("true") {
-                return Err(CliError(
-                    "--associations true: the online tracker pairs scans itself, and those \
-                     pairs have no ground-truth associations (use icp, segment-icp or \
-                     crf-matching)"
-                        .into(),
-                ));
-            }
-            let method_options = method.options()?;
-            let params = args.online.params(args.k);
-            params.check_ref().map_err(CliError::from_display)?;
-            let built = method.build(&method_options, &[])?;
-            let reports = track_scans(
-                scan_sequence(&pairs),
-                built.method.as_ref(),
-                &params,
-                args.online.smooth,
-            )?;
-            let what = format!(
-                "{}{} ({})",
-                method.method,
-                built
-                    .associations
-                    .as_deref()
-                    .map_or(String::new(), |a| format!(" on {a} associations")),
-                if args.online.smooth {
-                    "smoothed"
-                } else {
-                    "online"
-                }
-            );
-            let reported = reports
-                .into_iter()
-                .map(|r| {
-                    let objects = r
-                        .report
-                        .objects
-                        .iter()
-                        .map(|o| {
-                            let state = serde_json::to_value(o.state)
-                                .ok()
-                                .and_then(|v| v.as_str().map(str::to_string))
-                                .unwrap_or_default();
-                            (o.track, state, o.centre, Some(o.score))
-                        })
-                        .collect();
-                    (r.scan, objects)
-                })
-                .collect();
-            (what, reported)
+            other => other.clone(),
+        };
+        let pairs = load_pairs(&sequence_source)?.pairs;
+        if pairs.is_empty() {
+            return Err(CliError(format!("{sequence_source}: no pair to track")));
         }
+        if method.associations.as_deref() == Some("true") {
+            return Err(CliError(
+                "--associations true: the online tracker pairs scans itself, and those \
+                 pairs have no ground-truth associations (use icp, segment-icp or \
+                 crf-matching)"
+                    .into(),
+            ));
+        }
+        let method_options = method.options()?;
+        let params = args.online.params(args.k);
+        params.check_ref().map_err(CliError::from_display)?;
+        let built = method.build(&method_options, &[])?;
+        let reports = track_scans(
+            scan_sequence(&pairs),
+            built.method.as_ref(),
+            &params,
+            args.online.smooth,
+        )?;
+        let what = format!(
+            "{}{} ({})",
+            method.method,
+            built
+                .associations
+                .as_deref()
+                .map_or(String::new(), |a| format!(" on {a} associations")),
+            if args.online.smooth {
+                "smoothed"
+            } else {
+                "online"
+            }
+        );
+        let reported = reports
+            .into_iter()
+            .map(|r| {
+                let objects = r
+                    .report
+                    .objects
+                    .iter()
+                    .map(|o| {
+                        let state = serde_json::to_value(o.state)
+                            .ok()
+                            .and_then(|v| v.as_str().map(str::to_string))
+                            .unwrap_or_default();
+                        (o.track, state, o.centre, Some(o.score))
+                    })
+                    .collect();
+                (r.scan, objects)
+            })
+            .collect();
+        (what, reported)
     };
     let estimates_rule = match args.min_score {
         Some(s) => format!("every object with a score of at least {s}"),
         None => "the objects that are not tentative".into(),
     };
     let by_name: HashMap<&str, &Reported> = reported.iter().map(|(n, o)| (n.as_str(), o)).collect();
-    let mut logs: BTreeMap<String, Vec<(usize, &str, &Vec<ObjectCentre>)>> = BTreeMap::new();
+    let mut logs: BTreeMap<String, Vec<AnnotatedScan>> = BTreeMap::new();
     for (name, objects) in &truth.scans {
         let (log, j) = log_and_index(name);
         logs.entry(log)
@@ -352,7 +353,7 @@ pub fn run(args: TrackingEvalArgs) -> CliResult {
         let mut scorers = [Protocol::Benchmark, Protocol::Standard].map(|protocol| {
             ClearMot::new(ClearMotOptions {
                 protocol,
-                ..options.clone()
+                ..options
             })
         });
         for (_, name, objects) in frames_of_log.iter() {
