@@ -742,8 +742,19 @@ pub struct TrackedScan<'a> {
     pub scan: &'a pgm_scan::Scan,
     /// Its sensor frame in the picture's frame (maps its points there).
     pub pose: Pose2,
-    /// Its moving objects: track number and centre (m, its own sensor frame).
-    pub objects: Vec<(usize, Point2<f64>)>,
+    /// Its objects: track number, centre (m, its own sensor frame) and state.
+    pub objects: Vec<(usize, Point2<f64>, ObjectState)>,
+}
+
+/// How a tracked object is drawn in one scan of a [`TrackPicture`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ObjectState {
+    /// Found and moving: a filled dot.
+    Moving,
+    /// Found, slower than the speed that counts as moving: a filled square.
+    Stopped,
+    /// Not found: where its filter predicts it, a hollow ring.
+    Coasting,
 }
 
 /// A picture of one tracked sequence (`pgm track --svg`): the returns of every scan
@@ -782,13 +793,13 @@ impl TrackPicture<'_> {
             .iter()
             .map(|s| Point2::from(s.pose.translation()))
             .collect();
-        let mut tracks: BTreeMap<usize, Vec<Point2<f64>>> = BTreeMap::new();
+        let mut tracks: BTreeMap<usize, Vec<(Point2<f64>, ObjectState)>> = BTreeMap::new();
         for s in &self.scans {
-            for (track, centre) in &s.objects {
+            for (track, centre, state) in &s.objects {
                 tracks
                     .entry(*track)
                     .or_default()
-                    .push(s.pose.transform_point(centre));
+                    .push((s.pose.transform_point(centre), *state));
             }
         }
         // The region: the sensor's path and the tracks, with the returns within 30 m.
@@ -801,7 +812,7 @@ impl TrackPicture<'_> {
         let near_path = |p: &Point2<f64>| path.iter().any(|q| (p - q).norm() <= 30.0);
         for p in path
             .iter()
-            .chain(tracks.values().flatten())
+            .chain(tracks.values().flatten().map(|(c, _)| c))
             .chain(returns.iter().filter(|p| near_path(p)))
         {
             b[0] = b[0].min(p.x);
@@ -832,6 +843,20 @@ impl TrackPicture<'_> {
             legend.push(
                 Mark::Track(cluster_colour(track as u32 + 1)),
                 format!("track {track}: its object's centre, scan by scan"),
+            );
+        }
+        let states: std::collections::BTreeSet<u8> =
+            tracks.values().flatten().map(|(_, s)| *s as u8).collect();
+        if states.contains(&(ObjectState::Stopped as u8)) {
+            legend.push(
+                Mark::Square(CURRENT_SENSOR_COLOUR),
+                "stopped: found, slower than the speed that counts as moving",
+            );
+        }
+        if states.contains(&(ObjectState::Coasting as u8)) {
+            legend.push(
+                Mark::Ring(CURRENT_SENSOR_COLOUR),
+                "coasting: not found, where its track predicts it",
             );
         }
         if tracks.len() > LEGEND_TRACKS {
@@ -876,18 +901,37 @@ impl TrackPicture<'_> {
                 let colour = cluster_colour(*track as u32 + 1);
                 chart
                     .draw_series(std::iter::once(PathElement::new(
-                        centres.iter().map(screen).collect::<Vec<_>>(),
+                        centres.iter().map(|(c, _)| screen(c)).collect::<Vec<_>>(),
                         colour.stroke_width(2),
                     )))
                     .map_err(drawing)?;
+                for (state, style) in [
+                    (ObjectState::Moving, colour.filled()),
+                    (ObjectState::Coasting, colour.stroke_width(1)),
+                ] {
+                    chart
+                        .draw_series(
+                            centres
+                                .iter()
+                                .filter(|(_, s)| *s == state)
+                                .map(|(c, _)| Circle::new(screen(c), 3, style)),
+                        )
+                        .map_err(drawing)?;
+                }
+                let square = |c: &Point2<f64>| {
+                    let (x, y) = screen(c);
+                    let h = 3.5 * frame.horizontal() / layout.plot_width as f64;
+                    Rectangle::new([(x - h, y - h), (x + h, y + h)], colour.filled())
+                };
                 chart
                     .draw_series(
                         centres
                             .iter()
-                            .map(|c| Circle::new(screen(c), 3, colour.filled())),
+                            .filter(|(_, s)| *s == ObjectState::Stopped)
+                            .map(|(c, _)| square(c)),
                     )
                     .map_err(drawing)?;
-                if let Some(last) = centres.last() {
+                if let Some((last, _)) = centres.last() {
                     chart
                         .draw_series(std::iter::once(Text::new(
                             format!("track {track}"),
@@ -1104,6 +1148,10 @@ enum Mark {
     Sensor(RGBColor),
     /// A track: a line through dots.
     Track(RGBColor),
+    /// A filled square.
+    Square(RGBColor),
+    /// A hollow ring.
+    Ring(RGBColor),
 }
 
 impl Mark {
@@ -1163,6 +1211,16 @@ impl Mark {
                 x - 7.0,
                 x + 7.0,
                 h = hex(c)
+            ),
+            Mark::Square(c) => format!(
+                r#"<rect x="{}" y="{}" width="7" height="7" fill="{}"/>"#,
+                x - 3.5,
+                y - 3.5,
+                hex(c)
+            ),
+            Mark::Ring(c) => format!(
+                r#"<circle cx="{x}" cy="{y}" r="3" fill="none" stroke="{}" stroke-width="1"/>"#,
+                hex(c)
             ),
         }
     }

@@ -6,7 +6,7 @@
 //! |---|---|---|---|---|
 //! | leigh-gtm1 people (text log or bag topic) | every annotated person, id = person id | the annotation (body centre) | the data README's track rule: a line fitted to the person's annotations in the odometry frame over scans `j − w … j + w` has a speed of at least the walking speed (`None` without odometry) | valid returns within the person radius |
 //! | motion capture (datmo) | the tracked object, id 1 | its footprint's centre | its footprint centre moves at least the object's minimum speed (central difference over ±0.05 s) | valid returns inside the footprint widened by the label margin |
-//! | stored pairs (`pgm sim`, `pgm data pairs`) | [`GroundTruth::objects`] of each pair's current scan | as stored | as stored | as stored |
+//! | stored pairs (`pgm sim`, `pgm data pairs`) | [`GroundTruth::objects`](pgm_scan::GroundTruth::objects) of each pair's current scan | as stored | as stored | as stored |
 //!
 //! Scans are named as the sequence built from consecutive pairs names them: `LOG:J`
 //! for scan `J` of log `LOG` (a pair `LOG:I-J`, [`scan_names`]). A scan that is not in
@@ -51,7 +51,7 @@ pub fn scan_names(pair_name: &str) -> Option<(&str, usize, usize)> {
     Some((log, a.parse().ok()?, b.parse().ok()?))
 }
 
-/// The tracking truth stored in pairs: each pair's [`GroundTruth::objects`] under the
+/// The tracking truth stored in pairs: each pair's [`GroundTruth::objects`](pgm_scan::GroundTruth::objects) under the
 /// name of its current scan (`LOG:J`, or the pair's name when it is not of the form
 /// `LOG:I-J`). Pairs without objects add nothing; when two pairs share a current scan
 /// the first one's objects are used.

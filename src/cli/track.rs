@@ -27,7 +27,7 @@ use super::online::{scan_sequence, track_scans, NamedReport, OnlineArgs};
 use super::{check_not_an_input, check_output_file, resolved_output, CliError, CliResult};
 use clap::Args;
 use nalgebra::Point2;
-use pgm::plot::{TrackPicture, TrackedScan};
+use pgm::plot::{ObjectState, TrackPicture, TrackedScan};
 use pgm_scan::{ParamGuard, Pose2};
 use pgm_tracking::{TrackState, TrackingCounts, TrackingParams};
 use serde::Serialize;
@@ -294,7 +294,18 @@ pub fn run(args: TrackArgs) -> CliResult {
                     .objects
                     .iter()
                     .filter(shown)
-                    .map(|o| (o.track as usize, Point2::new(o.centre[0], o.centre[1])))
+                    .map(|o| {
+                        let state = match o.state {
+                            TrackState::Stopped => ObjectState::Stopped,
+                            TrackState::Coasting => ObjectState::Coasting,
+                            _ => ObjectState::Moving,
+                        };
+                        (
+                            o.track as usize,
+                            Point2::new(o.centre[0], o.centre[1]),
+                            state,
+                        )
+                    })
                     .collect(),
             })
             .collect::<Vec<_>>();
