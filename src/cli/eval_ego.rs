@@ -15,14 +15,13 @@
 //! and rotation (rad) errors, and the share of pairs off by more than 0.2 m or 0.1
 //! rad, for both.
 
-use super::data::{load_pairs, pair_source, BagArgs, LeighArgs, SourceArgs};
+use super::data::{load_pairs, pair_source, LeighArgs, SourceArgs};
 use super::eval_clustering::MethodArgs;
-use super::online::{scan_sequence, track_scans, OnlineArgs};
+use super::online::{track_truth_source, OnlineArgs};
 use super::{CliError, CliResult};
 use clap::Args;
 use pgm::methods::{scan_matcher, MethodOptions};
-use pgm_datasets::source::PairSource;
-use pgm_scan::{ParamGuard, Pose2, ScanPair};
+use pgm_scan::{Pose2, ScanPair};
 use serde::Serialize;
 use std::process::ExitCode;
 
@@ -171,50 +170,15 @@ pub fn run(args: EgoEvalArgs) -> CliResult {
         )));
     }
     // The scans the tracker sees: every consecutive scan of the log.
-    let sequence_source = match &truth_source {
-        PairSource::CarmenRelations { log, options, .. } => PairSource::ConsecutiveLog {
-            log: log.clone(),
-            options: *options,
-        },
-        PairSource::Bag { .. } => {
-            let plain = SourceArgs {
-                bag: BagArgs {
-                    people_topic: None,
-                    ego_pose_topic: None,
-                    object_pose_topic: None,
-                    object_footprint: None,
-                    ..args.source.bag.clone()
-                },
-                ..args.source.clone()
-            };
-            pair_source(None, &plain, &LeighArgs::default(), 1)?
-        }
-        other => other.clone(),
-    };
-    let pairs = if sequence_source == truth_source {
-        load_pairs(&truth_source)?.pairs
-    } else {
-        load_pairs(&sequence_source)?.pairs
-    };
-    let mut sequence = scan_sequence(&pairs);
-    if args.no_odometry {
-        for (_, scan) in &mut sequence {
-            scan.odometry = None;
-        }
-    }
-    let n_scans = sequence.len();
-    if args.detector.associations.as_deref() == Some("true") {
-        return Err(CliError(
-            "--associations true: the online tracker pairs scans itself, and those pairs \
-             have no ground-truth associations (use icp, segment-icp or crf-matching)"
-                .into(),
-        ));
-    }
-    let method_options = args.detector.options()?;
-    let params = args.online.params(args.k);
-    params.check_ref().map_err(CliError::from_display)?;
-    let built = args.detector.build(&method_options, &[])?;
-    let reports = track_scans(sequence, built.method.as_ref(), &params, args.online.smooth)?;
+    let run = track_truth_source(
+        &truth_source,
+        &args.source,
+        &args.detector,
+        &args.online,
+        args.k,
+        args.no_odometry,
+    )?;
+    let reports = run.reports;
     // Scans by stamp: (stamp, sequence, pose).
     let mut stamps: Vec<(f64, usize, Pose2)> = reports
         .iter()
@@ -272,22 +236,10 @@ pub fn run(args: EgoEvalArgs) -> CliResult {
         .len();
     let output = Output {
         data: truth_source.to_string(),
-        tracker: format!(
-            "{}{} ({})",
-            args.detector.method,
-            built
-                .associations
-                .as_deref()
-                .map_or(String::new(), |a| format!(" on {a} associations")),
-            if args.online.smooth {
-                "smoothed"
-            } else {
-                "online"
-            }
-        ),
+        tracker: run.tracker,
         odometry: !args.no_odometry,
         max_gap: args.max_gap,
-        scans: n_scans,
+        scans: run.scans,
         sequences,
         tracked: summarise(&tracked),
         icp_with_odometry_prior: summarise(&baseline),

@@ -27,17 +27,16 @@
 //! the benchmark protocol matched; `objects` per truth id the annotations, matches and
 //! ID switches (benchmark protocol).
 
-use super::data::{load_pairs, pair_source, BagArgs, LeighArgs, SourceArgs};
+use super::data::{pair_source, LeighArgs, SourceArgs};
 use super::eval_clustering::MethodArgs;
-use super::online::{scan_sequence, track_scans, OnlineArgs};
+use super::online::{track_truth_source, OnlineArgs};
 use super::{check_not_an_input, check_output_file, CliError, CliResult};
 use clap::Args;
 use pgm_datasets::clear_mot::{
     pool, BearingWindow, ClearMot, ClearMotOptions, Protocol, Summary, DEFAULT_THRESHOLD_M,
 };
-use pgm_datasets::source::PairSource;
 use pgm_datasets::tracking_truth::TrackingTruth;
-use pgm_scan::{ObjectCentre, ParamGuard};
+use pgm_scan::ObjectCentre;
 use serde::Serialize;
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
@@ -191,20 +190,6 @@ struct ScanScore {
     false_positives: Vec<(u64, f64, f64)>,
 }
 
-/// The source with its truth topics removed: the scans a tracker sees.
-fn without_truth(source: &SourceArgs) -> SourceArgs {
-    SourceArgs {
-        bag: BagArgs {
-            people_topic: None,
-            ego_pose_topic: None,
-            object_pose_topic: None,
-            object_footprint: None,
-            ..source.bag.clone()
-        },
-        ..source.clone()
-    }
-}
-
 /// The log and scan index of a scan named `LOG:J`; other names are a log of their own.
 fn log_and_index(name: &str) -> (String, usize) {
     match name.rsplit_once(':') {
@@ -263,69 +248,34 @@ pub fn run(args: TrackingEvalArgs) -> CliResult {
         eprintln!("note: {note}");
     }
     // The tracker's output, scan by scan.
-    let (tracker, reported): (String, Vec<(String, Reported)>) = {
-        let method = &args.detector;
-        let sequence_source = match &truth_source {
-            PairSource::Bag { .. } => {
-                pair_source(None, &without_truth(&args.source), &LeighArgs::default(), 1)?
-            }
-            other => other.clone(),
-        };
-        let pairs = load_pairs(&sequence_source)?.pairs;
-        if pairs.is_empty() {
-            return Err(CliError(format!("{sequence_source}: no pair to track")));
-        }
-        if method.associations.as_deref() == Some("true") {
-            return Err(CliError(
-                "--associations true: the online tracker pairs scans itself, and those \
-                 pairs have no ground-truth associations (use icp, segment-icp or \
-                 crf-matching)"
-                    .into(),
-            ));
-        }
-        let method_options = method.options()?;
-        let params = args.online.params(args.k);
-        params.check_ref().map_err(CliError::from_display)?;
-        let built = method.build(&method_options, &[])?;
-        let reports = track_scans(
-            scan_sequence(&pairs),
-            built.method.as_ref(),
-            &params,
-            args.online.smooth,
-        )?;
-        let what = format!(
-            "{}{} ({})",
-            method.method,
-            built
-                .associations
-                .as_deref()
-                .map_or(String::new(), |a| format!(" on {a} associations")),
-            if args.online.smooth {
-                "smoothed"
-            } else {
-                "online"
-            }
-        );
-        let reported = reports
-            .into_iter()
-            .map(|r| {
-                let objects = r
-                    .report
-                    .objects
-                    .iter()
-                    .map(|o| {
-                        let state = serde_json::to_value(o.state)
-                            .ok()
-                            .and_then(|v| v.as_str().map(str::to_string))
-                            .unwrap_or_default();
-                        (o.track, state, o.centre, Some(o.score))
-                    })
-                    .collect();
-                (r.scan, objects)
-            })
-            .collect();
-        (what, reported)
-    };
+    let run = track_truth_source(
+        &truth_source,
+        &args.source,
+        &args.detector,
+        &args.online,
+        args.k,
+        false,
+    )?;
+    let tracker = run.tracker;
+    let reported: Vec<(String, Reported)> = run
+        .reports
+        .into_iter()
+        .map(|r| {
+            let objects = r
+                .report
+                .objects
+                .iter()
+                .map(|o| {
+                    let state = serde_json::to_value(o.state)
+                        .ok()
+                        .and_then(|v| v.as_str().map(str::to_string))
+                        .unwrap_or_default();
+                    (o.track, state, o.centre, Some(o.score))
+                })
+                .collect();
+            (r.scan, objects)
+        })
+        .collect();
     let estimates_rule = match args.min_score {
         Some(s) => format!("every object with a score of at least {s}"),
         None => "the objects that are not tentative".into(),

@@ -135,3 +135,100 @@ pub fn track_scans(
         .map(|(scan, report)| NamedReport { scan, report })
         .collect())
 }
+
+/// `"smoothed"` or `"online"`: the mode `pgm track` states in its JSON.
+pub fn mode_name(smooth: bool) -> &'static str {
+    if smooth {
+        "smoothed"
+    } else {
+        "online"
+    }
+}
+
+/// The tracker of a scored run, for a report: `"crf on segment-icp associations
+/// (online)"`.
+pub fn tracker_label(method: &str, associations: Option<&str>, smooth: bool) -> String {
+    format!(
+        "{method}{} ({})",
+        associations.map_or(String::new(), |a| format!(" on {a} associations")),
+        mode_name(smooth)
+    )
+}
+
+/// What a scoring command (`pgm eval tracking`, `pgm eval ego-motion`) tracked.
+pub struct TrackedRun {
+    /// Each scan's report, in the order tracked.
+    pub reports: Vec<NamedReport>,
+    /// The tracker, as [`tracker_label`] names it.
+    pub tracker: String,
+    /// Scans tracked.
+    pub scans: usize,
+}
+
+/// Runs the online tracker over every consecutive scan of the source whose truth
+/// `truth_source` reads: a bag without its truth topics, a relation file's whole
+/// CARMEN log, any other source as it is. `no_odometry` withholds the scans' odometry.
+///
+/// # Errors
+/// A reader's, the method's or the tracker's; `--associations true` (the tracker's
+/// pairs have no ground-truth associations).
+pub fn track_truth_source(
+    truth_source: &pgm_datasets::source::PairSource,
+    source: &super::data::SourceArgs,
+    method: &super::eval_clustering::MethodArgs,
+    online: &OnlineArgs,
+    k: Option<usize>,
+    no_odometry: bool,
+) -> Result<TrackedRun, CliError> {
+    use super::data::{load_pairs, pair_source, BagArgs, LeighArgs, SourceArgs};
+    use pgm_datasets::source::PairSource;
+    use pgm_scan::ParamGuard;
+    if method.associations.as_deref() == Some("true") {
+        return Err(CliError(
+            "--associations true: the online tracker pairs scans itself, and those pairs \
+             have no ground-truth associations (use icp, segment-icp or crf-matching)"
+                .into(),
+        ));
+    }
+    let sequence_source = match truth_source {
+        PairSource::CarmenRelations { log, options, .. } => PairSource::ConsecutiveLog {
+            log: log.clone(),
+            options: *options,
+        },
+        PairSource::Bag { .. } => {
+            let plain = SourceArgs {
+                bag: BagArgs {
+                    people_topic: None,
+                    ego_pose_topic: None,
+                    object_pose_topic: None,
+                    object_footprint: None,
+                    ..source.bag.clone()
+                },
+                ..source.clone()
+            };
+            pair_source(None, &plain, &LeighArgs::default(), 1)?
+        }
+        other => other.clone(),
+    };
+    let pairs = load_pairs(&sequence_source)?.pairs;
+    if pairs.is_empty() {
+        return Err(CliError(format!("{sequence_source}: no pair to track")));
+    }
+    let mut sequence = scan_sequence(&pairs);
+    if no_odometry {
+        for (_, scan) in &mut sequence {
+            scan.odometry = None;
+        }
+    }
+    let scans = sequence.len();
+    let method_options = method.options()?;
+    let params = online.params(k);
+    params.check_ref().map_err(CliError::from_display)?;
+    let built = method.build(&method_options, &[])?;
+    let reports = track_scans(sequence, built.method.as_ref(), &params, online.smooth)?;
+    Ok(TrackedRun {
+        reports,
+        tracker: tracker_label(&method.method, built.associations.as_deref(), online.smooth),
+        scans,
+    })
+}

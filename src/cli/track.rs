@@ -23,7 +23,7 @@ use super::data::{
     load_pairs, pair_source, parse_pose, BagArgs, CarmenLaserArgs, LeighArgs, SourceArgs,
 };
 use super::eval_clustering::MethodArgs;
-use super::online::{scan_sequence, track_scans, NamedReport, OnlineArgs};
+use super::online::{mode_name, scan_sequence, track_scans, NamedReport, OnlineArgs};
 use super::{check_not_an_input, check_output_file, resolved_output, CliError, CliResult};
 use clap::Args;
 use nalgebra::Point2;
@@ -323,11 +323,7 @@ pub fn run(args: TrackArgs) -> CliResult {
                 .associations
                 .as_deref()
                 .map_or(String::new(), |a| format!(", {a} associations")),
-            if args.online.smooth {
-                "smoothed"
-            } else {
-                "online"
-            },
+            mode_name(args.online.smooth),
         );
         TrackPicture {
             scans,
@@ -352,11 +348,7 @@ pub fn run(args: TrackArgs) -> CliResult {
         .collect::<std::collections::BTreeSet<_>>()
         .len();
     let output = Output {
-        mode: if args.online.smooth {
-            "smoothed"
-        } else {
-            "online"
-        },
+        mode: mode_name(args.online.smooth),
         method: &args.method.method,
         associations: built.associations.as_deref(),
         data: source.to_string(),
