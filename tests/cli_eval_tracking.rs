@@ -1,3 +1,4 @@
+//! `pgm track` prints what `pgm_tracking::OnlineTracker::push` returns, scan by scan.
 //! `pgm eval tracking`: CLEAR-MOT of the online tracker against tracking truth. On a
 //! simulated sequence its counts equal the library's scoring of `pgm track`'s own
 //! output (the streaming tracker and the command agree, and the command scores what
@@ -320,5 +321,59 @@ fn ego_motion_without_odometry_is_close_to_icp_from_the_odometry_prior() {
             / icp["translation_median"].as_f64().unwrap();
         assert!(ratio <= 1.1, "{ratio}: {report}");
         assert!(tracked["off_share"].as_f64().unwrap() <= 0.005, "{report}");
+    }
+}
+
+#[test]
+fn pgm_track_prints_what_the_streaming_tracker_returns_scan_by_scan() {
+    use pgm::methods::{association_source, clusterer, MethodOptions};
+    use pgm_tracking::OnlineParams;
+    let dir = temp_dir("eval-tracking-stream");
+    let seq = sequence(&dir, 25);
+    let tracks = path(&dir, "tracks.json");
+    ok(&[
+        "track",
+        "--method",
+        "crf",
+        "--associations",
+        "segment-icp",
+        "--pairs",
+        &seq,
+        "--out",
+        &tracks,
+    ]);
+    let printed = read_json(&tracks);
+    let printed = printed["scans"].as_array().unwrap();
+    // The same scans pushed one by one into the library's tracker.
+    let mut pairs = pgm::datasets::read_pairs(&seq).unwrap();
+    pairs.sort_by_key(|p| {
+        let (_, a, _) = pgm_datasets::tracking_truth::scan_names(&p.name).unwrap();
+        a
+    });
+    let mut scans = vec![pairs[0].reference.clone()];
+    scans.extend(pairs.iter().map(|p| p.current.clone()));
+    let options = MethodOptions::default();
+    let source = association_source("segment-icp", &options).unwrap();
+    let detector = clusterer("crf", source, &options).unwrap();
+    let mut tracker = OnlineParams::default().tracker(detector.as_ref()).unwrap();
+    assert_eq!(printed.len(), scans.len());
+    let objects: usize = printed
+        .iter()
+        .map(|s| s["objects"].as_array().unwrap().len())
+        .sum();
+    assert!(objects > 0, "the sequence has tracks to compare");
+    for (k, (scan, line)) in scans.into_iter().zip(printed).enumerate() {
+        let report = serde_json::to_value(tracker.push(scan).unwrap()).unwrap();
+        for field in [
+            "index",
+            "time",
+            "sequence",
+            "ego",
+            "pose",
+            "converged",
+            "objects",
+        ] {
+            assert_eq!(report[field], line[field], "scan {k}, `{field}`");
+        }
     }
 }
