@@ -211,21 +211,18 @@ impl EgoMotion {
         if reference.valid_count() >= 2 && cells >= 2 {
             let icp = Icp::new(&reference, p.icp)?;
             best.support = support(&icp, &source, &prior, p.inlier_distance);
-            let narrow = IcpParams {
-                initial_max_distance: (4.0 * p.inlier_distance).max(p.icp.final_max_distance),
-                ..p.icp
-            };
-            let narrow_icp = Icp::new(&reference, narrow)?;
-            let mut hypotheses: Vec<(&Icp, Pose2, EgoSource)> = vec![
-                (&narrow_icp, prior, prior_source),
-                (&icp, prior, prior_source),
-            ];
+            // The first correspondence distance of each run: narrow and wide from the
+            // prior, wide from rest (one tree for all).
+            let narrow = (4.0 * p.inlier_distance).max(p.icp.final_max_distance);
+            let wide = p.icp.initial_max_distance;
+            let mut hypotheses: Vec<(f64, Pose2, EgoSource)> =
+                vec![(narrow, prior, prior_source), (wide, prior, prior_source)];
             if prior_source != EgoSource::Odometry {
-                hypotheses.push((&icp, Pose2::identity(), EgoSource::Rest));
+                hypotheses.push((wide, Pose2::identity(), EgoSource::Rest));
             }
-            for (matcher, start, from) in hypotheses {
+            for (first, start, from) in hypotheses {
                 // Registered on every return; the support counts one per cell.
-                let Ok(run) = matcher.align(&full, start) else {
+                let Ok(run) = icp.align_best(&full, &[(start, first)]) else {
                     continue;
                 };
                 let motion = point_to_line(&reference, &full, &run);
