@@ -414,3 +414,254 @@ fn trws_map_is_exact_on_trees_and_reports_its_bound() {
         &["--algorithm trws", "MAP"],
     );
 }
+
+/// Hardening case `uai-infeasible-loop`: hard "not equal" tables on a triangle with two
+/// colours and on K4 with three (no assignment of positive probability, Z = 0), and
+/// on a 6-cycle with two (feasible).
+const TRIANGLE_2COL: &str = "MARKOV\n3\n2 2 2\n3\n2 0 1\n2 1 2\n2 0 2\n\n\
+                             4\n0 1 1 0\n\n4\n0 1 1 0\n\n4\n0 1 1 0\n";
+const K4_3COL: &str = "MARKOV\n4\n3 3 3 3\n6\n2 0 1\n2 0 2\n2 0 3\n2 1 2\n2 1 3\n2 2 3\n\n\
+                       9\n0 1 1 1 0 1 1 1 0\n\n9\n0 1 1 1 0 1 1 1 0\n\n9\n0 1 1 1 0 1 1 1 0\n\n\
+                       9\n0 1 1 1 0 1 1 1 0\n\n9\n0 1 1 1 0 1 1 1 0\n\n9\n0 1 1 1 0 1 1 1 0\n";
+const CYCLE6_2COL: &str = "MARKOV\n6\n2 2 2 2 2 2\n6\n2 0 1\n2 1 2\n2 2 3\n2 3 4\n2 4 5\n2 5 0\n\n\
+                           4\n0 1 1 0\n\n4\n0 1 1 0\n\n4\n0 1 1 0\n\n4\n0 1 1 0\n\n4\n0 1 1 0\n\n\
+                           4\n0 1 1 0\n";
+
+/// Every command of the case on one model, with `--stats`: BP map under each schedule,
+/// TRW-S map, marginals under each schedule.
+fn every_inference(model: &str) -> Vec<Vec<&str>> {
+    let mut out = Vec::new();
+    for schedule in SCHEDULES {
+        out.push(vec!["map", model, "--schedule", schedule, "--stats"]);
+    }
+    out.push(vec!["map", model, "--algorithm", "trws", "--stats"]);
+    for schedule in SCHEDULES {
+        out.push(vec!["marginals", model, "--schedule", schedule, "--stats"]);
+    }
+    out
+}
+
+/// A model without positive assignments is refused by every command (status 2,
+/// nothing on stdout) with the file, `Z = 0`, the proof and a factor that the
+/// method's own assignment violates, checked against the model.
+fn refused_by_every_inference(model: &str) {
+    let graph = UaiModel::read(model).unwrap().to_factor_graph().unwrap();
+    let name = Path::new(model).file_name().unwrap().to_str().unwrap();
+    for args in every_inference(model) {
+        let consequence = if args[0] == "map" {
+            "there is no MAP assignment"
+        } else {
+            "the marginals cannot be normalised"
+        };
+        let err = refused(
+            &args,
+            &[
+                name,
+                "no assignment has positive probability (Z = 0)",
+                consequence,
+                "complete search",
+            ],
+        );
+        // The violated factor named is really 0 at the assignment named.
+        let before = &err[..err.find("] has probability 0").unwrap()];
+        let assignment: Vec<usize> = before[before.rfind('[').unwrap() + 1..]
+            .split(", ")
+            .map(|x| x.parse().unwrap())
+            .collect();
+        assert_eq!(
+            graph.log_score(&assignment).unwrap(),
+            f64::NEG_INFINITY,
+            "{args:?}: {err}"
+        );
+        let violation = pgm_core::support::first_violation(&graph, &assignment).unwrap();
+        assert!(err.contains(&violation.to_string()), "{args:?}: {err}");
+    }
+}
+
+/// The feasible even cycle succeeds for every command: MAP of log-score 0 (a proper
+/// colouring), TRW-S with the gap closed, uniform marginals that sum to one.
+fn succeeds_in_every_inference(model: &str) {
+    let graph = UaiModel::read(model).unwrap().to_factor_graph().unwrap();
+    for args in every_inference(model) {
+        let (out, err) = ok(&args);
+        let lines: Vec<&str> = out.lines().collect();
+        let stats = common::json(&err);
+        assert_eq!(stats["converged"], serde_json::json!(true), "{args:?}");
+        let values = numbers(lines[1]);
+        if args[0] == "map" {
+            assert_eq!(lines[0], "MPE");
+            let assignment: Vec<usize> = values[1..].iter().map(|&x| x as usize).collect();
+            assert_eq!(
+                graph.log_score(&assignment).unwrap(),
+                0.0,
+                "{args:?}: {out}"
+            );
+            if args.contains(&"trws") {
+                assert_eq!(stats["score"].as_f64(), Some(0.0));
+                assert_eq!(stats["bound"].as_f64(), Some(0.0));
+                assert_eq!(stats["gap"].as_f64(), Some(0.0));
+            }
+        } else {
+            assert_eq!(lines[0], "MAR");
+            assert_eq!(values[0] as usize, 6);
+            for v in 0..6 {
+                let p = &values[1 + 3 * v..4 + 3 * v];
+                assert_eq!(p[0] as usize, 2);
+                assert!((p[1] + p[2] - 1.0).abs() < 1e-12 && (p[1] - 0.5).abs() < 1e-12);
+            }
+        }
+    }
+}
+
+#[test]
+fn uai_infeasible_loop_case_files_are_refused_by_every_command_and_the_even_cycle_succeeds() {
+    let case = "uai-infeasible-loop";
+    let Some(triangle) =
+        pgm_datasets::testdata::shared_case_file(&format!("{case}/triangle_2col.uai"))
+    else {
+        return;
+    };
+    let dir = triangle.parent().unwrap().to_path_buf();
+    refused_by_every_inference(triangle.to_str().unwrap());
+    refused_by_every_inference(&common::path(&dir, "k4_3col.uai"));
+    succeeds_in_every_inference(&common::path(&dir, "cycle6_2col.uai"));
+}
+
+#[test]
+fn odd_cycles_and_complete_graphs_written_here_are_refused_by_every_command() {
+    let dir = temp_dir("infeasible-loop");
+    refused_by_every_inference(&write(&dir, "triangle_2col.uai", TRIANGLE_2COL));
+    refused_by_every_inference(&write(&dir, "k4_3col.uai", K4_3COL));
+    succeeds_in_every_inference(&write(&dir, "cycle6_2col.uai", CYCLE6_2COL));
+    // Same kinds, larger: a 9-cycle with two colours, K6 with five; and an odd cycle
+    // as dense non-Potts tables (a soft preference inside the "not equal" entries).
+    let odd = |n: usize, table: &str| {
+        let scopes: String = (0..n).map(|i| format!("2 {i} {}\n", (i + 1) % n)).collect();
+        let tables: String = (0..n).map(|_| format!("\n4\n{table}\n")).collect();
+        format!(
+            "MARKOV\n{n}\n{}\n{n}\n{scopes}{tables}",
+            vec!["2"; n].join(" ")
+        )
+    };
+    refused_by_every_inference(&write(&dir, "cycle9.uai", &odd(9, "0 1 1 0")));
+    refused_by_every_inference(&write(&dir, "cycle5_soft.uai", &odd(5, "0 2 0.5 0")));
+    let k6: FactorGraph = {
+        let mut g = FactorGraph::with_variables(&[5; 6]).unwrap();
+        for a in 0..6 {
+            for b in a + 1..6 {
+                let t = (0..25)
+                    .map(|i| {
+                        if i / 5 == i % 5 {
+                            f64::NEG_INFINITY
+                        } else {
+                            0.0
+                        }
+                    })
+                    .collect();
+                g.add_factor(
+                    TableFactor::new(vec![VariableId(a), VariableId(b)], vec![5, 5], t).unwrap(),
+                )
+                .unwrap();
+            }
+        }
+        g
+    };
+    refused_by_every_inference(&uai_file(&dir, "k6_5col.uai", &k6));
+}
+
+#[test]
+fn evidence_that_leaves_only_an_odd_cycle_is_refused_with_p_evidence_zero() {
+    // A triangle with three colours and a switch x3: with x3 = 1 colour 2 is
+    // forbidden everywhere, leaving two colours on the triangle.
+    let dir = temp_dir("infeasible-evidence");
+    let not_equal = "9\n0 1 1 1 0 1 1 1 0\n";
+    let switch = "6\n1 1 1 1 1 0\n";
+    let model = write(
+        &dir,
+        "switch.uai",
+        &format!(
+            "MARKOV\n4\n3 3 3 2\n6\n2 0 1\n2 1 2\n2 0 2\n2 3 0\n2 3 1\n2 3 2\n\n\
+             {not_equal}\n{not_equal}\n{not_equal}\n{switch}\n{switch}\n{switch}"
+        ),
+    );
+    let on = write(&dir, "on.evid", "1 3 1\n");
+    let off = write(&dir, "off.evid", "1 3 0\n");
+    for mut args in every_inference(&model) {
+        args.extend(["--evidence", &on]);
+        refused(
+            &args,
+            &[
+                "switch.uai with",
+                "on.evid",
+                "Z = 0",
+                "factors 6 and above",
+                "P(evidence) = 0",
+            ],
+        );
+        args.pop();
+        args.push(&off);
+        let (out, _) = ok(&args);
+        if args[0] == "map" {
+            let values = numbers(out.lines().nth(1).unwrap());
+            let mut colours: Vec<usize> = values[1..4].iter().map(|&x| x as usize).collect();
+            colours.sort_unstable();
+            assert_eq!(
+                (colours, values[4] as usize),
+                (vec![0, 1, 2], 0),
+                "{args:?}"
+            );
+        }
+    }
+}
+
+#[test]
+fn a_zero_probability_decoding_of_a_feasible_model_is_never_printed() {
+    // x0 = x1 = x2 = x3 (hard), x3 = 1 (hard), x0 prefers 0: one flooding iteration
+    // decodes all zeros, of probability 0; the only positive assignment is all ones.
+    let dir = temp_dir("zero-decoding");
+    let model = write(
+        &dir,
+        "chain.uai",
+        "MARKOV\n4\n2 2 2 2\n5\n1 0\n2 0 1\n2 1 2\n2 2 3\n1 3\n\n\
+         2\n1 0.5\n\n4\n1 0 0 1\n\n4\n1 0 0 1\n\n4\n1 0 0 1\n\n2\n0 1\n",
+    );
+    let (out, err) = ok(&["map", &model, "--schedule", "flooding", "--max-iters", "1"]);
+    assert_eq!(out, "MPE\n4 1 1 1 1\n");
+    assert!(
+        err.contains("decoded [0, 0, 0, 0], which has probability 0")
+            && err.contains("factor ")
+            && err.contains("positive probability"),
+        "{err}"
+    );
+    // A converged run decodes it directly, without the warning.
+    let (out, err) = ok(&["map", &model, "--schedule", "flooding"]);
+    assert_eq!(out, "MPE\n4 1 1 1 1\n");
+    assert!(err.is_empty(), "{err}");
+    // TRW-S decodes greedily in its order: here [0, 1, 2, 1] and then nothing is left
+    // for x4 (adjacent to colours 0, 2 and 1); the optimum (log-score 1) is printed.
+    let model = write(
+        &dir,
+        "greedy.uai",
+        "MARKOV\n5\n3 3 3 3 3\n6\n2 0 1\n2 0 4\n2 1 2\n2 2 3\n2 2 4\n2 3 4\n\n\
+         9\n0 1 0.1353352832366127 0.6065306597126334 0 0.22313016014842982 2.718281828459045 0.1353352832366127 0\n\n\
+         9\n0 0.6065306597126334 1.6487212707001282 0.1353352832366127 0 0.36787944117144233 2.718281828459045 0.6065306597126334 0\n\n\
+         9\n0 4.4816890703380645 0.1353352832366127 0.36787944117144233 0 1.6487212707001282 0.6065306597126334 1 0\n\n\
+         9\n0 1.6487212707001282 0.6065306597126334 0.22313016014842982 0 0.1353352832366127 0.1353352832366127 1 0\n\n\
+         9\n0 1.6487212707001282 0.1353352832366127 4.4816890703380645 0 1 1 2.718281828459045 0\n\n\
+         9\n0 2.718281828459045 0.36787944117144233 1.6487212707001282 0 0.1353352832366127 0.1353352832366127 1 0\n",
+    );
+    let graph = UaiModel::read(&model).unwrap().to_factor_graph().unwrap();
+    let exact = brute_force(&graph, BruteForceLimit::default()).unwrap();
+    let (out, err) = ok(&["map", &model, "--algorithm", "trws", "--stats"]);
+    let values = numbers(out.lines().nth(1).unwrap());
+    let assignment: Vec<usize> = values[1..].iter().map(|&x| x as usize).collect();
+    let score = graph.log_score(&assignment).unwrap();
+    assert!((score - exact.map_log_score).abs() < 1e-12, "{score}");
+    assert!(
+        err.contains("TRW-S decoded [0, 1, 2, 1, 0], which has probability 0"),
+        "{err}"
+    );
+    let stats = common::json(err.lines().last().unwrap());
+    assert!((stats["score"].as_f64().unwrap() - score).abs() < 1e-12);
+    assert!(stats["gap"].as_f64().unwrap() >= 0.0);
+}

@@ -22,6 +22,9 @@
 //!   n_rem rem_1 … rem_n_rem laser_x laser_y laser_theta robot_x robot_y robot_theta tv rv
 //!   forward_safety side_safety turn_axis ipc_timestamp hostname logger_timestamp`:
 //!   beam `k` at `start_angle + k·angular_res`; a return when `0 < r < max_range`.
+//!   `fov` must agree with `(n − 1)·|angular_res|` to within one increment (intel-lab's
+//!   180 beams at 1° state 180°: the last beam dropped); beyond that the line is an
+//!   error, within it the resolution wins ([`crate::beams`]).
 //!   The robot pose is stored as the scan's odometry, the laser offset is
 //!   `inverse(robot) ∘ laser`.
 //! - `ODOM x y theta tv rv accel ipc_timestamp hostname logger_timestamp`: odometry.
@@ -34,8 +37,9 @@
 //! Every other line (comments `#…`, `EDGE2`, `RAWLASER*`, `RLASER`, …) is skipped and
 //! counted by its first word in [`CarmenLog::skipped`]; blank lines are ignored.
 //!
-//! Ranges: `nan` and `inf` are beams without a return (stored as range 0, invalid),
-//! as [`Scan`] documents; a negative range is an error.
+//! Ranges: `nan`, `inf` and `-inf` (ROS REP 117's "too close", which a log converted
+//! from a ROS bag carries) are beams without a return (stored as range 0, invalid), as
+//! [`Scan`] and [`crate::beams`] document; another negative range is an error.
 //!
 //! A malformed line of an understood type is an [`Error`] naming the
 //! file, the 1-based line, the field and its text: a field count that disagrees with
@@ -446,7 +450,7 @@ pub fn parse_carmen(path: &Path, text: &str, options: CarmenOptions) -> Result<C
 }
 
 /// Parses `n` ranges starting at token `first`; a return when `0 < r < max_range`;
-/// `nan` and `inf` are beams without a return (range 0).
+/// `nan`, `inf` and `-inf` are beams without a return (range 0).
 fn parse_ranges(
     fields: &Fields<'_>,
     first: usize,
@@ -459,10 +463,12 @@ fn parse_ranges(
     for k in 0..n {
         let name = format!("range[{k}]");
         let r = fields.number(first + k, &name, expected)?;
-        if r < 0.0 {
+        // REP 117's special values, -inf ("too close") too, are beams without a
+        // return (crate::beams), as in every reader.
+        if r < 0.0 && !crate::beams::is_special_range(r) {
             return Err(fields.error(&name, fields.tokens[first + k], "negative range"));
         }
-        if r.is_nan() || r == f64::INFINITY {
+        if crate::beams::is_special_range(r) {
             ranges.push(0.0);
             valid.push(false);
             continue;
@@ -603,7 +609,7 @@ fn parse_robotlaser1(fields: &Fields<'_>) -> Result<Scan> {
         2.0 * limits::MAX_SPAN,
         "an angle (rad)",
     )?;
-    fields.finite(3, "fov", head)?;
+    let fov = fields.finite(3, "fov", head)?;
     let resolution = fields.finite(4, "angular_res", head)?;
     let max_range = fields.finite(5, "max_range", head)?;
     if !(max_range > 0.0 && max_range <= limits::MAX_RANGE) {
@@ -641,6 +647,22 @@ fn parse_robotlaser1(fields: &Fields<'_>) -> Result<Scan> {
             "angular_res",
             fields.tokens[4],
             format!("{n} beams {resolution} rad apart span more than a full turn"),
+        ));
+    }
+    // The field of view must agree with the beams to within one increment (CARMEN's
+    // lasers that drop the last beam state one more); within that the resolution
+    // wins (crate::beams).
+    if let Err(given) = crate::beams::check_span(fov, n, resolution.abs()) {
+        return Err(fields.error(
+            "fov",
+            fields.tokens[3],
+            format!(
+                "disagrees by more than one increment with the {n} beams at angular_res \
+                 {} rad, which span (n - 1) · |angular_res| = {given} rad ({:.4}°): the \
+                 ranges do not fill the field of view",
+                fields.tokens[4],
+                given.to_degrees()
+            ),
         ));
     }
     let (ranges, valid) = parse_ranges(fields, 9, n, max_range, expected)?;

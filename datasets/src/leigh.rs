@@ -5,8 +5,9 @@
 //! - Scans (`scans.txt`): `SCAN idx stamp_header_s stamp_bag_s frame angle_min
 //!   angle_increment range_min range_max n r_0 … r_{n-1}`. Beam `k` lies at
 //!   `angle_min + k·angle_increment`; a beam is a return when
-//!   `range_min < r < range_max` and finite. `nan`, `inf` and `0` mean no return
-//!   (stored as range 0, invalid); a negative range is an error. The scan's time stamp
+//!   `range_min < r < range_max` and finite. `nan`, `inf`, `-inf` (REP 117's "too
+//!   close", [`crate::beams`]) and `0` mean no return (stored as range 0, invalid);
+//!   another negative range is an error. The scan's time stamp
 //!   is `stamp_header_s`; its laser offset is [`LASER_OFFSET`]. A scan needs at least
 //!   one beam, `0 <= range_min < range_max`, a non-zero `angle_increment` (for more
 //!   than one beam) and beams within a full turn.
@@ -183,7 +184,8 @@ pub fn parse_scans(path: &Path, text: &str) -> Result<LeighScans> {
         for k in 0..n {
             let name = format!("range[{k}]");
             let r = f.number(head + k, &name, head + n)?;
-            if r < 0.0 {
+            // REP 117: -inf (too close), inf and nan are beams without a return.
+            if r < 0.0 && !crate::beams::is_special_range(r) {
                 return Err(f.error(&name, f.tokens[head + k], "negative range"));
             }
             if r.is_finite() && r > limits::MAX_RANGE {
@@ -191,17 +193,17 @@ pub fn parse_scans(path: &Path, text: &str) -> Result<LeighScans> {
                     &name,
                     f.tokens[head + k],
                     format!(
-                        "a range above {:e} m means nothing here (nan, inf or 0 mean no return)",
+                        "a range above {:e} m means nothing here (nan, inf, -inf or 0 mean no return)",
                         limits::MAX_RANGE
                     ),
                 ));
             }
-            if r.is_finite() {
-                ranges.push(r);
-                valid.push(r > range_min && r < range_max);
-            } else {
+            if crate::beams::is_special_range(r) {
                 ranges.push(0.0);
                 valid.push(false);
+            } else {
+                ranges.push(r);
+                valid.push(r > range_min && r < range_max);
             }
         }
         if let Some(last) = out.scans.last() {

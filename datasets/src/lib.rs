@@ -28,6 +28,7 @@
 //! ```
 
 pub mod bag;
+pub mod beams;
 pub mod builders;
 pub mod carmen;
 pub mod clear_mot;

@@ -6,6 +6,11 @@
 //! [`shared_data_dir`]: when the folder is missing the test is skipped with a note on
 //! stderr — except under CI (`CI=true`), where a missing folder is a failure so a
 //! real-data check never silently vanishes.
+//!
+//! The small failing inputs of the hardening rounds live beside the data, in
+//! `../shared/cases` (or `PGM_SHARED_CASES`; with only `PGM_SHARED_DATA` set, the
+//! `cases` folder beside it), found by [`shared_cases_dir`] and [`shared_case_file`]
+//! under the same rule.
 
 use std::path::PathBuf;
 
@@ -63,4 +68,63 @@ pub fn shared_data_file(relative: &str) -> Option<PathBuf> {
         path.display()
     );
     None
+}
+
+/// Environment variable that overrides the location of the shared cases folder.
+pub const SHARED_CASES_ENV: &str = "PGM_SHARED_CASES";
+
+/// The default location of the cases: `cases` beside the shared data folder
+/// (`../shared/cases`, or beside `PGM_SHARED_DATA` when only that is set).
+pub fn default_shared_cases_dir() -> PathBuf {
+    let data = std::env::var_os(SHARED_DATA_ENV)
+        .map(PathBuf::from)
+        .unwrap_or_else(default_shared_data_dir);
+    data.parent()
+        .map_or_else(|| PathBuf::from("cases"), |p| p.join("cases"))
+}
+
+/// Skipped with a note, or a panic under `CI=true`: `what` is missing at `path`.
+fn missing<T>(what: &str, path: &std::path::Path) -> Option<T> {
+    if std::env::var("CI").is_ok_and(|v| v == "true") {
+        panic!(
+            "{what} {} is missing; CI=true, so this is an error",
+            path.display()
+        );
+    }
+    eprintln!("note: {what} {} is missing; skipping", path.display());
+    None
+}
+
+/// The shared cases folder (`PGM_SHARED_CASES` or [`default_shared_cases_dir`]), if
+/// it exists; the skip-or-fail rule of [`shared_data_dir`].
+///
+/// # Panics
+///
+/// When the folder is missing and the environment variable `CI` is `true`.
+pub fn shared_cases_dir() -> Option<PathBuf> {
+    let dir = std::env::var_os(SHARED_CASES_ENV)
+        .map(PathBuf::from)
+        .unwrap_or_else(default_shared_cases_dir);
+    if dir.is_dir() {
+        return Some(dir);
+    }
+    missing(
+        &format!("the shared cases folder (set {SHARED_CASES_ENV})"),
+        &dir,
+    )
+}
+
+/// A file of a case (for example `mcap-bad-crc/badcrc.mcap`), with the rule of
+/// [`shared_cases_dir`], which also applies when the folder exists but the file does
+/// not.
+///
+/// # Panics
+///
+/// When the file is missing and the environment variable `CI` is `true`.
+pub fn shared_case_file(relative: &str) -> Option<PathBuf> {
+    let path = shared_cases_dir()?.join(relative);
+    if path.is_file() {
+        return Some(path);
+    }
+    missing("shared case file", &path)
 }

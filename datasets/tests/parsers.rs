@@ -135,7 +135,10 @@ fn flaser_with_wrong_beam_count() {
 fn flaser_with_non_numeric_nan_and_negative_ranges() {
     let err = carmen(&flaser(&["1.0", "abc", "3.0"])).unwrap_err();
     assert_field_error(err, 1, "range[1]", "not a number");
-    let err = carmen(&flaser(&["1.0", "2.0", "-inf"])).unwrap_err();
+    // -inf is REP 117's "too close": a beam without a return, not a negative range.
+    let log = carmen(&flaser(&["1.0", "2.0", "-inf"])).unwrap();
+    assert_eq!(log.scans[0].scan.valid, vec![true, true, false]);
+    let err = carmen(&flaser(&["1.0", "2.0", "-2.5"])).unwrap_err();
     assert_field_error(err, 1, "range[2]", "negative");
     let err = carmen(&flaser(&["-1.0", "2.0", "3.0"])).unwrap_err();
     assert_field_error(err, 1, "range[0]", "negative");

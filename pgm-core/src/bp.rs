@@ -27,6 +27,7 @@ use crate::logspace::{self, Normalisation};
 use crate::observer::{BpProgress, Observe};
 use crate::param::ParamGuard;
 use crate::schedule::{MessagePasser, Schedule, Visit};
+use crate::support::{self, Method, Support, ZeroDecoding, ZeroProbability};
 use rayon::prelude::*;
 use std::ops::ControlFlow;
 use std::time::{Duration, Instant};
@@ -111,7 +112,9 @@ pub struct BpResult {
     /// The semiring used.
     pub mode: Mode,
     /// MAP assignment (max-product, decoded consistently: see [`decode_map`]) or the
-    /// assignment of most probable states (sum-product).
+    /// assignment of most probable states (sum-product). From [`BpRun::run`], a
+    /// max-product assignment always has positive probability (see
+    /// [`zero_decoding`](Self::zero_decoding)).
     pub assignment: Vec<usize>,
     /// Log-score of `assignment` (sum of log-potentials).
     pub log_score: f64,
@@ -134,6 +137,24 @@ pub struct BpResult {
     pub contradictions: usize,
     /// The final messages, for a warm start.
     pub messages: Messages,
+    /// Max-product only: `Some` when the consistent decoding ([`decode_map`]) had
+    /// probability 0 although the model has assignments of positive probability
+    /// (loopy max-product can decode one that violates a hard zero). Then
+    /// `assignment` is not that decoding but the first assignment of positive
+    /// probability found by [`support::positive_assignment_conditioned`] on the run's
+    /// messages (states tried in the order the decoding would take them, conditioned
+    /// on the variables already decided), then improved by
+    /// [`support::improve_locally`]: a feasible fallback, with no claim of optimality
+    /// (TRW-S gives one with a bound). This holds the refused decoding and a factor
+    /// it violates. Always `None` from [`BeliefPropagation::finish`], which does not
+    /// check.
+    pub zero_decoding: Option<ZeroDecoding>,
+    /// Sum-product only: true when the model has hard zeros and the search for an
+    /// assignment of positive probability met its limit
+    /// ([`BpParams::search_limit`]) without a verdict, so `Z > 0` (and so the meaning
+    /// of `beliefs`) is unverified. False when `Z > 0` was verified (or not checked:
+    /// [`BeliefPropagation::finish`]).
+    pub support_undecided: bool,
 }
 
 impl BpResult {
@@ -188,10 +209,12 @@ pub struct BpParams {
     tolerance: f64,
     max_iterations: usize,
     time_budget: Option<Duration>,
+    search_limit: u64,
 }
 
 impl BpParams {
-    /// Defaults: no damping, tolerance 1e-9, at most 100 iterations, no time budget.
+    /// Defaults: no damping, tolerance 1e-9, at most 100 iterations, no time budget,
+    /// search limit [`support::DEFAULT_SEARCH_LIMIT`].
     pub fn new(mode: Mode) -> Self {
         Self {
             mode,
@@ -199,7 +222,15 @@ impl BpParams {
             tolerance: 1e-9,
             max_iterations: 100,
             time_budget: None,
+            search_limit: support::DEFAULT_SEARCH_LIMIT,
         }
+    }
+
+    /// How many dead ends the search for an assignment of positive probability may
+    /// meet ([`support::positive_assignment`]; see [`BeliefPropagation::check_support`]).
+    pub fn search_limit(mut self, dead_ends: u64) -> Self {
+        self.search_limit = dead_ends;
+        self
     }
 
     /// Damping λ in [0, 1): messages become `(1 − λ) new + λ old` (in log space).
@@ -298,10 +329,12 @@ impl BeliefPropagation {
         self.params.mode
     }
 
-    /// Runs from uniform messages on `graph` with `schedule` and decodes the result.
+    /// Runs from uniform messages on `graph` with `schedule` and decodes the result
+    /// (checked as [`BpRun::run`] checks it).
     ///
     /// # Errors
-    /// The schedule's errors ([`Schedule::prepare`]).
+    /// The schedule's errors ([`Schedule::prepare`]) and [`Error::Infeasible`] (see
+    /// [`check_support`](Self::check_support)).
     pub fn run<S: Schedule + ?Sized>(
         &self,
         graph: &FactorGraph,
@@ -414,7 +447,9 @@ impl BeliefPropagation {
         Ok((propagation, passer.graph))
     }
 
-    /// Decodes the assignment and beliefs of a finished propagation.
+    /// Decodes the assignment and beliefs of a finished propagation, without checking
+    /// them against the model's hard zeros ([`check_support`](Self::check_support)
+    /// does; [`BpRun::run`] does both).
     pub fn finish(&self, graph: &FactorGraph, p: Propagation) -> BpResult {
         let messages = p.messages;
         let assignment = match self.params.mode {
@@ -438,6 +473,82 @@ impl BeliefPropagation {
             stopped_by_observer: p.stopped_by_observer,
             contradictions: p.contradictions,
             messages,
+            zero_decoding: None,
+            support_undecided: false,
+        }
+    }
+
+    /// Checks a decoded result against the model's hard zeros, as [`BpRun::run`] does
+    /// (for callers of [`finish`](Self::finish)); `graph` is the graph the result was
+    /// decoded on.
+    ///
+    /// * Max-product: a decoding of positive probability passes unchanged. One of
+    ///   probability 0 is replaced by the first assignment of positive probability
+    ///   found by [`support::positive_assignment_conditioned`] on the run's messages
+    ///   (its first descent is [`decode_map`] until that hits a hard zero) and
+    ///   improved by [`support::improve_locally`], recorded in
+    ///   [`BpResult::zero_decoding`].
+    /// * Sum-product: without hard zeros, or when the most probable states have
+    ///   positive probability, `Z > 0` and the result passes; otherwise the search
+    ///   decides. Undecided: the result passes with [`BpResult::support_undecided`].
+    ///
+    /// # Errors
+    /// [`Error::Infeasible`] when the model has no assignment of positive probability
+    /// (`Z = 0`: no MAP assignment, marginals that cannot be normalised; the error
+    /// holds the proof and a factor the result's assignment violates), and, for
+    /// max-product, when the decoding has probability 0 and the search met
+    /// [`BpParams::search_limit`] without finding a positive assignment.
+    pub fn check_support(&self, graph: &FactorGraph, mut result: BpResult) -> Result<BpResult> {
+        if result.log_score > f64::NEG_INFINITY {
+            return Ok(result);
+        }
+        let method = match self.params.mode {
+            Mode::MaxProduct => Method::MaxProduct,
+            Mode::SumProduct => {
+                if !support::has_hard_zeros(graph) {
+                    return Ok(result);
+                }
+                Method::SumProduct
+            }
+        };
+        let messages = &result.messages;
+        let message = |e: EdgeId| messages.message(graph, e).to_vec();
+        let found =
+            support::positive_assignment_conditioned(graph, &message, self.params.search_limit);
+        let refuse = |proof, dead_ends| {
+            Error::Infeasible(Box::new(ZeroProbability::new(
+                graph,
+                method,
+                result.assignment.clone(),
+                proof,
+                dead_ends,
+            )))
+        };
+        match (found, method) {
+            (Support::Positive(_), Method::SumProduct) => Ok(result),
+            (Support::Positive(mut witness), _) => {
+                support::improve_locally(graph, &mut witness, support::POLISH_SWEEPS);
+                let decoded = std::mem::replace(&mut result.assignment, witness);
+                result.log_score = graph.log_score_unchecked(&result.assignment);
+                result.zero_decoding =
+                    support::first_violation(graph, &decoded).map(|violated| ZeroDecoding {
+                        assignment: decoded,
+                        violated,
+                    });
+                Ok(result)
+            }
+            (Support::Empty(proof), _) => {
+                let dead_ends = match proof {
+                    support::ZeroProof::Search { dead_ends } => dead_ends,
+                    _ => 0,
+                };
+                Err(refuse(Some(proof), dead_ends))
+            }
+            (Support::Undecided { .. }, Method::SumProduct) => {
+                result.support_undecided = true;
+                Ok(result)
+            }
+            (Support::Undecided { dead_ends }, _) => Err(refuse(None, dead_ends)),
         }
     }
 }
@@ -473,14 +584,19 @@ impl<'r> BpRun<'r> {
         self
     }
 
-    /// Passes messages with `schedule` and decodes the assignment and beliefs.
+    /// Passes messages with `schedule`, decodes the assignment and beliefs, and
+    /// checks them against the model's hard zeros
+    /// ([`BeliefPropagation::check_support`]): a max-product assignment of probability
+    /// 0 is never returned, nor are marginals of a model with `Z = 0`.
     ///
     /// # Errors
-    /// Messages whose layout does not fit the graph, and the schedule's errors.
+    /// Messages whose layout does not fit the graph, the schedule's errors, and
+    /// [`Error::Infeasible`] (see [`BeliefPropagation::check_support`]).
     pub fn run<S: Schedule + ?Sized>(self, schedule: &mut S) -> Result<BpResult> {
         let bp = self.bp;
         let (p, graph) = self.drive(schedule)?;
-        Ok(bp.finish(graph.get(), p))
+        let result = bp.finish(graph.get(), p);
+        bp.check_support(graph.get(), result)
     }
 
     /// Passes messages with `schedule` without decoding: for callers that decode

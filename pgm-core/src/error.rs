@@ -177,6 +177,13 @@ pub enum Error {
         /// Its version.
         found_version: u32,
     },
+    /// A result of probability 0 was refused: the model has no assignment of positive
+    /// probability (`Z = 0`: no MAP assignment exists and marginals cannot be
+    /// normalised; [`ZeroProbability::proof`](crate::support::ZeroProbability::proof)
+    /// says why), or a method's assignment has probability 0 and the search for a
+    /// positive one met its limit (`proof` is `None`). See [`crate::support`].
+    #[error("{0}")]
+    Infeasible(Box<crate::support::ZeroProbability>),
     /// The optimiser failed (not: stopped early; that is reported in its result).
     #[error("L-BFGS: {0}")]
     Optimiser(String),

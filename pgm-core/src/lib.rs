@@ -115,7 +115,10 @@
 //! ([`hybrid::chain`], where a model writes its log-linear features once for inference
 //! and for [`learning`]). [`exact`] holds independent references (brute force, chains,
 //! trees), [`param`] the checked-parameters pattern every crate of the workspace
-//! follows, and [`uai`] reads and writes the UAI competition formats.
+//! follows, and [`uai`] reads and writes the UAI competition formats. [`support`]
+//! decides whether any assignment has positive probability: belief propagation and
+//! TRW-S never return a MAP assignment of probability 0 nor marginals of a model with
+//! `Z = 0` (they return [`Error::Infeasible`]).
 //!
 //! ```
 //! use pgm_core::{BeliefPropagation, BpParams, ParamGuard, FactorGraph, Mode, PottsFactor, Residual, TableFactor, VariableId};
@@ -153,6 +156,7 @@ pub mod param;
 pub mod schedule;
 #[cfg(feature = "proptest-strategies")]
 pub mod strategies;
+pub mod support;
 pub mod trws;
 pub mod uai;
 

@@ -56,8 +56,19 @@
 //! moves a factor's max-marginal onto `θ̂_i`; the reweighted messages hand `γ_i θ̂_i`
 //! to each factor reaching ahead, with `Σ γ_i ≤ 1`; Kolmogorov 2015), so it is
 //! computed in O(Σ_i K_i) per pass. Hard zeros (−∞) are exact: a state that can only
-//! score −∞ stays −∞ and never meets a subtraction, and a model with no finite-score
-//! assignment ends with bound −∞ ([`TrwsTermination::Infeasible`]).
+//! score −∞ stays −∞ and never meets a subtraction, and a model whose relaxation
+//! already excludes every state of some variable ends with bound −∞.
+//!
+//! **Hard zeros.** A run never returns an assignment of probability 0. When the best
+//! decoded assignment scores −∞, a bound of −∞ proves that none scores better
+//! ([`ZeroProof::DualBound`]); otherwise (the
+//! bound of an odd cycle of hard "not equal" tables is finite: the relaxation is not
+//! tight there) [`support::positive_assignment_conditioned`] searches for one of
+//! positive probability, guided by the messages `m_{α→i}` and the unaries as the
+//! decoding is, and [`support::improve_locally`] improves what it finds. A model without
+//! one is refused with [`Error::Infeasible`] and the proof; a found one replaces the
+//! decoding (recorded in [`TrwsResult::zero_decoding`]; the gap to the bound still
+//! holds for it).
 //!
 //! ```
 //! use pgm_core::trws::{TrwsParams, TrwsTermination};
@@ -90,6 +101,7 @@ use crate::factor::{Incoming, Mode};
 use crate::graph::{EdgeId, FactorGraph, FactorId, VariableId};
 use crate::observer::{Observe, TrwsProgress};
 use crate::param::ParamGuard;
+use crate::support::{self, Method, Support, ZeroDecoding, ZeroProbability, ZeroProof};
 use std::ops::ControlFlow;
 use std::time::{Duration, Instant};
 
@@ -101,11 +113,12 @@ pub struct TrwsParams {
     time_budget: Option<Duration>,
     order: Option<Vec<VariableId>>,
     decode_backward: bool,
+    search_limit: u64,
 }
 
 impl Default for TrwsParams {
     /// At most 100 iterations, tolerance 1e-9, no time budget, index order, decoding
-    /// in the forward pass only.
+    /// in the forward pass only, search limit [`support::DEFAULT_SEARCH_LIMIT`].
     fn default() -> Self {
         Self {
             max_iterations: 100,
@@ -113,6 +126,7 @@ impl Default for TrwsParams {
             time_budget: None,
             order: None,
             decode_backward: false,
+            search_limit: support::DEFAULT_SEARCH_LIMIT,
         }
     }
 }
@@ -152,6 +166,13 @@ impl TrwsParams {
     /// smaller gap, for about a quarter more time per iteration.
     pub fn decode_backward(mut self, decode: bool) -> Self {
         self.decode_backward = decode;
+        self
+    }
+
+    /// How many dead ends the search for an assignment of positive probability may
+    /// meet when every decoded assignment scores −∞ (see the module documentation).
+    pub fn search_limit(mut self, dead_ends: u64) -> Self {
+        self.search_limit = dead_ends;
         self
     }
 }
@@ -197,8 +218,6 @@ pub enum TrwsTermination {
     /// settled (the gap may stay open: the LP relaxation is not tight or TRW-S stopped
     /// at a weak tree agreement).
     BoundSettled,
-    /// The model has no assignment of finite log-score (bound −∞).
-    Infeasible,
     /// The iteration limit was reached first.
     IterationLimit,
     /// The time budget was spent.
@@ -210,22 +229,29 @@ pub enum TrwsTermination {
 /// The outcome of a TRW-S run.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TrwsResult {
-    /// The best assignment decoded in any decoding pass (one state per variable).
+    /// The best assignment decoded in any decoding pass (one state per variable),
+    /// or, when every decoding had probability 0, the assignment of positive
+    /// probability the search found (see [`zero_decoding`](Self::zero_decoding)).
     pub assignment: Vec<usize>,
-    /// Its log-score (sum of log-potentials; −∞ if it hits a hard zero).
+    /// Its log-score (sum of log-potentials; always finite).
     pub log_score: f64,
     /// The lowest upper bound on the best log-score seen in the run (raised to
     /// `log_score` should rounding ever put it a hair below).
     pub bound: f64,
-    /// `bound − log_score` (0 when both are −∞).
+    /// `bound − log_score`.
     pub gap: f64,
     /// Iterations performed (forward plus backward pass each).
     pub iterations: usize,
-    /// True for [`TrwsTermination::GapClosed`], [`TrwsTermination::BoundSettled`] and
-    /// [`TrwsTermination::Infeasible`].
+    /// True for [`TrwsTermination::GapClosed`] and [`TrwsTermination::BoundSettled`].
     pub converged: bool,
     /// Why the run stopped.
     pub termination: TrwsTermination,
+    /// `Some` when every decoded assignment had probability 0 and `assignment` is the
+    /// one of positive probability found by
+    /// [`support::positive_assignment_conditioned`] (guided by the messages) and
+    /// improved by [`support::improve_locally`]: the best decoding and a factor it
+    /// violates.
+    pub zero_decoding: Option<ZeroDecoding>,
 }
 
 /// Sequential tree-reweighted max-product with checked settings (build with
@@ -245,7 +271,9 @@ impl Trws {
     ///
     /// # Errors
     /// [`Error::InvalidParameter`] when the order is not a permutation of the graph's
-    /// variables.
+    /// variables; [`Error::Infeasible`] when the model has no assignment of positive
+    /// probability (with the proof), or when every decoding scored −∞ and the search
+    /// for a positive assignment met [`TrwsParams::search_limit`].
     pub fn run(&self, graph: &FactorGraph) -> Result<TrwsResult> {
         self.run_observed(graph, &mut ())
     }
@@ -266,10 +294,12 @@ impl Trws {
         let n = graph.num_variables();
         let mut best_assignment: Vec<usize> = vec![0; n];
         let mut best_score = f64::NEG_INFINITY;
+        let mut decoded = false;
         let mut best_bound = f64::INFINITY;
         let mut previous_bound = f64::INFINITY;
         let mut iterations = 0;
         let mut termination = TrwsTermination::IterationLimit;
+        let mut infeasible = false;
         let tolerance = self.params.tolerance;
         let deadline = self.params.time_budget.map(|b| started + b);
         while iterations < self.params.max_iterations {
@@ -281,7 +311,9 @@ impl Trws {
                 if decode {
                     iteration_score = iteration_score.max(pass.score);
                 }
-                if decode && pass.score > best_score {
+                // The first decoding is kept even at −∞ (it is what a refusal names).
+                if decode && (pass.score > best_score || !decoded) {
+                    decoded = true;
                     best_score = pass.score;
                     best_assignment.copy_from_slice(&state.assignment);
                 }
@@ -292,7 +324,7 @@ impl Trws {
                 }
             }
             iterations += 1;
-            let infeasible = best_bound == f64::NEG_INFINITY;
+            infeasible = best_bound == f64::NEG_INFINITY;
             let gap = gap(best_bound, best_score);
             let scale = best_bound.abs().max(1.0);
             let progress = TrwsProgress {
@@ -305,7 +337,6 @@ impl Trws {
             };
             let stop = observer.observe(&progress);
             if infeasible {
-                termination = TrwsTermination::Infeasible;
                 break;
             }
             if gap <= tolerance * scale {
@@ -327,7 +358,47 @@ impl Trws {
             previous_bound = bound;
         }
         // Score the result exactly as the graph does (the passes sum in another order).
-        let log_score = graph.log_score_unchecked(&best_assignment);
+        let mut log_score = graph.log_score_unchecked(&best_assignment);
+        let mut zero_decoding = None;
+        if log_score == f64::NEG_INFINITY {
+            let refuse = |proof, dead_ends| {
+                Error::Infeasible(Box::new(ZeroProbability::new(
+                    graph,
+                    Method::Trws,
+                    best_assignment.clone(),
+                    proof,
+                    dead_ends,
+                )))
+            };
+            if infeasible {
+                return Err(refuse(Some(ZeroProof::DualBound), 0));
+            }
+            let message = |e: EdgeId| state.messages[graph.message_range(e)].to_vec();
+            match support::positive_assignment_conditioned(
+                graph,
+                &message,
+                self.params.search_limit,
+            ) {
+                Support::Positive(mut witness) => {
+                    support::improve_locally(graph, &mut witness, support::POLISH_SWEEPS);
+                    let decoded = std::mem::replace(&mut best_assignment, witness);
+                    log_score = graph.log_score_unchecked(&best_assignment);
+                    zero_decoding =
+                        support::first_violation(graph, &decoded).map(|violated| ZeroDecoding {
+                            assignment: decoded,
+                            violated,
+                        });
+                }
+                Support::Empty(proof) => {
+                    let dead_ends = match proof {
+                        ZeroProof::Search { dead_ends } => dead_ends,
+                        _ => 0,
+                    };
+                    return Err(refuse(Some(proof), dead_ends));
+                }
+                Support::Undecided { dead_ends } => return Err(refuse(None, dead_ends)),
+            }
+        }
         let bound = best_bound.max(log_score);
         Ok(TrwsResult {
             assignment: best_assignment,
@@ -337,11 +408,10 @@ impl Trws {
             iterations,
             converged: matches!(
                 termination,
-                TrwsTermination::GapClosed
-                    | TrwsTermination::BoundSettled
-                    | TrwsTermination::Infeasible
+                TrwsTermination::GapClosed | TrwsTermination::BoundSettled
             ),
             termination,
+            zero_decoding,
         })
     }
 

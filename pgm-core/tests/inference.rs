@@ -4,8 +4,8 @@ use pgm_core::exact::{brute_force, forward_backward, tree_marginals, viterbi, Br
 use pgm_core::strategies::{self, GraphSpec};
 use pgm_core::uai::UaiModel;
 use pgm_core::{
-    BpParams, Factor, FactorGraph, Flooding, Incoming, Mode, ParamGuard, PottsFactor, Residual,
-    Schedule, Sequential, ShiftedIdentityFactor, TableFactor, VariableId,
+    BpParams, Error, Factor, FactorGraph, Flooding, Incoming, Mode, ParamGuard, PottsFactor,
+    Residual, Schedule, Sequential, ShiftedIdentityFactor, TableFactor, VariableId,
 };
 use proptest::prelude::*;
 use proptest::test_runner::FileFailurePersistence;
@@ -174,8 +174,11 @@ proptest! {
         let graph = spec.build();
         for mode in [Mode::MaxProduct, Mode::SumProduct] {
             for (name, mut schedule) in schedules() {
-                let r = BpParams::new(mode).damping(damping).max_iterations(30).check_unwrap()
-                    .run(&graph, &mut schedule).unwrap();
+                // Unchecked decoding: the numbers of every run, feasible or not (`run`
+                // refuses models without positive assignments, tested below).
+                let bp = BpParams::new(mode).damping(damping).max_iterations(30).check_unwrap();
+                let p = bp.on(&graph).propagate(&mut schedule).unwrap();
+                let r = bp.finish(&graph, p);
                 prop_assert!(!r.residual.is_nan(), "{name}: NaN residual");
                 for (v, b) in r.beliefs.iter().enumerate() {
                     let sum: f64 = b.iter().sum();
@@ -225,8 +228,18 @@ proptest! {
         let shifted = shifted_spec.build();
         for (name, mut schedule) in schedules() {
             let bp = BpParams::new(Mode::MaxProduct).max_iterations(20).check_unwrap();
-            let a = bp.run(&base, &mut schedule).unwrap();
-            let b = bp.run(&shifted, &mut schedule).unwrap();
+            // A shift keeps the hard zeros: both runs are refused or neither is.
+            let (a, b) = match (bp.run(&base, &mut schedule), bp.run(&shifted, &mut schedule)) {
+                (Ok(a), Ok(b)) => (a, b),
+                (Err(Error::Infeasible(x)), Err(Error::Infeasible(y))) => {
+                    prop_assert_eq!(&x.proof, &y.proof);
+                    continue;
+                }
+                (a, b) => {
+                    prop_assert!(false, "{name}: {:?} vs {:?}", a.map(|r| r.log_score), b.map(|r| r.log_score));
+                    unreachable!()
+                }
+            };
             prop_assert_eq!(&a.assignment, &b.assignment, "{}", name);
             prop_assert_eq!(a.messages.as_slice(), b.messages.as_slice());
             // log-sum-exp rounds differently after a shift, so sum-product agrees to
@@ -237,6 +250,7 @@ proptest! {
                 continue;
             }
             let sp = BpParams::new(Mode::SumProduct).max_iterations(20).check_unwrap();
+            // The max-product runs were not refused: the model has positive assignments.
             let a = sp.run(&base, &mut schedule).unwrap();
             let b = sp.run(&shifted, &mut schedule).unwrap();
             for (x, y) in a.beliefs.iter().flatten().zip(b.beliefs.iter().flatten()) {

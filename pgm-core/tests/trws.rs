@@ -5,8 +5,9 @@
 use pgm_core::exact::{brute_force, BruteForceLimit};
 use pgm_core::observer::{History, TrwsProgress};
 use pgm_core::strategies::{self, GraphSpec};
+use pgm_core::support::{Method, ZeroProof};
 use pgm_core::trws::{TrwsParams, TrwsTermination};
-use pgm_core::{FactorGraph, ParamGuard, PottsFactor, TableFactor, VariableId};
+use pgm_core::{Error, FactorGraph, ParamGuard, PottsFactor, TableFactor, VariableId};
 use proptest::prelude::*;
 use proptest::test_runner::FileFailurePersistence;
 use std::ops::ControlFlow;
@@ -72,14 +73,29 @@ fn check_bound(spec: &GraphSpec) -> Result<(), TestCaseError> {
 fn check_bound_with(spec: &GraphSpec, decode_backward: bool) -> Result<(), TestCaseError> {
     let graph = spec.build();
     let mut history = History::<TrwsProgress>::default();
-    let result = TrwsParams::default()
+    let run = TrwsParams::default()
         .max_iterations(40)
         .tolerance(0.0)
         .decode_backward(decode_backward)
         .check()
         .unwrap()
-        .run_observed(&graph, &mut history)
-        .unwrap();
+        .run_observed(&graph, &mut history);
+    let result = match run {
+        Ok(result) => result,
+        Err(Error::Infeasible(why)) => {
+            // Refused only with a proof that no assignment has positive probability
+            // (these models are far too small for the search to give up).
+            prop_assert!(why.proof.is_some(), "{why}");
+            prop_assert!(
+                brute_force(&graph, BruteForceLimit(MAX_STATES)).is_err(),
+                "refused a model with positive assignments: {why}"
+            );
+            return Ok(());
+        }
+        Err(e) => panic!("{e}"),
+    };
+    // A returned assignment always has positive probability.
+    prop_assert!(result.log_score.is_finite(), "{result:?}");
     prop_assert_eq!(history.0.len(), result.iterations);
     prop_assert!(
         at_most(result.log_score, result.bound),
@@ -119,8 +135,10 @@ fn check_bound_with(spec: &GraphSpec, decode_backward: bool) -> Result<(), TestC
             prop_assert!((result.log_score - optimum).abs() <= slack(optimum));
         }
     } else {
-        // No assignment has a finite score.
-        prop_assert_eq!(result.log_score, f64::NEG_INFINITY);
+        prop_assert!(
+            false,
+            "an assignment of positive probability on a model without one"
+        );
     }
     Ok(())
 }
@@ -158,7 +176,7 @@ proptest! {
 }
 
 #[test]
-fn contradictory_evidence_gives_an_infinite_negative_bound() {
+fn contradictory_evidence_is_refused_by_the_infinite_negative_bound() {
     let mut g = FactorGraph::with_variables(&[2, 2]).unwrap();
     let inf = f64::NEG_INFINITY;
     g.add_factor(TableFactor::new(vec![VariableId(0)], vec![2], vec![0.0, inf]).unwrap())
@@ -168,12 +186,12 @@ fn contradictory_evidence_gives_an_infinite_negative_bound() {
     // The pair may not agree, but both are forced to state 0.
     g.add_factor(PottsFactor::new(VariableId(0), VariableId(1), 2, inf, 0.0).unwrap())
         .unwrap();
-    let r = TrwsParams::default().check().unwrap().run(&g).unwrap();
-    assert_eq!(r.termination, TrwsTermination::Infeasible);
-    assert_eq!(r.bound, f64::NEG_INFINITY);
-    assert_eq!(r.log_score, f64::NEG_INFINITY);
-    assert_eq!(r.gap, 0.0);
-    assert!(r.converged);
+    let Err(Error::Infeasible(why)) = TrwsParams::default().check().unwrap().run(&g) else {
+        panic!("TRW-S returned an assignment of probability 0");
+    };
+    assert_eq!(why.proof, Some(ZeroProof::DualBound));
+    assert_eq!(why.method, Method::Trws);
+    assert!(why.violated.is_some());
 }
 
 /// A 6x6 grid with three labels, deterministic pseudo-random unaries and couplings

@@ -1,12 +1,23 @@
 //! `pgm map` and `pgm marginals`: loopy belief propagation on UAI files, and MAP by
 //! TRW-S with its bound (`pgm map --algorithm trws`).
+//!
+//! Every algorithm says the same about a model with hard zeros: an assignment of
+//! probability 0 is never printed, and a model with no assignment of positive
+//! probability (`Z = 0`) is refused with status 2 by `pgm map` (both algorithms, every
+//! schedule) and `pgm marginals` alike, naming the model file, the proof and a factor
+//! the method's own assignment violates ([`pgm_core::Error::Infeasible`]). When loopy
+//! decoding violates a hard zero although positive assignments exist, `pgm map`
+//! prints instead the first positive assignment found by the library's search guided
+//! by the method's messages, with a warning naming the refused decoding
+//! ([`pgm_core::BpResult::zero_decoding`], [`pgm_core::TrwsResult::zero_decoding`]);
+//! `pgm marginals` warns when the search could not verify `Z > 0`
+//! ([`pgm_core::BpResult::support_undecided`]).
 
 use super::{CliError, CliResult};
 use clap::Args;
+use pgm_core::support::{self, Support};
 use pgm_core::uai::{mar_result, mpe_result, Evidence, UaiModel};
-use pgm_core::{
-    BpParams, FactorGraph, Mode, ParamGuard, ScheduleKind, TrwsParams, TrwsTermination,
-};
+use pgm_core::{BpParams, FactorGraph, Mode, ParamGuard, ScheduleKind, TrwsParams};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
@@ -68,17 +79,18 @@ pub fn run(args: InferArgs, task: Task) -> CliResult {
             .apply(&mut graph)
             .map_err(|e| CliError(format!("{}: {e}", path.display())))?;
     }
-    model.check_positive(&evidence).map_err(|e| {
-        let inputs = match &args.evidence {
-            Some(path) => format!("{} with {}", args.model.display(), path.display()),
-            None => args.model.display().to_string(),
-        };
-        CliError(format!("{inputs}: {e}"))
-    })?;
+    let inputs = match &args.evidence {
+        Some(path) => format!("{} with {}", args.model.display(), path.display()),
+        None => args.model.display().to_string(),
+    };
+    model
+        .check_positive(&evidence)
+        .map_err(|e| CliError(format!("{inputs}: {e}")))?;
+    let refusal = |e: pgm_core::Error| refusal(&inputs, &model, &evidence, e);
     // Potts tables (as UAI files write them) pass their messages in O(K).
     graph.specialise_factors();
     if args.algorithm == "trws" {
-        return run_trws(&args, &graph, task);
+        return run_trws(&args, &graph, task, &refusal);
     }
     let kind: ScheduleKind = args.schedule.parse().map_err(CliError::from_display)?;
     let mode = match task {
@@ -93,11 +105,21 @@ pub fn run(args: InferArgs, task: Task) -> CliResult {
         .map_err(CliError::from_display)?;
     let mut schedule = kind.build();
     let started = Instant::now();
-    let mut result = bp
-        .run(&graph, &mut schedule)
-        .map_err(CliError::from_display)?;
+    let mut result = bp.run(&graph, &mut schedule).map_err(refusal)?;
     let seconds = started.elapsed().as_secs_f64();
-    check_result(&args, task, &evidence, &mut result)?;
+    check_result(&args, &evidence, &mut result)?;
+    if let Some(zero) = &result.zero_decoding {
+        eprintln!(
+            "pgm: warning: max-product ({} schedule) decoded {:?}, which has probability 0 ({}); printing instead the first assignment of positive probability found by a search guided by its messages (log-score {}, no optimality claim: --algorithm trws bounds the gap)",
+            args.schedule, zero.assignment, zero.violated, result.log_score
+        );
+    }
+    if result.support_undecided {
+        eprintln!(
+            "pgm: warning: {}: the search for an assignment of positive probability gave up before a verdict, so Z > 0 is unverified and these marginals may describe a model with none",
+            args.model.display()
+        );
+    }
     if result.contradictions > 0 {
         eprintln!(
             "pgm: warning: {} message updates were all-zero (the evidence or hard zeros contradict each other); beliefs there are uniform",
@@ -155,30 +177,43 @@ fn read_evidence(args: &InferArgs, model: &UaiModel) -> Result<Evidence, CliErro
     Ok(read.samples.into_iter().nth(index).unwrap_or_default())
 }
 
-/// Refuses a result that contradicts the model: an MPE of probability 0 (which loopy
-/// max-product can decode even when positive assignments exist) or NaN beliefs; pins
-/// the beliefs of observed variables to their observed state.
+/// The message of a library error, naming the inputs. With evidence, a refusal for
+/// `Z = 0` also says whether the model alone has positive assignments (then the
+/// evidence has probability 0) and that the factors from `functions` on are the
+/// evidence's.
+fn refusal(inputs: &str, model: &UaiModel, evidence: &Evidence, e: pgm_core::Error) -> CliError {
+    let pgm_core::Error::Infeasible(why) = &e else {
+        return CliError::from_display(e);
+    };
+    if evidence.0.is_empty() {
+        return CliError(format!("{inputs}: {e}"));
+    }
+    let functions = model.scopes.len();
+    let alone = match (&why.proof, model.to_factor_graph()) {
+        (Some(_), Ok(graph)) => {
+            match support::positive_assignment(&graph, None, support::DEFAULT_SEARCH_LIMIT) {
+                Support::Positive(_) => {
+                    "; the model alone has assignments of positive probability, so the \
+                     evidence has probability 0 (P(evidence) = 0)"
+                }
+                Support::Empty(_) => "; the model alone has none either",
+                Support::Undecided { .. } => "",
+            }
+        }
+        _ => "",
+    };
+    CliError(format!(
+        "{inputs}: with the evidence applied (as factors {functions} and above): {e}{alone}"
+    ))
+}
+
+/// Refuses NaN beliefs and pins the beliefs of observed variables to their observed
+/// state. (Results of probability 0 are refused by the library: `pgm_core::Error::Infeasible`.)
 fn check_result(
     args: &InferArgs,
-    task: Task,
     evidence: &Evidence,
     result: &mut pgm_core::BpResult,
 ) -> Result<(), CliError> {
-    if let Task::Map = task {
-        if result.log_score == f64::NEG_INFINITY {
-            return Err(CliError(format!(
-                "{}: max-product found no assignment of positive probability (its best \
-                 assignment {:?} has probability 0); the zeros of the model{} may leave none",
-                args.model.display(),
-                result.assignment,
-                if evidence.0.is_empty() {
-                    ""
-                } else {
-                    " and the evidence"
-                },
-            )));
-        }
-    }
     for &(v, x) in &evidence.0 {
         if let Some(belief) = result.beliefs.get_mut(v) {
             belief
@@ -201,7 +236,12 @@ fn check_result(
 }
 
 /// `pgm map --algorithm trws`: the MPE result, and the bound and gap with `--stats`.
-fn run_trws(args: &InferArgs, graph: &FactorGraph, task: Task) -> CliResult {
+fn run_trws(
+    args: &InferArgs,
+    graph: &FactorGraph,
+    task: Task,
+    refusal: &dyn Fn(pgm_core::Error) -> CliError,
+) -> CliResult {
     if let Task::Marginals = task {
         return Err(CliError(
             "--algorithm trws computes MAP assignments only: use pgm map, or --algorithm bp for marginals".into(),
@@ -213,10 +253,13 @@ fn run_trws(args: &InferArgs, graph: &FactorGraph, task: Task) -> CliResult {
         .check()
         .map_err(CliError::from_display)?;
     let started = Instant::now();
-    let result = trws.run(graph).map_err(CliError::from_display)?;
+    let result = trws.run(graph).map_err(refusal)?;
     let seconds = started.elapsed().as_secs_f64();
-    if result.termination == TrwsTermination::Infeasible {
-        eprintln!("pgm: warning: no assignment has a finite log-score (the evidence or hard zeros contradict each other)");
+    if let Some(zero) = &result.zero_decoding {
+        eprintln!(
+            "pgm: warning: TRW-S decoded {:?}, which has probability 0 ({}); printing instead the first assignment of positive probability found by a search guided by its messages (log-score {}, gap {} to the bound)",
+            zero.assignment, zero.violated, result.log_score, result.gap
+        );
     }
     if !result.converged {
         eprintln!(

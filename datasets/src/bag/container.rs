@@ -12,6 +12,12 @@
 //! inside the file, an uncompressed chunk must be as long as it says, a compressed
 //! chunk may declare at most [`MAX_CHUNK_BYTES`] and, for LZ4, no more than the format
 //! can expand its bytes to), and MCAP records are bounded by the file's length.
+//!
+//! Damaged files are errors too, wherever the format stores a check: every MCAP CRC
+//! that is not 0 (a chunk's `uncompressed_crc` over its decompressed records, the
+//! data section's and the summary section's CRCs, an attachment's `crc`; see
+//! [`read_mcap`]) and the CRC of a zip entry. A mismatch names the record's byte
+//! offset and both values. (ROS 1 bags store no checksum of their data.)
 
 use super::msgdef::Dialect;
 use std::collections::BTreeMap;
@@ -308,10 +314,26 @@ fn read_zip<E>(
                 temp.0.display()
             ))
         })?;
-        // Never more than the entry declares (the zip reader checks the CRC and size).
+        // Never more than the entry declares.
         let mut limited = (&mut entry).take(declared);
         std::io::copy(&mut limited, &mut out)
             .map_err(|e| container(format!("zip entry {name}: cannot extract: {e}")))?;
+        // The zip reader checks the entry's CRC when it reaches the end of the entry,
+        // which a read of exactly the declared size never asks for: ask.
+        let mut probe = [0u8; 1];
+        match entry.read(&mut probe) {
+            Ok(0) => {}
+            Ok(_) => {
+                return Err(container(format!(
+                    "zip entry {name}: longer than the {declared} bytes it declares"
+                )))
+            }
+            Err(e) => {
+                return Err(container(format!(
+                    "zip entry {name}: cannot extract: {e} (the entry is damaged)"
+                )))
+            }
+        }
     }
     read_container(&temp.0, wanted, callback).map_err(|e| prefixed(&format!("zip entry {name}"), e))
 }
@@ -663,46 +685,51 @@ struct SchemaRecord {
     data: String,
 }
 
-/// Reads an MCAP file held in memory (the fuzz target's entry point too).
-///
-/// The records are read with the `mcap` crate's sans-io reader (record framing, chunk
-/// decompression, every record at most as long as the file), and the three records
-/// the bag reader needs (schema, channel, message) are parsed here with every length
-/// checked against the record; other records are skipped. (The crate's own record
-/// parser reserves a string's declared length before reading it, up to 4 GiB.)
-pub fn read_mcap<E>(
-    bytes: &[u8],
-    wanted: &[&str],
-    callback: &mut Callback<'_, E>,
-) -> Result<ContainerSummary, ReadError<E>> {
-    use mcap::records::op;
-    use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
-    let cerr = |s: String| container::<E>(s);
-    let mut reader = LinearReader::new_with_options(
-        LinearReaderOptions::default().with_record_length_limit(bytes.len()),
-    );
-    let mut fed = 0usize;
-    let mut counts: BTreeMap<String, (String, usize)> = BTreeMap::new();
-    let mut schemas: BTreeMap<u16, SchemaRecord> = BTreeMap::new();
-    let mut connections: BTreeMap<u16, Option<Connection>> = BTreeMap::new();
-    // Channels whose messages are not read (no ROS schema): their topics, for counting.
-    let mut unread_topics: BTreeMap<u16, String> = BTreeMap::new();
-    let mut record_number = 0usize;
-    while let Some(event) = reader.next_event() {
-        let event = event.map_err(|e| cerr(format!("MCAP, after record {record_number}: {e}")))?;
-        let (opcode, data) = match event {
-            LinearReadEvent::ReadRequest(need) => {
-                let n = need.min(bytes.len() - fed);
-                let buffer = reader.insert(n);
-                buffer[..n].copy_from_slice(&bytes[fed..fed + n]);
-                reader.notify_read(n);
-                fed += n;
-                continue;
-            }
-            LinearReadEvent::Record { opcode, data } => (opcode, data),
-        };
-        record_number += 1;
-        let at = |e: String| cerr(format!("MCAP, record {record_number}: {e}"));
+/// Where an MCAP record lies, for naming it in an error.
+#[derive(Clone, Copy, Debug)]
+enum Place {
+    /// A record of the file itself, at this byte.
+    File(usize),
+    /// A record inside the chunk record at this byte.
+    Chunk(usize),
+}
+
+impl std::fmt::Display for Place {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Place::File(at) => write!(f, "at byte {at}"),
+            Place::Chunk(at) => write!(f, "in the chunk at byte {at}"),
+        }
+    }
+}
+
+/// What the records of an MCAP file read so far define, and the messages counted.
+#[derive(Default)]
+struct McapState {
+    counts: BTreeMap<String, (String, usize)>,
+    schemas: BTreeMap<u16, SchemaRecord>,
+    connections: BTreeMap<u16, Option<Connection>>,
+    /// Channels whose messages are not read (no ROS schema): their topics, for counting.
+    unread_topics: BTreeMap<u16, String>,
+    /// Records handled so far (those inside chunks included, chunk records not).
+    record_number: usize,
+}
+
+impl McapState {
+    /// Handles one record (not a chunk record): schemas, channels and messages are
+    /// parsed, attachments have their CRC checked, other records are skipped.
+    fn record<E>(
+        &mut self,
+        opcode: u8,
+        data: &[u8],
+        place: Place,
+        wanted: &[&str],
+        callback: &mut Callback<'_, E>,
+    ) -> Result<(), ReadError<E>> {
+        use mcap::records::op;
+        self.record_number += 1;
+        let number = self.record_number;
+        let at = |e: String| container::<E>(format!("MCAP, record {number} ({place}): {e}"));
         match opcode {
             op::SCHEMA => {
                 let mut b = Body {
@@ -714,7 +741,7 @@ pub fn read_mcap<E>(
                 let name = b.string("name").map_err(at)?;
                 let encoding = b.string("encoding").map_err(at)?;
                 let data = String::from_utf8_lossy(b.bytes("data").map_err(at)?).into_owned();
-                schemas.entry(id).or_insert(SchemaRecord {
+                self.schemas.entry(id).or_insert(SchemaRecord {
                     name,
                     encoding,
                     data,
@@ -730,10 +757,10 @@ pub fn read_mcap<E>(
                 let schema_id = b.u16("schema_id").map_err(at)?;
                 let topic = b.string("topic").map_err(at)?;
                 let message_encoding = b.string("message_encoding").map_err(at)?;
-                if connections.contains_key(&id) {
-                    continue;
+                if self.connections.contains_key(&id) {
+                    return Ok(());
                 }
-                let schema = schemas.get(&schema_id);
+                let schema = self.schemas.get(&schema_id);
                 if schema_id != 0 && schema.is_none() {
                     return Err(at(format!(
                         "channel {id} (topic {topic}) names schema {schema_id}, which no earlier \
@@ -747,17 +774,18 @@ pub fn read_mcap<E>(
                         _ => None,
                     });
                 let type_name = schema.map_or(String::new(), |s| s.name.clone());
-                counts
+                self.counts
                     .entry(topic.clone())
                     .or_insert_with(|| (type_name.clone(), 0));
                 match dialect {
                     Some(dialect) => {
-                        connections.insert(
+                        let definition = schema.map_or(String::new(), |s| s.data.clone());
+                        self.connections.insert(
                             id,
                             Some(Connection {
                                 topic,
                                 type_name,
-                                definition: schema.map_or(String::new(), |s| s.data.clone()),
+                                definition,
                                 dialect,
                             }),
                         );
@@ -766,15 +794,15 @@ pub fn read_mcap<E>(
                         let what = schema.map_or("no schema".to_string(), |s| {
                             format!("schema encoding {:?}", s.encoding)
                         });
-                        return Err(cerr(format!(
+                        return Err(container(format!(
                             "topic {topic}: message encoding {message_encoding:?} with {what}; \
                              only ROS 2 CDR with ros2msg schemas and ROS 1 messages with \
                              ros1msg schemas are read"
                         )));
                     }
                     None => {
-                        unread_topics.insert(id, topic);
-                        connections.insert(id, None);
+                        self.unread_topics.insert(id, topic);
+                        self.connections.insert(id, None);
                     }
                 }
             }
@@ -789,19 +817,23 @@ pub fn read_mcap<E>(
                 let log_time = b.u64("log_time").map_err(at)?;
                 b.u64("publish_time").map_err(at)?;
                 let payload = b.rest();
-                let Some(known) = connections.get(&channel) else {
+                let Some(known) = self.connections.get(&channel) else {
                     return Err(at(format!(
                         "a message on channel {channel} before that channel's record"
                     )));
                 };
                 let Some(connection) = known else {
-                    if let Some(entry) = unread_topics.get(&channel).and_then(|t| counts.get_mut(t))
+                    if let Some(entry) = self
+                        .unread_topics
+                        .get(&channel)
+                        .and_then(|t| self.counts.get_mut(t))
                     {
                         entry.1 += 1;
                     }
-                    continue;
+                    return Ok(());
                 };
-                let entry = counts
+                let entry = self
+                    .counts
                     .entry(connection.topic.clone())
                     .or_insert_with(|| (connection.type_name.clone(), 0));
                 entry.1 += 1;
@@ -815,10 +847,224 @@ pub fn read_mcap<E>(
                     .map_err(ReadError::Message)?;
                 }
             }
+            op::ATTACHMENT => check_attachment(data).map_err(at)?,
             _ => {}
         }
+        Ok(())
     }
-    Ok(ContainerSummary::from_counts(counts, BagFormat::Mcap))
+}
+
+/// Checks an attachment record's `crc` (of every field before it; 0: not written).
+fn check_attachment(data: &[u8]) -> Result<(), String> {
+    let mut b = Body {
+        data,
+        pos: 0,
+        what: "attachment",
+    };
+    b.u64("log_time")?;
+    b.u64("create_time")?;
+    let name = b.string("name")?;
+    b.string("media_type")?;
+    let len = b.u64("data")?;
+    let len = usize::try_from(len).map_err(|_| {
+        format!("attachment record: field data declares {len} bytes, more than the record holds")
+    })?;
+    b.take(len, "data")?;
+    let covered = b.pos;
+    let saved = b.u32("crc")?;
+    let calculated = crc32fast::hash(&data[..covered]);
+    if saved != 0 && saved != calculated {
+        return Err(format!(
+            "attachment {name:?}: crc {saved:#010x} in the record, {calculated:#010x} computed \
+             over its {covered} bytes before it; the file is damaged"
+        ));
+    }
+    Ok(())
+}
+
+/// A record time in nanoseconds as seconds (for messages).
+fn seconds(ns: u64) -> String {
+    format!("{:.6} s", ns as f64 * 1e-9)
+}
+
+/// What a reader error of the file (outside chunks) means, at the record at byte `at`.
+fn mcap_file_error(e: mcap::McapError, at: usize, record_number: usize) -> String {
+    match e {
+        mcap::McapError::BadDataCrc { saved, calculated } => format!(
+            "MCAP: the data section does not match its CRC: the data end record at byte {at} \
+             says data_section_crc {saved:#010x}, bytes 0..{at} give {calculated:#010x}; the \
+             file is damaged"
+        ),
+        mcap::McapError::BadSummaryCrc { saved, calculated } => format!(
+            "MCAP: the summary section does not match its CRC: the footer at byte {at} says \
+             summary_crc {saved:#010x}, the summary section gives {calculated:#010x}; the file \
+             is damaged"
+        ),
+        other => format!("MCAP, the record at byte {at} (after record {record_number}): {other}"),
+    }
+}
+
+/// Reads the chunk record `record` (opcode, length and body) found at byte `at`: its
+/// records are handed to `state` as they are decompressed, and its `uncompressed_crc`
+/// (when not 0) is checked over all of them: for records stored uncompressed before
+/// any is read, for compressed ones as they are decompressed. A CRC mismatch or a
+/// chunk that cannot be read to its end is the chunk's error even when one of its
+/// records failed first (that failure is then a consequence of the damage); nothing
+/// of the chunk is handed on after a failure.
+fn read_chunk<E>(
+    record: &[u8],
+    at: usize,
+    limit: usize,
+    state: &mut McapState,
+    wanted: &[&str],
+    callback: &mut Callback<'_, E>,
+) -> Result<(), ReadError<E>> {
+    use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
+    let here = |e: String| container::<E>(format!("MCAP, the chunk at byte {at}: {e}"));
+    let mut header = Body {
+        data: record.get(9..).unwrap_or_default(),
+        pos: 0,
+        what: "chunk",
+    };
+    let start = header.u64("message_start_time").map_err(here)?;
+    let end = header.u64("message_end_time").map_err(here)?;
+    let size = header.u64("uncompressed_size").map_err(here)?;
+    let crc = header.u32("uncompressed_crc").map_err(here)?;
+    let compression = header.string("compression").map_err(here)?;
+    let mismatch = |saved: u32, calculated: u32, bytes: u64| {
+        let stored = if compression.is_empty() {
+            "uncompressed".to_string()
+        } else {
+            format!("{compression}-compressed")
+        };
+        here(format!(
+            "its records do not match its CRC: uncompressed_crc {saved:#010x} in the chunk \
+             header, {calculated:#010x} computed over its {bytes} bytes of records (stored \
+             {stored}; messages recorded {} to {}); the file is damaged",
+            seconds(start),
+            seconds(end)
+        ))
+    };
+    // Records stored as they are are checked before any is read, so a damaged length
+    // inside the chunk is named as the damage it is.
+    if compression.is_empty() && crc != 0 {
+        let n = header.u64("records").map_err(here)?;
+        let records = usize::try_from(n)
+            .ok()
+            .and_then(|n| header.take(n, "records").ok())
+            .ok_or_else(|| {
+                here(format!(
+                    "field records declares {n} bytes, {} left in the record",
+                    header.data.len() - header.pos
+                ))
+            })?;
+        let calculated = crc32fast::hash(records);
+        if calculated != crc {
+            return Err(mismatch(crc, calculated, records.len() as u64));
+        }
+    }
+    let mut reader = LinearReader::new_with_options(
+        LinearReaderOptions::default()
+            .with_skip_start_magic(true)
+            .with_skip_end_magic(true)
+            .with_validate_chunk_crcs(true)
+            .with_record_length_limit(limit),
+    );
+    let mut fed = 0usize;
+    let mut failed: Option<ReadError<E>> = None;
+    while let Some(event) = reader.next_event() {
+        match event {
+            Err(mcap::McapError::BadChunkCrc { saved, calculated }) => {
+                return Err(mismatch(saved, calculated, size));
+            }
+            // The chunk's own damage is the cause of anything its records did before.
+            Err(e) => return Err(here(e.to_string())),
+            Ok(LinearReadEvent::ReadRequest(need)) => {
+                let n = need.min(record.len() - fed);
+                let buffer = reader.insert(n);
+                buffer[..n].copy_from_slice(&record[fed..fed + n]);
+                reader.notify_read(n);
+                fed += n;
+            }
+            Ok(LinearReadEvent::Record { opcode, data }) => {
+                if failed.is_none() {
+                    if let Err(e) = state.record(opcode, data, Place::Chunk(at), wanted, callback) {
+                        failed = Some(e);
+                    }
+                }
+            }
+        }
+    }
+    failed.map_or(Ok(()), Err)
+}
+
+/// Reads an MCAP file held in memory (the fuzz target's entry point too).
+///
+/// The records are read with the `mcap` crate's sans-io reader (record framing, chunk
+/// decompression, every record at most as long as the file), and the three records
+/// the bag reader needs (schema, channel, message) are parsed here with every length
+/// checked against the record; other records are skipped. (The crate's own record
+/// parser reserves a string's declared length before reading it, up to 4 GiB.)
+///
+/// Every CRC the file holds is checked, as the MCAP specification intends them (a
+/// CRC of 0 is one not written): each chunk's `uncompressed_crc` over its records
+/// after decompression, the data end record's `data_section_crc` over the file up to
+/// it, the footer's `summary_crc` over the summary section, and each attachment's
+/// `crc`. A mismatch is an error naming the record's byte offset and both values.
+pub fn read_mcap<E>(
+    bytes: &[u8],
+    wanted: &[&str],
+    callback: &mut Callback<'_, E>,
+) -> Result<ContainerSummary, ReadError<E>> {
+    use mcap::records::op;
+    use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
+    // Chunks are yielded whole and read by `read_chunk`, so an error can name the
+    // chunk's byte offset.
+    let mut reader = LinearReader::new_with_options(
+        LinearReaderOptions::default()
+            .with_record_length_limit(bytes.len())
+            .with_emit_chunks(true)
+            .with_validate_data_section_crc(true)
+            .with_validate_summary_section_crc(true),
+    );
+    let mut fed = 0usize;
+    let mut state = McapState::default();
+    // The byte of the record being read: records follow the 8-byte magic, each an
+    // opcode, a u64 length and that many bytes.
+    let mut at = mcap::MAGIC.len();
+    while let Some(event) = reader.next_event() {
+        let event = event.map_err(|e| container(mcap_file_error(e, at, state.record_number)))?;
+        let (opcode, len) = match event {
+            LinearReadEvent::ReadRequest(need) => {
+                let n = need.min(bytes.len() - fed);
+                let buffer = reader.insert(n);
+                buffer[..n].copy_from_slice(&bytes[fed..fed + n]);
+                reader.notify_read(n);
+                fed += n;
+                continue;
+            }
+            LinearReadEvent::Record { opcode, data } => {
+                if opcode != op::CHUNK {
+                    state.record(opcode, data, Place::File(at), wanted, callback)?;
+                }
+                (opcode, data.len())
+            }
+        };
+        let end = at.saturating_add(9).saturating_add(len);
+        if opcode == op::CHUNK {
+            let record = bytes
+                .get(at..end)
+                .filter(|r| r.first() == Some(&op::CHUNK))
+                .ok_or_else(|| {
+                    container(format!(
+                        "MCAP: the chunk record yielded at byte {at} is not there (a reader fault)"
+                    ))
+                })?;
+            read_chunk(record, at, bytes.len(), &mut state, wanted, callback)?;
+        }
+        at = end;
+    }
+    Ok(ContainerSummary::from_counts(state.counts, BagFormat::Mcap))
 }
 
 /// Checks the layout of a ROS 1 bag held in memory the way [`read_container`] does

@@ -13,10 +13,13 @@
 //! a message is never hard-coded, only the names of the fields read. `bag_pairs` in
 //! [`pairs`] turns a log into scan pairs with ground truth.
 //!
-//! Conventions, the same as the text logs': a beam is a return when its range is
-//! finite and `range_min < r < range_max`; beam `k` lies at `angle_min + k ·
-//! angle_increment`; a scan's time stamp is its header stamp; frame names lose a
-//! leading `/`. `float32` values are widened through their shortest decimal form
+//! Conventions, the same as the text logs' ([`crate::beams`]): a beam is a return when
+//! its range is finite and `range_min < r < range_max`; `-Inf`, `+Inf` and `NaN`
+//! (REP 117) are beams without a return, another negative range is an error; beam `k`
+//! lies at `angle_min + k · angle_increment`, and `angle_max` must agree with the last
+//! beam's angle to within one increment (beyond that the message is refused; within
+//! it the increment wins); a scan's time stamp is its header stamp; frame names lose
+//! a leading `/`. `float32` values are widened through their shortest decimal form
 //! ([`decode::widen_f32`]), so a bag and a text export of it give the same ranges.
 //! Messages of each topic are ordered by record time (file order for equal times).
 //!
@@ -355,6 +358,7 @@ fn laser_scan(cx: &MessageContext<'_>, m: &Value) -> Result<BagScan> {
     let stamp = cx.stamp(m, "header.stamp")?;
     let frame = cx.string(m, "header.frame_id")?;
     let angle_min = cx.finite(m, "angle_min", 2.0 * limits::MAX_SPAN, "an angle (rad)")?;
+    let angle_max = cx.finite(m, "angle_max", 2.0 * limits::MAX_SPAN, "an angle (rad)")?;
     let increment = cx.finite(m, "angle_increment", limits::MAX_SPAN, "an angle (rad)")?;
     let range_min = cx.finite(m, "range_min", limits::MAX_RANGE, "a range (m)")?;
     let range_max = cx.finite(m, "range_max", limits::MAX_RANGE, "a range (m)")?;
@@ -387,10 +391,29 @@ fn laser_scan(cx: &MessageContext<'_>, m: &Value) -> Result<BagScan> {
             format!("{n} beams {increment} rad apart span more than a full turn"),
         ));
     }
+    // The ranges must fill angle_min..angle_max to within one increment; within that
+    // the increment wins (crate::beams).
+    if let Err(given) = crate::beams::check_span(angle_max - angle_min, n, increment) {
+        let last = angle_min + given;
+        return Err(cx.error(
+            "angle_max",
+            format!(
+                "angle_max {angle_max} rad ({:.4}°) disagrees by more than one increment with \
+                 the last beam's angle angle_min + (n - 1) · angle_increment = {angle_min} + \
+                 {} · {increment} = {last:.7} rad ({:.4}°): the {n} ranges do not fill \
+                 angle_min..angle_max",
+                angle_max.to_degrees(),
+                n - 1,
+                last.to_degrees()
+            ),
+        ));
+    }
     let mut ranges = Vec::with_capacity(n);
     let mut valid = Vec::with_capacity(n);
     for (k, &r) in ranges_in.iter().enumerate() {
-        if r < 0.0 {
+        // REP 117: -Inf (too close), +Inf (nothing in range) and NaN are beams
+        // without a usable return (crate::beams); other negative ranges mean nothing.
+        if r < 0.0 && !crate::beams::is_special_range(r) {
             return Err(cx.error(&format!("ranges[{k}]"), format!("negative range {r}")));
         }
         if r.is_finite() && r > limits::MAX_RANGE {
@@ -399,12 +422,12 @@ fn laser_scan(cx: &MessageContext<'_>, m: &Value) -> Result<BagScan> {
                 format!("a range of {r} m means nothing here"),
             ));
         }
-        if r.is_finite() {
-            ranges.push(r);
-            valid.push(r > range_min && r < range_max);
-        } else {
+        if crate::beams::is_special_range(r) {
             ranges.push(0.0);
             valid.push(false);
+        } else {
+            ranges.push(r);
+            valid.push(r > range_min && r < range_max);
         }
     }
     Ok(BagScan {

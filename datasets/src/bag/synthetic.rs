@@ -190,6 +190,16 @@ pub enum Msg {
         /// Ranges (m).
         ranges: Vec<f32>,
     },
+    /// A `sensor_msgs/LaserScan` with the angles it states: `angle_min`, `angle_max`
+    /// and `angle_increment` (rad), for scans whose fields disagree.
+    ScanAngles {
+        /// Header stamp (ns).
+        stamp_ns: u64,
+        /// `angle_min`, `angle_max`, `angle_increment` as written.
+        angles: [f32; 3],
+        /// Ranges (m).
+        ranges: Vec<f32>,
+    },
     /// A `nav_msgs/Odometry` (frame `odom`, child `base_link`).
     Odom {
         /// Header stamp (ns).
@@ -234,25 +244,43 @@ pub const ANGLE_INCREMENT: f32 = 0.017453292;
 /// Beams per scan.
 pub const BEAMS: usize = 181;
 
+/// A `sensor_msgs/LaserScan` stating `angles` (`angle_min`, `angle_max`,
+/// `angle_increment`).
+fn laser_scan(s: &mut Ser, seq: u32, stamp_ns: u64, angles: [f32; 3], ranges: &[f32]) {
+    s.header(seq, stamp_ns, "laser");
+    for a in angles {
+        s.f32(a);
+    }
+    s.f32(0.0);
+    s.f32(0.1);
+    s.f32(0.05);
+    s.f32(30.0);
+    s.u32(ranges.len() as u32);
+    for r in ranges {
+        s.f32(*r);
+    }
+    s.u32(0);
+}
+
 /// Serialises one message.
 pub fn serialise(msg: &Msg, seq: u32, wire: Wire) -> Vec<u8> {
     let mut s = Ser::new(wire);
     match msg {
         Msg::Scan { stamp_ns, ranges } => {
-            s.header(seq, *stamp_ns, "laser");
-            s.f32(ANGLE_MIN);
-            s.f32(ANGLE_MIN + ANGLE_INCREMENT * (BEAMS - 1) as f32);
-            s.f32(ANGLE_INCREMENT);
-            s.f32(0.0);
-            s.f32(0.1);
-            s.f32(0.05);
-            s.f32(30.0);
-            s.u32(ranges.len() as u32);
-            for r in ranges {
-                s.f32(*r);
-            }
-            s.u32(0);
+            let end = ANGLE_MIN + ANGLE_INCREMENT * (BEAMS - 1) as f32;
+            laser_scan(
+                &mut s,
+                seq,
+                *stamp_ns,
+                [ANGLE_MIN, end, ANGLE_INCREMENT],
+                ranges,
+            );
         }
+        Msg::ScanAngles {
+            stamp_ns,
+            angles,
+            ranges,
+        } => laser_scan(&mut s, seq, *stamp_ns, *angles, ranges),
         Msg::Odom {
             stamp_ns,
             x,
@@ -580,4 +608,63 @@ pub fn mcap_bag(
         w.finish().expect("finish");
     }
     out.into_inner()
+}
+
+/// Rewrites every CRC an MCAP file held in memory stores (those not 0: the chunks'
+/// `uncompressed_crc` of uncompressed chunks, the data end record's
+/// `data_section_crc`, the footer's `summary_crc`) to match its bytes, so a test that
+/// edits a record inside a chunk reaches the check it is about rather than the CRC
+/// check. Compressed chunks keep their CRC. Stops quietly at the first record that
+/// does not fit the file.
+pub fn reseal_mcap(bytes: &mut [u8]) {
+    let u64_at = |b: &[u8], at: usize| -> Option<u64> {
+        let s = b.get(at..at.checked_add(8)?)?;
+        Some(u64::from_le_bytes(s.try_into().ok()?))
+    };
+    let mut at = mcap::MAGIC.len();
+    let mut summary_start = None;
+    while at + 9 <= bytes.len() {
+        let opcode = bytes[at];
+        let Some(len) = u64_at(bytes, at + 1).and_then(|l| usize::try_from(l).ok()) else {
+            return;
+        };
+        let body = at + 9;
+        let Some(end) = body.checked_add(len).filter(|&e| e <= bytes.len()) else {
+            return;
+        };
+        match opcode {
+            mcap::records::op::CHUNK if len >= 40 => {
+                let compression_len =
+                    u32::from_le_bytes(bytes[body + 28..body + 32].try_into().unwrap()) as usize;
+                let records_at = body + 40 + compression_len;
+                let records_len = u64_at(bytes, body + 32 + compression_len)
+                    .and_then(|l| usize::try_from(l).ok());
+                let crc = u32::from_le_bytes(bytes[body + 24..body + 28].try_into().unwrap());
+                if let Some(records) = records_len
+                    .and_then(|l| bytes.get(records_at..records_at.checked_add(l)?))
+                    .filter(|_| compression_len == 0 && crc != 0)
+                {
+                    let crc = crc32fast::hash(records);
+                    bytes[body + 24..body + 28].copy_from_slice(&crc.to_le_bytes());
+                }
+            }
+            mcap::records::op::DATA_END if len >= 4 => {
+                if bytes[body..body + 4] != [0; 4] {
+                    let crc = crc32fast::hash(&bytes[..at]);
+                    bytes[body..body + 4].copy_from_slice(&crc.to_le_bytes());
+                }
+                summary_start = Some(end);
+            }
+            mcap::records::op::FOOTER if len >= 20 => {
+                if let Some(start) = summary_start.filter(|_| bytes[body + 16..body + 20] != [0; 4])
+                {
+                    let crc = crc32fast::hash(&bytes[start..body + 16]);
+                    bytes[body + 16..body + 20].copy_from_slice(&crc.to_le_bytes());
+                }
+                return;
+            }
+            _ => {}
+        }
+        at = end;
+    }
 }

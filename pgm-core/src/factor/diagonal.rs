@@ -90,6 +90,10 @@ impl Factor for PottsFactor {
         "potts"
     }
 
+    fn has_hard_zeros(&self) -> bool {
+        self.same == f64::NEG_INFINITY || (self.different == f64::NEG_INFINITY && self.shape[0] > 1)
+    }
+
     fn as_any_mut(&mut self) -> Option<&mut dyn std::any::Any> {
         Some(self)
     }
@@ -168,6 +172,12 @@ impl Factor for ShiftedIdentityFactor {
 
     fn kind(&self) -> &'static str {
         "shifted-identity"
+    }
+
+    fn has_hard_zeros(&self) -> bool {
+        // Conservative: true whenever either value is a hard zero (even if the shift
+        // leaves no entry holding it).
+        self.on == f64::NEG_INFINITY || self.off == f64::NEG_INFINITY
     }
 
     fn as_any_mut(&mut self) -> Option<&mut dyn std::any::Any> {

@@ -116,6 +116,13 @@ pub trait Factor: Send + Sync + Debug {
         out
     }
 
+    /// True when some log-potential is −∞ (a hard zero). The default scans
+    /// [`log_table`](Self::log_table); structured factors answer from their
+    /// parameters.
+    fn has_hard_zeros(&self) -> bool {
+        self.log_table().contains(&f64::NEG_INFINITY)
+    }
+
     /// A short name of the factor's kind, for diagnostics.
     fn kind(&self) -> &'static str {
         "custom"

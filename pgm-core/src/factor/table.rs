@@ -116,6 +116,10 @@ impl Factor for TableFactor {
         self.log_table.clone()
     }
 
+    fn has_hard_zeros(&self) -> bool {
+        self.log_table.contains(&f64::NEG_INFINITY)
+    }
+
     fn kind(&self) -> &'static str {
         "table"
     }
