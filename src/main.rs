@@ -193,6 +193,8 @@ mod tests {
             ("pgm eval association", names(ASSOCIATION_SOURCES)),
             ("pgm eval joint", names(JOINT_ESTIMATORS)),
             ("pgm track", names(CLUSTERERS)),
+            ("pgm eval tracking", names(CLUSTERERS)),
+            ("pgm eval ego-motion", names(CLUSTERERS)),
         ];
         fn walk(
             command: &clap::Command,
