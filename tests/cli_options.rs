@@ -179,3 +179,70 @@ fn unused_options_are_checked_in_every_evaluation() {
     ok(&["eval", "joint", "--pairs", &ds, "--kmeans-k", "3", "--json"]);
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// A negative scan distance names its value in every command that takes `--k` (clap
+/// read `--k -3` as the unknown option `-3`).
+#[test]
+fn a_negative_scan_distance_is_refused_naming_its_value() {
+    let dir = temp_dir("negative-k");
+    let (ds, _) = simulated(&dir, "ds", 5, 1);
+    let cases: Vec<Refusal> = vec![
+        (
+            vec!["track", "--method", "crf", "--pairs", &ds, "--k", "-3"],
+            vec!["'-3'", "--k", "not negative"],
+        ),
+        (
+            vec![
+                "eval", "tracking", "--method", "crf", "--pairs", &ds, "--k", "-3",
+            ],
+            vec!["'-3'", "--k"],
+        ),
+        (
+            vec![
+                "eval",
+                "ego-motion",
+                "--method",
+                "crf",
+                "--pairs",
+                &ds,
+                "--k",
+                "-3",
+            ],
+            vec!["'-3'", "--k"],
+        ),
+        (
+            vec![
+                "eval", "matching", "--method", "icp", "--pairs", &ds, "--k", "-3",
+            ],
+            vec!["'-3'", "--k"],
+        ),
+        (
+            vec![
+                "eval",
+                "clustering",
+                "--method",
+                "crf",
+                "--pairs",
+                &ds,
+                "--k",
+                "-3",
+            ],
+            vec!["'-3'", "--k"],
+        ),
+        (
+            vec![
+                "data", "summary", "--scans", "a", "--people", "b", "--k", "1,-3",
+            ],
+            vec!["'-3'", "--k"],
+        ),
+        (
+            vec!["sim", "--sequence", "5", "--k", "-1"],
+            vec!["'-1'", "--k"],
+        ),
+        (
+            vec!["track", "--method", "crf", "--pairs", &ds, "--k", "1.5"],
+            vec!["'1.5'", "whole number"],
+        ),
+    ];
+    refused_all(&cases);
+}

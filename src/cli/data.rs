@@ -412,7 +412,7 @@ pub struct LogPairsArgs {
     #[command(flatten)]
     pub leigh: LeighArgs,
     /// Logs and bags: scan distance of the pairs.
-    #[arg(long, default_value_t = 5)]
+    #[arg(long, default_value_t = 5, allow_hyphen_values = true, value_parser = super::parse_scan_distance)]
     pub k: usize,
 }
 
@@ -444,7 +444,7 @@ pub struct SummaryArgs {
     #[command(flatten)]
     pub source: SourceArgs,
     /// Scan distances to summarise.
-    #[arg(long, value_delimiter = ',', default_value = "1,3,5")]
+    #[arg(long, value_delimiter = ',', default_value = "1,3,5", allow_hyphen_values = true, value_parser = super::parse_scan_distance)]
     pub k: Vec<usize>,
     /// leigh-gtm1 options.
     #[command(flatten)]

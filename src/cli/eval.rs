@@ -78,7 +78,7 @@ pub struct MatchingArgs {
     #[arg(long, conflicts_with_all = ["carmen", "log", "scans", "bag"])]
     pub pairs: Option<PathBuf>,
     /// Bags: the scan distance of the pairs.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, allow_hyphen_values = true, value_parser = super::parse_scan_distance)]
     pub k: usize,
     /// Pairs less than this many seconds apart form the subset `near`, others `far`.
     #[arg(long, default_value_t = 1.5, hide_short_help = true)]

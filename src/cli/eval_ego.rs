@@ -46,7 +46,7 @@ pub struct EgoEvalArgs {
     #[command(flatten)]
     pub source: SourceArgs,
     /// The detector runs on scans n − k and n (default: by --reference-gap).
-    #[arg(long, conflicts_with = "reference_gap")]
+    #[arg(long, conflicts_with = "reference_gap", allow_hyphen_values = true, value_parser = super::parse_scan_distance)]
     pub k: Option<usize>,
     /// The online tracker's options.
     #[command(flatten)]

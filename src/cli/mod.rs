@@ -130,3 +130,17 @@ pub fn check_not_an_input(
 
 /// Result type of subcommands.
 pub type CliResult = Result<std::process::ExitCode, CliError>;
+
+/// Parses a scan distance (`--k`): a whole number of scans. A negative one is refused
+/// here, naming the value (clap would otherwise read `-3` as an unknown option); 0
+/// reaches the command's own check, which says why a pair needs two scans.
+pub fn parse_scan_distance(text: &str) -> Result<usize, String> {
+    let t = text.trim();
+    match t.parse::<i128>() {
+        Ok(v) if v < 0 => Err(format!(
+            "{v}: a scan distance is a whole number of scans >= 1, not negative"
+        )),
+        Ok(v) => usize::try_from(v).map_err(|_| format!("{v}: too large a scan distance")),
+        Err(_) => Err(format!("{t:?}: expected a whole number of scans >= 1")),
+    }
+}

@@ -89,7 +89,7 @@ pub struct SimArgs {
     /// With --sequence: the scan distance of the pairs (1; each pair spans the
     /// preset's interval between two scans; person-following scans every 0.1 s
     /// whatever --k, so its pairs span k × 0.1 s).
-    #[arg(long, requires = "sequence")]
+    #[arg(long, requires = "sequence", allow_hyphen_values = true, value_parser = super::parse_scan_distance)]
     pub k: Option<usize>,
 }
 

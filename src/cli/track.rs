@@ -48,7 +48,7 @@ pub struct TrackArgs {
     pub source: SequenceSourceArgs,
     /// The detector runs on scans n − k and n (default: on scan n and the latest scan
     /// at least --reference-gap seconds before it).
-    #[arg(long, conflicts_with = "reference_gap")]
+    #[arg(long, conflicts_with = "reference_gap", allow_hyphen_values = true, value_parser = super::parse_scan_distance)]
     pub k: Option<usize>,
     /// The online tracker's options.
     #[command(flatten)]
