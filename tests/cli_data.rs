@@ -638,3 +638,47 @@ fn person_centres_beyond_the_lasers_reach_are_refused() {
     ok(&[&["data", "summary"][..], &args, &without_odometry].concat());
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// A people file without one annotation labels nothing: every command that reads it
+/// exits 2 naming the file (`pgm data summary` printed a table of zeros, exit 0).
+#[test]
+fn an_empty_people_file_is_refused_by_every_command() {
+    let dir = temp_dir("leigh-empty-people");
+    let files = leigh(&dir, "-1.0 0.0333 0.05 20.0", "3.0 -1.0");
+    let empty = write(&dir, "empty.txt", "");
+    let comments = write(&dir, "comments.txt", "# no annotation\n\n");
+    for people in [&empty, &comments] {
+        let log = [
+            "--scans",
+            files[0].as_str(),
+            "--people",
+            people.as_str(),
+            "--odometry",
+            files[2].as_str(),
+        ];
+        let out = path(&dir, "ds");
+        refused_all(&[
+            (
+                [&["data", "summary"][..], &log].concat(),
+                vec![people.as_str(), "no annotation"],
+            ),
+            (
+                [&["data", "pairs"][..], &log, &["--k", "1", "--out", &out]].concat(),
+                vec![people.as_str(), "no annotation"],
+            ),
+            (
+                [
+                    &["eval", "clustering", "--method", "crf"][..],
+                    &log,
+                    &["--k", "1"],
+                ]
+                .concat(),
+                vec![people.as_str(), "no annotation"],
+            ),
+        ]);
+        assert!(
+            !std::path::Path::new(&out).exists(),
+            "a failing command writes nothing"
+        );
+    }
+}

@@ -204,6 +204,15 @@ pub fn read_leigh(
         leigh::attach_odometry(&mut log, &odo, path)?;
     }
     let annotations = leigh::read_people(people)?;
+    if annotations.is_empty() {
+        return Err(crate::Error::Invalid {
+            path: people.to_path_buf(),
+            field: "PERSON".into(),
+            problem: "no annotation (`PERSON scan_idx person_id x y` lines): an empty people \
+                      file labels nothing"
+                .into(),
+        });
+    }
     leigh::check_people_reach(&log, scans, &annotations, people)?;
     Ok((log, annotations))
 }

@@ -617,6 +617,7 @@ fn leigh_log(
         notes.push(note);
         let scans = prepared_scans(&log, &mount, &mut notes);
         let (scans, people) = to_leigh(&log, &scans, &mut notes);
+        pgm_datasets::bag::pairs::require_people(&log, &people).map_err(CliError::from_display)?;
         pgm_datasets::bag::pairs::check_people_reach(&log, &scans, &people)
             .map_err(CliError::from_display)?;
         (scans, people, format!("bag {}", path.display()))

@@ -230,6 +230,26 @@ pub fn to_leigh(
     (leigh, people)
 }
 
+/// Refuses a people topic without one annotation in the time of the scans (`people`
+/// as [`to_leigh`] made them): it labels nothing.
+///
+/// # Errors
+/// [`Error::Mismatch`] naming the bag and the topic.
+pub fn require_people(log: &BagLog, people: &[PersonAnnotation]) -> Result<()> {
+    if people.is_empty() {
+        let topic = log.read.people.as_deref().unwrap_or("");
+        return Err(mismatch(
+            log,
+            format!(
+                "the people topic {topic} holds no annotation at or after the first scan \
+                 ({} messages on it): it labels nothing",
+                log.people.len()
+            ),
+        ));
+    }
+    Ok(())
+}
+
 /// Checks that every annotation of the bag's people topic lies within the reach of
 /// its scan (`range_max` plus [`crate::leigh::PERSON_REACH_MARGIN`]); `scans` and
 /// `people` as [`to_leigh`] made them.
@@ -293,6 +313,7 @@ pub fn bag_pairs(log: &BagLog, options: &BagPairOptions) -> Result<BagPairs> {
     let scans = prepared_scans(log, &mount, &mut notes);
     if log.read.people.is_some() {
         let (leigh, people) = to_leigh(log, &scans, &mut notes);
+        require_people(log, &people)?;
         check_people_reach(log, &leigh, &people)?;
         let leigh_options = LeighPairOptions {
             k,
