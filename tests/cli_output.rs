@@ -305,3 +305,62 @@ fn a_full_stdout_is_an_error_not_a_panic() {
     );
     assert!(!err.contains("panicked"), "{err}");
 }
+
+/// An output file in a directory that does not exist is refused up front by every
+/// command that writes one, with one message, nothing printed and nothing written
+/// (`pgm joint --svg` printed its whole JSON and then failed).
+#[test]
+fn an_output_file_in_a_missing_directory_is_refused_the_same_way_everywhere() {
+    let dir = temp_dir("missing-output-dir");
+    let (ds, _) = simulated(&dir, "ds", 3, 1);
+    let missing = path(&dir, "no/such/dir/x.svg");
+    let expected = format!(
+        "{missing}: cannot write here: the directory {} does not exist",
+        path(&dir, "no/such/dir")
+    );
+    let cases: Vec<Refusal> = vec![
+        (
+            vec!["joint", "--pairs", &ds, "--svg", &missing],
+            vec![&expected],
+        ),
+        (
+            vec![
+                "cluster",
+                "--pairs",
+                &ds,
+                "--associations",
+                "icp",
+                "--svg",
+                &missing,
+            ],
+            vec![&expected],
+        ),
+        (
+            vec!["match", "--pairs", &ds, "--svg", &missing],
+            vec![&expected],
+        ),
+        (vec!["plot", &ds, "--svg", &missing], vec![&expected]),
+        (
+            vec!["sim", "--pairs", "1", "--svg", &missing],
+            vec![&expected],
+        ),
+        (
+            vec![
+                "track", "--method", "crf", "--pairs", &ds, "--svg", &missing,
+            ],
+            vec![&expected],
+        ),
+        (
+            vec![
+                "track", "--method", "crf", "--pairs", &ds, "--out", &missing,
+            ],
+            vec![&expected],
+        ),
+        (
+            vec!["demo", "--pairs", "2", "--svg", &missing],
+            vec![&expected],
+        ),
+    ];
+    refused_all(&cases);
+    assert!(!dir.join("no").exists());
+}

@@ -307,6 +307,9 @@ fn drawing(pair: &ScanPair, clustering: &Clustering, title: String) -> Result<St
 
 /// Runs `pgm cluster`.
 pub fn run(args: ClusterArgs) -> CliResult {
+    if let Some(svg) = &args.svg {
+        super::check_output_file(svg)?;
+    }
     let pair = args.source.load()?;
     let options = args.crf.options()?;
     let clusterer = options

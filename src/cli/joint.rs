@@ -205,6 +205,9 @@ pub fn draw_joint(
 
 /// Runs `pgm joint`.
 pub fn run_joint(args: JointArgs) -> CliResult {
+    if let Some(svg) = &args.svg {
+        super::check_output_file(svg)?;
+    }
     let pair = args.source.load()?;
     let params = joint_params(
         args.candidates,
@@ -236,7 +239,6 @@ pub fn run_joint(args: JointArgs) -> CliResult {
         outliers: count(JointCluster::Outlier),
     };
     let json = serde_json::to_string(&output).map_err(CliError::from_display)?;
-    println!("{json}");
     if let Some(path) = &args.svg {
         let estimate = JointEstimate {
             associations: result.associations.clone(),
@@ -262,6 +264,8 @@ pub fn run_joint(args: JointArgs) -> CliResult {
         draw_joint(&pair, &estimate, title, path)?;
         eprintln!("pgm: drew {} into {}", pair.name, path.display());
     }
+    // Printed once every file is written: a failing command prints nothing.
+    println!("{json}");
     if !result.converged {
         eprintln!(
             "pgm: warning: the joint model did not converge on {} ({} sweeps in {} rounds); \

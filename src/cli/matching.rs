@@ -141,6 +141,9 @@ struct MatchOutput<'a> {
 
 /// Runs `pgm match`.
 pub fn run_match(args: MatchArgs) -> CliResult {
+    if let Some(svg) = &args.svg {
+        super::check_output_file(svg)?;
+    }
     let pair = args.source.load()?;
     let options = args.matching.apply(MethodOptions::default())?;
     let matcher = options

@@ -33,6 +33,7 @@ pub struct PlotArgs {
 
 /// Runs `pgm plot`.
 pub fn run(args: PlotArgs) -> CliResult {
+    super::check_output_file(&args.svg)?;
     if !(200..=10_000).contains(&args.width) {
         return Err(CliError(format!(
             "--width {}: expected 200..=10000 pixels",

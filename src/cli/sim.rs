@@ -95,6 +95,9 @@ pub struct SimArgs {
 
 /// Runs `pgm sim`.
 pub fn run(args: SimArgs) -> CliResult {
+    if let Some(svg) = &args.svg {
+        super::check_output_file(svg)?;
+    }
     let preset: Preset = args.preset.parse().map_err(CliError::from_display)?;
     // The preset's own laser unless a flag says otherwise.
     let base = SimConfig::for_preset(preset);
