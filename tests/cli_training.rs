@@ -192,3 +192,46 @@ fn train_joint_takes_the_association_part_of_crf_matching() {
     assert!(!Path::new(&bad_out).exists());
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// A weight file whose weights are finite but huge (±1e308 overflowed the first
+/// potential into ±∞ and then NaN) is refused by every model's loader, naming the
+/// file, the weight and its value; 1e11 still loads.
+#[test]
+fn huge_weights_are_refused_by_every_loader() {
+    let dir = temp_dir("huge-weights");
+    let (ds, _) = simulated(&dir, "ds", 3, 1);
+    let cases = [
+        (
+            "crf-clustering",
+            vec!["cluster", "--pairs", ds.as_str(), "--weights"],
+        ),
+        (
+            "crf-matching",
+            vec!["match", "--pairs", ds.as_str(), "--matching-weights"],
+        ),
+        ("joint", vec!["joint", "--pairs", ds.as_str(), "--weights"]),
+    ];
+    for (model, args) in &cases {
+        let text = std::fs::read_to_string(shipped(model)).unwrap();
+        let mut file: serde_json::Value = serde_json::from_str(&text).unwrap();
+        let (name, original) = file["weights"]
+            .as_object()
+            .unwrap()
+            .iter()
+            .next()
+            .map(|(k, v)| (k.clone(), v.as_f64().unwrap()))
+            .unwrap();
+        // The accepted value keeps the shipped weight's sign (models constrain signs).
+        let sign = if original < 0.0 { -1.0 } else { 1.0 };
+        for (value, accepted) in [(-1e308, false), (sign * 1e13, false), (sign * 1e11, true)] {
+            file["weights"][&name] = serde_json::json!(value);
+            let w = write(&dir, &format!("{model}-{value:e}.json"), &file.to_string());
+            let a = [&args[..], &[w.as_str()]].concat();
+            if accepted {
+                ok(&a);
+            } else {
+                refused(&a, &[&w, &name, &format!("{value:?}"), "at most 1e12"]);
+            }
+        }
+    }
+}

@@ -147,8 +147,8 @@ pub enum Error {
         /// The offending value.
         value: f64,
     },
-    /// A weight is NaN or infinite.
-    #[error("weight {name:?} = {value}: weights must be finite")]
+    /// A weight is NaN, infinite or beyond ±[`crate::learning::MAX_ABS_WEIGHT`].
+    #[error("weight {name:?} = {value:?}: weights must be finite and at most 1e12 in magnitude")]
     BadWeight {
         /// Name of the weight.
         name: String,

@@ -78,7 +78,7 @@ mod weights;
 
 pub use model::{
     CliqueFeatures, DenseFeatures, FeatureSet, LabelledInstance, LogLinearModel, Template,
-    TemplateId,
+    TemplateId, MAX_ABS_WEIGHT,
 };
 pub use optimise::{Learner, LearnerParams, LearningObserver, LearningResult, Progress};
 pub use pseudo_likelihood::{PseudoLikelihood, DEFAULT_FEATURE_CACHE_BYTES};

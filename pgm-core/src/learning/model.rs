@@ -22,6 +22,13 @@ use std::fmt;
 use std::ops::Range;
 use std::sync::Arc;
 
+/// Largest magnitude of a log-linear weight ([`crate::Error::BadWeight`] beyond it).
+/// A weight's potential is `w · f` summed over the cliques of a graph: with `|w|` up to
+/// 1e12, features up to 1e12 and a million cliques the sums stay below 1e30, far from
+/// overflow, while trained weights are of order one; a weight near ±1e308 turns the
+/// first potential it touches into ±∞ and the next sum into NaN.
+pub const MAX_ABS_WEIGHT: f64 = 1e12;
+
 /// Index of a template in its [`FeatureSet`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub struct TemplateId(pub usize);
@@ -201,7 +208,7 @@ impl FeatureSet {
             });
         }
         for (name, &value) in self.names.iter().zip(weights) {
-            if !value.is_finite() {
+            if !value.is_finite() || value.abs() > MAX_ABS_WEIGHT {
                 return Err(Error::BadWeight {
                     name: name.clone(),
                     value,
