@@ -682,3 +682,34 @@ fn an_empty_people_file_is_refused_by_every_command() {
         );
     }
 }
+
+/// A misspelt or unknown key in a pair file is an error naming the file and the key
+/// (it passed without a word: a `"tuth"` lost the ground truth silently).
+#[test]
+fn unknown_keys_in_a_pair_file_are_refused() {
+    let dir = temp_dir("unknown-keys");
+    let (_, pairs) = simulated(&dir, "ds", 4, 1);
+    let base = to_json(&pairs[0]);
+    let mut cases: Vec<(String, &str)> = Vec::new();
+    for (place, key) in [
+        ("", "tuth"),
+        ("current", "rangez"),
+        ("truth", "labelz"),
+        ("current.laser_offset", "yaw"),
+    ] {
+        let mut p = base.clone();
+        let mut at = &mut p;
+        for part in place.split('.').filter(|s| !s.is_empty()) {
+            at = &mut at[part];
+        }
+        at[key] = serde_json::json!(1);
+        let file = write(&dir, &format!("pair-{key}.json"), &p.to_string());
+        cases.push((file, key));
+    }
+    for (file, key) in &cases {
+        refused(
+            &["cluster", "--pairs", file, "--associations", "icp"],
+            &[file.as_str(), &format!("unknown field `{key}`")],
+        );
+    }
+}

@@ -44,6 +44,7 @@ impl<'de> Deserialize<'de> for Association {
 
 /// The true motion of one cluster between the two scans.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct ClusterMotion {
     /// The cluster label this motion belongs to (0 = background).
     pub label: u32,
@@ -58,6 +59,7 @@ pub struct ClusterMotion {
 /// logs give only parts of it (mit-csail: ego-motion only; leigh-gtm1: labels and
 /// person displacements; the simulator: everything).
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct GroundTruth {
     /// True ego-motion (pose of the current sensor frame in the reference sensor frame).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -83,6 +85,7 @@ pub struct GroundTruth {
 
 /// One object's true centre in the current scan (see [`GroundTruth::objects`]).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct ObjectCentre {
     /// The object's identity, the same in every scan of a sequence (a person id of
     /// an annotation, a simulated body's index, a motion-capture rigid body).
@@ -103,6 +106,7 @@ pub struct ObjectCentre {
 
 /// Two scans, the prior on the sensor's motion between them, and the ground truth.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct ScanPair {
     /// A name that says where the pair came from (for example `leigh-gtm1:133-138`).
     pub name: String,

@@ -17,6 +17,7 @@ pub struct Pose2 {
 }
 
 #[derive(Clone, Copy, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 struct PoseRecord {
     x: f64,
     y: f64,

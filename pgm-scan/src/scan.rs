@@ -27,6 +27,7 @@ use std::ops::Range;
 /// beam has a finite range in `(0, max_range)`; ranges of invalid beams are finite
 /// (readers store `0.0` for `nan`/`inf` raw values) and carry no meaning.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Scan {
     /// Time stamp in seconds (the log's own clock).
     pub timestamp: f64,
