@@ -713,3 +713,46 @@ fn unknown_keys_in_a_pair_file_are_refused() {
         );
     }
 }
+
+/// An index that lists a pair twice (by name, or by file however spelt) is refused:
+/// the pair was read, and scored, twice.
+#[test]
+fn an_index_listing_a_pair_twice_is_refused() {
+    let dir = temp_dir("index-twice");
+    let (ds, _) = simulated(&dir, "ds", 4, 2);
+    let index_path = std::path::Path::new(&ds).join("index.json");
+    let index = read_json(&index_path);
+    let first = index["pairs"][0].clone();
+    let second = index["pairs"][1].clone();
+    let variants = [
+        // The same entry twice.
+        (vec![first.clone(), first.clone()], "pairs[1].name"),
+        // The same file under another name, spelt with `./`.
+        (
+            vec![
+                first.clone(),
+                serde_json::json!({"name": second["name"], "file": format!("./{}", first["file"].as_str().unwrap())}),
+            ],
+            "pairs[1].file",
+        ),
+    ];
+    for (k, (entries, field)) in variants.into_iter().enumerate() {
+        let mut bad = index.clone();
+        bad["pairs"] = serde_json::Value::Array(entries);
+        std::fs::write(&index_path, bad.to_string()).unwrap();
+        let err = refused(
+            &[
+                "eval",
+                "clustering",
+                "--method",
+                "crf",
+                "--pairs",
+                &ds,
+                "--associations",
+                "icp",
+            ],
+            &["index.json", field, "listed once"],
+        );
+        assert!(err.contains("pairs[0]"), "case {k}: {err}");
+    }
+}

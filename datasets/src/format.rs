@@ -155,6 +155,35 @@ fn index_from_value(index_path: &Path, value: serde_json::Value) -> Result<Index
             });
         }
     }
+    // One entry per pair: a repeated name or file would be read, and scored, twice.
+    let mut names = std::collections::HashMap::new();
+    let mut files = std::collections::HashMap::new();
+    for (k, entry) in index.pairs.iter().enumerate() {
+        let file = Path::new(&entry.file)
+            .components()
+            .filter(|c| !matches!(c, std::path::Component::CurDir))
+            .collect::<std::path::PathBuf>();
+        for (seen, key, field, value) in [
+            (
+                &mut names,
+                std::path::PathBuf::from(&entry.name),
+                "name",
+                &entry.name,
+            ),
+            (&mut files, file, "file", &entry.file),
+        ] {
+            if let Some(first) = seen.insert(key, k) {
+                return Err(Error::Invalid {
+                    path: index_path.to_path_buf(),
+                    field: format!("pairs[{k}].{field}"),
+                    problem: format!(
+                        "`{value}` is already the {field} of pairs[{first}]: each pair is \
+                         listed once"
+                    ),
+                });
+            }
+        }
+    }
     Ok(index)
 }
 
