@@ -8,7 +8,7 @@
 //! with `#` are skipped. Time stamps, translations and angles beyond
 //! [`limits`](crate::error::limits) are errors naming file, line and field.
 
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::text::{read_text, Fields};
 use pgm_scan::Pose2;
 use std::path::Path;
@@ -55,6 +55,16 @@ pub fn parse_relations(path: &Path, text: &str) -> Result<Vec<Relation>> {
                 _ => fields.heading(k, name, NAMES.len())?,
             };
         }
+        if (values[0] - values[1]).abs() < SAME_SCAN {
+            return Err(Error::Invalid {
+                path: path.to_path_buf(),
+                field: format!("line {}: t2", fields.line),
+                problem: format!(
+                    "{} is t1 ({}): a relation between a scan and itself",
+                    values[1], values[0]
+                ),
+            });
+        }
         relations.push(Relation {
             t1: values[0],
             t2: values[1],
@@ -63,4 +73,52 @@ pub fn parse_relations(path: &Path, text: &str) -> Result<Vec<Relation>> {
         });
     }
     Ok(relations)
+}
+
+/// Stamps closer than this (s) name the same scan (the data README's matching
+/// tolerance).
+const SAME_SCAN: f64 = 1e-4;
+
+/// `relations` with each pair of scans once: a relation that repeats an earlier one
+/// (both stamps within 1e-4 s) with the same motion (within 1e-9) is dropped, and its
+/// line and the first one's are returned, so that it is not scored twice (mit-csail's
+/// lines 1098 and 1099 are one relation written twice).
+///
+/// # Errors
+/// [`Error::Invalid`] naming both lines when a repeated relation has another motion:
+/// the file says two things of one pair of scans.
+pub fn dedupe_relations(
+    path: &Path,
+    relations: Vec<Relation>,
+) -> Result<(Vec<Relation>, Vec<(usize, usize)>)> {
+    let key = |t: f64| (t / SAME_SCAN).round() as i64;
+    let mut seen: std::collections::HashMap<(i64, i64), usize> = std::collections::HashMap::new();
+    let mut kept: Vec<Relation> = Vec::with_capacity(relations.len());
+    let mut dropped = Vec::new();
+    for r in relations {
+        match seen.get(&(key(r.t1), key(r.t2))) {
+            Some(&k) => {
+                let first = &kept[k];
+                let same = first.motion.translation_error(&r.motion) < 1e-9
+                    && first.motion.rotation_error(&r.motion) < 1e-9;
+                if !same {
+                    return Err(Error::Invalid {
+                        path: path.to_path_buf(),
+                        field: format!("line {}", r.line),
+                        problem: format!(
+                            "the relation between {} and {} is also on line {} with another \
+                             motion",
+                            r.t1, r.t2, first.line
+                        ),
+                    });
+                }
+                dropped.push((first.line, r.line));
+            }
+            None => {
+                seen.insert((key(r.t1), key(r.t2)), kept.len());
+                kept.push(r);
+            }
+        }
+    }
+    Ok((kept, dropped))
 }

@@ -236,7 +236,16 @@ impl PairSource {
                 if carmen_log.scans.is_empty() {
                     return Err(no_scans(log, "FLASER / ROBOTLASER1", &carmen_log.skipped));
                 }
-                let rels = relations::read_relations(relations)?;
+                let (rels, repeated) =
+                    relations::dedupe_relations(relations, relations::read_relations(relations)?)?;
+                if let Some((first, again)) = repeated.first() {
+                    notes.push(format!(
+                        "{}: {} relation(s) repeat an earlier one with the same motion and are \
+                         scored once (first: line {again} repeats line {first})",
+                        relations.display(),
+                        repeated.len()
+                    ));
+                }
                 let options = RelationPairOptions {
                     name: file_stem(log),
                     ..Default::default()

@@ -378,3 +378,27 @@ fn a_log_without_vertex2_gives_consecutive_pairs_without_ground_truth() {
     assert!((prior(0).x() - 0.1).abs() < 1e-9, "{:?}", prior(0));
     assert!((prior(1).x() - 0.2).abs() < 1e-9, "{:?}", prior(1));
 }
+
+/// A relation between a scan and itself is an error naming its line; a relation
+/// written twice is scored once (mit-csail lists one twice), and one repeated with
+/// another motion is an error naming both lines.
+#[test]
+fn relations_to_itself_and_repeated_relations() {
+    use pgm_datasets::relations::{dedupe_relations, parse_relations};
+    let path = std::path::Path::new("r.relations");
+    let err = parse_relations(path, "10.0 10.00001 0.1 0 0 0 0 0.01\n").unwrap_err();
+    let text = err.to_string();
+    assert!(text.contains("line 1") && text.contains("itself"), "{text}");
+    let twice =
+        "10.0 11.0 0.1 0 0 0 0 0.01\n12.0 13.0 0.2 0 0 0 0 0.0\n10.0 11.0 0.1 0 0 0 0 0.01\n";
+    let (kept, dropped) = dedupe_relations(path, parse_relations(path, twice).unwrap()).unwrap();
+    assert_eq!(kept.len(), 2);
+    assert_eq!(dropped, vec![(1, 3)]);
+    let conflicting = "10.0 11.0 0.1 0 0 0 0 0.01\n10.0 11.0 0.3 0 0 0 0 0.01\n";
+    let err = dedupe_relations(path, parse_relations(path, conflicting).unwrap()).unwrap_err();
+    let text = err.to_string();
+    assert!(
+        text.contains("line 2") && text.contains("line 1") && text.contains("another motion"),
+        "{text}"
+    );
+}
