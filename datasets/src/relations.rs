@@ -87,10 +87,7 @@ const SAME_SCAN: f64 = 1e-4;
 /// # Errors
 /// [`Error::Invalid`] naming both lines when a repeated relation has another motion:
 /// the file says two things of one pair of scans.
-pub fn dedupe_relations(
-    path: &Path,
-    relations: Vec<Relation>,
-) -> Result<(Vec<Relation>, Vec<(usize, usize)>)> {
+pub fn dedupe_relations(path: &Path, relations: Vec<Relation>) -> Result<Deduplicated> {
     let key = |t: f64| (t / SAME_SCAN).round() as i64;
     let mut seen: std::collections::HashMap<(i64, i64), usize> = std::collections::HashMap::new();
     let mut kept: Vec<Relation> = Vec::with_capacity(relations.len());
@@ -120,5 +117,17 @@ pub fn dedupe_relations(
             }
         }
     }
-    Ok((kept, dropped))
+    Ok(Deduplicated {
+        relations: kept,
+        repeated: dropped,
+    })
+}
+
+/// What [`dedupe_relations`] kept and dropped.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Deduplicated {
+    /// Each pair of scans once, in file order.
+    pub relations: Vec<Relation>,
+    /// `(first line, repeating line)` of each relation dropped.
+    pub repeated: Vec<(usize, usize)>,
 }

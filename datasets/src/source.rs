@@ -236,8 +236,10 @@ impl PairSource {
                 if carmen_log.scans.is_empty() {
                     return Err(no_scans(log, "FLASER / ROBOTLASER1", &carmen_log.skipped));
                 }
-                let (rels, repeated) =
-                    relations::dedupe_relations(relations, relations::read_relations(relations)?)?;
+                let relations::Deduplicated {
+                    relations: rels,
+                    repeated,
+                } = relations::dedupe_relations(relations, relations::read_relations(relations)?)?;
                 if let Some((first, again)) = repeated.first() {
                     notes.push(format!(
                         "{}: {} relation(s) repeat an earlier one with the same motion and are \

@@ -391,9 +391,9 @@ fn relations_to_itself_and_repeated_relations() {
     assert!(text.contains("line 1") && text.contains("itself"), "{text}");
     let twice =
         "10.0 11.0 0.1 0 0 0 0 0.01\n12.0 13.0 0.2 0 0 0 0 0.0\n10.0 11.0 0.1 0 0 0 0 0.01\n";
-    let (kept, dropped) = dedupe_relations(path, parse_relations(path, twice).unwrap()).unwrap();
-    assert_eq!(kept.len(), 2);
-    assert_eq!(dropped, vec![(1, 3)]);
+    let once = dedupe_relations(path, parse_relations(path, twice).unwrap()).unwrap();
+    assert_eq!(once.relations.len(), 2);
+    assert_eq!(once.repeated, vec![(1, 3)]);
     let conflicting = "10.0 11.0 0.1 0 0 0 0 0.01\n10.0 11.0 0.3 0 0 0 0 0.01\n";
     let err = dedupe_relations(path, parse_relations(path, conflicting).unwrap()).unwrap_err();
     let text = err.to_string();
