@@ -242,7 +242,12 @@ impl EgoMotion {
                 }
             }
         }
-        if best.source == EgoSource::Predicted && !self.feasible(&best.motion, dt) {
+        // An infeasible prediction is no prediction; measured odometry is kept (the
+        // platform drove it, whatever the configured limits say).
+        if best.source == EgoSource::Predicted
+            && prior_source != EgoSource::Odometry
+            && !self.feasible(&best.motion, dt)
+        {
             best.motion = Pose2::identity();
         }
         self.velocity = (dt > 0.0).then_some((best.motion, dt));
