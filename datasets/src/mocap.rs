@@ -207,7 +207,7 @@ pub fn laser_pose(
         .map(|e| e.compose(mount))
 }
 
-fn labels(
+pub(crate) fn labels(
     scan: &Scan,
     laser: &Pose2,
     object: Option<(&Pose2, &Footprint)>,

@@ -165,16 +165,15 @@ pub fn mocap_object(
         (None, None) => None,
     };
     let c = laser.inverse().transform_point(&centre_at(&pose));
-    let returns = (0..scan.len())
-        .filter(|&k| {
-            scan.valid[k]
-                && object.footprint.contains(
-                    &pose,
-                    &laser.transform_point(&scan.beam_point(k)),
-                    options.label_margin,
-                )
-        })
-        .count();
+    let returns = crate::mocap::labels(
+        scan,
+        &laser,
+        Some((&pose, &object.footprint)),
+        options.label_margin,
+    )
+    .iter()
+    .filter(|l| **l == Some(1))
+    .count();
     Some(ObjectCentre {
         id: MOCAP_OBJECT_ID,
         x: c.x,
