@@ -776,6 +776,7 @@ fn real_data(dir: &std::path::Path) -> Result<(), String> {
                         k,
                         ..LeighPairOptions::default()
                     },
+                    clock: Default::default(),
                 };
                 let pairs = source.load().map_err(|e| format!("{source}: {e}"))?.pairs;
                 detection(
@@ -803,6 +804,7 @@ fn real_data(dir: &std::path::Path) -> Result<(), String> {
                 people: None,
                 ego_pose: Some("/ego_pose".into()),
                 object_pose: Some("/red_pose".into()),
+                clock: Default::default(),
             },
             options: BagPairOptions {
                 k: 3,

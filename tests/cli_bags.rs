@@ -348,3 +348,67 @@ fn leigh_bag_and_text_export_give_the_same_data_set() {
         "{x:?} {y:?}"
     );
 }
+
+/// The drive with the header stamps of scans 8 (a repeat of scan 7's) and 14 (0.5 s
+/// back) broken, record times untouched.
+fn drive_with_broken_stamps(n: usize) -> Vec<pgm_datasets::bag::synthetic::Record> {
+    use pgm_datasets::bag::synthetic::Msg;
+    let mut records = drive(n);
+    let (mut previous, mut k) = (0, 0);
+    for r in records.iter_mut().filter(|r| r.topic == "/scan") {
+        if let Msg::Scan { stamp_ns, .. } = &mut r.msg {
+            let original = *stamp_ns;
+            match k {
+                8 => *stamp_ns = previous,
+                14 => *stamp_ns -= 500_000_000,
+                _ => {}
+            }
+            previous = original;
+        }
+        k += 1;
+    }
+    records
+}
+
+#[test]
+fn header_stamps_at_fault_are_noted_and_the_track_stays_one_sequence() {
+    let dir = temp_dir("stamps");
+    let bag = write_bytes(&dir, "broken.bag", &ros1_bag(&drive_with_broken_stamps(20)));
+    let base = [
+        "track",
+        "--method",
+        "cbd",
+        "--bag",
+        &bag,
+        "--scan-topic",
+        "/scan",
+        "--odom-topic",
+        "/odom",
+    ];
+    let (stdout, stderr) = ok(&base);
+    assert!(
+        stderr.contains("/scan message 9") && stderr.contains("record times"),
+        "{stderr}"
+    );
+    let v = json(&stdout);
+    let scans = v["scans"].as_array().unwrap();
+    assert_eq!(scans.len(), 20);
+    assert!(
+        scans.iter().all(|s| s["sequence"] == 0),
+        "a stamp at fault must not break the sequence: {stdout}"
+    );
+    let times: Vec<f64> = scans.iter().map(|s| s["time"].as_f64().unwrap()).collect();
+    assert!(times.windows(2).all(|w| w[1] > w[0]), "{times:?}");
+    // `--stamps header` refuses the bag naming the message; nonsense is refused too.
+    refused(
+        &[&base[..], &["--stamps", "header"]].concat(),
+        &["/scan", "message 9", "header.stamp", "repeats"],
+    );
+    refused(
+        &[&base[..], &["--stamps", "sensor"]].concat(),
+        &["\"sensor\"", "auto, header, record"],
+    );
+    // `--stamps record`: the same scans as the default on this bag.
+    let (record, _) = ok(&[&base[..], &["--stamps", "record"]].concat());
+    assert_eq!(json(&record)["scans"], v["scans"]);
+}

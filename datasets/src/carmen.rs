@@ -72,6 +72,7 @@
 //! otherwise is described with [`CarmenOptions::front_laser_start`].
 
 use crate::error::{limits, Error, Result};
+use crate::stamps::{self, StampClock};
 use crate::text::{read_text, Fields};
 use pgm_scan::{Pose2, Scan};
 use std::collections::BTreeMap;
@@ -90,6 +91,9 @@ pub struct CarmenOptions {
     pub front_laser_resolution: Option<f64>,
     /// Angle of the first FLASER beam in degrees (default −90, CARMEN's).
     pub front_laser_start: Option<f64>,
+    /// Which clock places the laser and `ODOM` lines in time ([`crate::stamps`]):
+    /// `ipc_timestamp` is the header stamp, `logger_timestamp` the record time.
+    pub clock: StampClock,
 }
 
 impl Default for CarmenOptions {
@@ -99,6 +103,7 @@ impl Default for CarmenOptions {
             front_laser_fov: None,
             front_laser_resolution: None,
             front_laser_start: None,
+            clock: StampClock::Auto,
         }
     }
 }
@@ -219,10 +224,13 @@ pub fn beam_geometry(
 /// A laser scan of the log with where it came from.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LogScan {
-    /// The scan (timestamp = `ipc_timestamp`).
+    /// The scan (timestamp = `ipc_timestamp`, or `logger_timestamp` when the clock
+    /// rule chose record times: [`CarmenLog::clock`]).
     pub scan: Scan,
     /// 1-based line number of the laser line.
     pub line: usize,
+    /// `logger_timestamp` (s).
+    pub record_time: f64,
     /// The `VERTEX2` line right before this scan, if any.
     pub vertex: Option<Vertex>,
 }
@@ -241,8 +249,10 @@ pub struct Vertex {
 /// An `ODOM` record.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct OdometryRecord {
-    /// `ipc_timestamp` in seconds.
+    /// `ipc_timestamp` in seconds (or `logger_timestamp`: [`CarmenLog::clock`]).
     pub timestamp: f64,
+    /// `logger_timestamp` in seconds.
+    pub record_time: f64,
     /// Odometry pose of the robot.
     pub pose: Pose2,
     /// 1-based line number.
@@ -273,6 +283,11 @@ pub struct CarmenLog {
     pub vertices: Vec<Vertex>,
     /// Number of skipped lines per first word.
     pub skipped: BTreeMap<String, usize>,
+    /// The clock the time stamps are on: `ipc_timestamp` ([`StampClock::Header`]) or
+    /// `logger_timestamp` ([`StampClock::Record`]), by the rule of [`crate::stamps`].
+    pub clock: StampClock,
+    /// Notes for the user (time stamps at fault), each naming the file.
+    pub notes: Vec<String>,
 }
 
 impl CarmenLog {
@@ -414,6 +429,7 @@ pub fn parse_carmen(path: &Path, text: &str, options: CarmenOptions) -> Result<C
     let front = front_laser(path, &log.params, options)?;
     log.flaser_geometry = front.source;
     let mut pending_vertex: Option<Vertex> = None;
+    let mut vertex_lines: BTreeMap<u64, usize> = BTreeMap::new();
     for (index, line_text) in text.lines().enumerate() {
         let fields = Fields::new(path, index + 1, line_text);
         let Some(kind) = fields.tokens.first().copied() else {
@@ -421,32 +437,116 @@ pub fn parse_carmen(path: &Path, text: &str, options: CarmenOptions) -> Result<C
         };
         match kind {
             "PARAM" => {}
-            "FLASER" => {
-                let scan = parse_flaser(&fields, options, &front)?;
+            "FLASER" | "ROBOTLASER1" => {
+                let (scan, record_time) = if kind == "FLASER" {
+                    parse_flaser(&fields, options, &front)?
+                } else {
+                    parse_robotlaser1(&fields)?
+                };
                 log.scans.push(LogScan {
                     scan,
                     line: fields.line,
-                    vertex: pending_vertex.take(),
-                });
-            }
-            "ROBOTLASER1" => {
-                let scan = parse_robotlaser1(&fields)?;
-                log.scans.push(LogScan {
-                    scan,
-                    line: fields.line,
+                    record_time,
                     vertex: pending_vertex.take(),
                 });
             }
             "ODOM" => log.odometry.push(parse_odom(&fields)?),
             "VERTEX2" => {
                 let vertex = parse_vertex(&fields)?;
+                if let Some(&first) = vertex_lines.get(&vertex.id) {
+                    return Err(fields.error(
+                        "id",
+                        fields.tokens[1],
+                        format!(
+                            "vertex {} is already defined on line {first} (a pose graph's \
+                             vertex ids are unique)",
+                            vertex.id
+                        ),
+                    ));
+                }
+                vertex_lines.insert(vertex.id, vertex.line);
                 log.vertices.push(vertex);
                 pending_vertex = Some(vertex);
             }
             other => *log.skipped.entry(other.to_string()).or_insert(0) += 1,
         }
     }
+    place_by_clock(path, &mut log, options.clock)?;
     Ok(log)
+}
+
+/// Checks the `ipc_timestamp`s of the laser lines and of the `ODOM` lines in file order
+/// and places both by the clock `rule` chooses ([`crate::stamps`]): the
+/// `logger_timestamp`s when the ipc stamps are at fault and the logger's are not
+/// going backwards; an error under [`StampClock::Header`].
+fn place_by_clock(path: &Path, log: &mut CarmenLog, rule: StampClock) -> Result<()> {
+    let streams = [
+        (
+            "laser lines",
+            log.scans
+                .iter()
+                .map(|s| (s.line, s.scan.timestamp, s.record_time))
+                .collect::<Vec<_>>(),
+        ),
+        (
+            "ODOM lines",
+            log.odometry
+                .iter()
+                .map(|o| (o.line, o.timestamp, o.record_time))
+                .collect(),
+        ),
+    ];
+    let faults: Vec<(&str, usize, crate::stamps::StampFaults)> = streams
+        .iter()
+        .filter_map(|(what, s)| {
+            stamps::stamp_faults(s.iter().map(|x| x.1)).map(|f| (*what, s[f.first.at].0, f))
+        })
+        .collect();
+    let record_usable = streams
+        .iter()
+        .all(|(_, s)| stamps::non_decreasing(s.iter().map(|x| x.2)));
+    let clock = stamps::chosen(rule, !faults.is_empty(), record_usable);
+    for (k, (what, line, f)) in faults.iter().enumerate() {
+        let problem = format!(
+            "ipc_timestamp: {} ({} of the {} {what} have a time stamp that is zero, repeated or \
+             goes backwards in file order)",
+            f.first, f.count, f.total
+        );
+        if rule == StampClock::Header {
+            return Err(Error::Field {
+                path: path.to_path_buf(),
+                line: *line,
+                field: "ipc_timestamp".into(),
+                value: f.first.stamp.to_string(),
+                problem: format!(
+                    "{problem}; with record times (clock `record` or `auto`) the log can be read"
+                ),
+            });
+        }
+        if k == 0 || clock != StampClock::Header {
+            log.notes.push(format!(
+                "{}: line {line}: {problem}: {}",
+                path.display(),
+                match clock {
+                    StampClock::Record => "every line is placed by its logger_timestamp",
+                    _ if record_usable => "the ipc stamps are kept",
+                    _ =>
+                        "logger_timestamp goes backwards too: the ipc stamps are kept, in file \
+                          order",
+                }
+            ));
+        }
+    }
+    if clock == StampClock::Record {
+        for s in &mut log.scans {
+            s.scan.timestamp = s.record_time;
+        }
+        for o in &mut log.odometry {
+            o.timestamp = o.record_time;
+        }
+    }
+    log.clock = clock;
+    Ok(())
 }
 
 /// Parses `n` ranges starting at token `first`; a return when `0 < r < max_range`;
@@ -527,7 +627,11 @@ const FLASER_TAIL: [&str; 9] = [
     "logger_timestamp",
 ];
 
-fn parse_flaser(fields: &Fields<'_>, options: CarmenOptions, front: &FrontLaser) -> Result<Scan> {
+fn parse_flaser(
+    fields: &Fields<'_>,
+    options: CarmenOptions,
+    front: &FrontLaser,
+) -> Result<(Scan, f64)> {
     let n = fields.count_on_line(1, "n", 2, FLASER_TAIL.len())?;
     require_beams(fields, 1, n)?;
     let expected = 2 + n + FLASER_TAIL.len();
@@ -543,7 +647,7 @@ fn parse_flaser(fields: &Fields<'_>, options: CarmenOptions, front: &FrontLaser)
     let laser = parse_pose(fields, t, ["x", "y", "theta"], expected)?;
     let odometry = parse_pose(fields, t + 3, ["odom_x", "odom_y", "odom_theta"], expected)?;
     let timestamp = fields.timestamp(t + 6, "ipc_timestamp", expected)?;
-    fields.timestamp(t + 8, "logger_timestamp", expected)?;
+    let record_time = fields.timestamp(t + 8, "logger_timestamp", expected)?;
     let geometry = beam_geometry(
         n,
         front.fov.map(|f| f.0),
@@ -572,7 +676,7 @@ fn parse_flaser(fields: &Fields<'_>, options: CarmenOptions, front: &FrontLaser)
     let angles = (0..n)
         .map(|k| geometry.start + k as f64 * geometry.increment)
         .collect();
-    Ok(Scan {
+    let scan = Scan {
         timestamp,
         angles,
         ranges,
@@ -580,7 +684,8 @@ fn parse_flaser(fields: &Fields<'_>, options: CarmenOptions, front: &FrontLaser)
         max_range: options.flaser_max_range,
         odometry: Some(odometry),
         laser_offset: odometry.between(&laser),
-    })
+    };
+    Ok((scan, record_time))
 }
 
 const ROBOTLASER1_TAIL: [&str; 14] = [
@@ -600,7 +705,7 @@ const ROBOTLASER1_TAIL: [&str; 14] = [
     "logger_timestamp",
 ];
 
-fn parse_robotlaser1(fields: &Fields<'_>) -> Result<Scan> {
+fn parse_robotlaser1(fields: &Fields<'_>) -> Result<(Scan, f64)> {
     let head = 9;
     let start_angle = fields.bounded(
         2,
@@ -681,11 +786,11 @@ fn parse_robotlaser1(fields: &Fields<'_>) -> Result<Scan> {
         fields.finite(t + k, name, expected)?;
     }
     let timestamp = fields.timestamp(t + 11, "ipc_timestamp", expected)?;
-    fields.timestamp(t + 13, "logger_timestamp", expected)?;
+    let record_time = fields.timestamp(t + 13, "logger_timestamp", expected)?;
     let angles = (0..n)
         .map(|k| start_angle + k as f64 * resolution)
         .collect();
-    Ok(Scan {
+    let scan = Scan {
         timestamp,
         angles,
         ranges,
@@ -693,7 +798,8 @@ fn parse_robotlaser1(fields: &Fields<'_>) -> Result<Scan> {
         max_range,
         odometry: Some(robot),
         laser_offset: robot.between(&laser),
-    })
+    };
+    Ok((scan, record_time))
 }
 
 fn parse_odom(fields: &Fields<'_>) -> Result<OdometryRecord> {
@@ -715,9 +821,10 @@ fn parse_odom(fields: &Fields<'_>) -> Result<OdometryRecord> {
         fields.finite(k, name, NAMES.len())?;
     }
     let timestamp = fields.timestamp(7, "ipc_timestamp", NAMES.len())?;
-    fields.timestamp(9, "logger_timestamp", NAMES.len())?;
+    let record_time = fields.timestamp(9, "logger_timestamp", NAMES.len())?;
     Ok(OdometryRecord {
         timestamp,
+        record_time,
         pose,
         line: fields.line,
     })

@@ -26,6 +26,7 @@
 //! declares: `range_max` plus [`PERSON_REACH_MARGIN`].
 
 use crate::error::{limits, Error, Result};
+use crate::stamps::{self, StampClock};
 use crate::text::{read_text, Fields};
 use nalgebra::Point2;
 use pgm_scan::{Pose2, Scan};
@@ -52,6 +53,9 @@ pub struct IndexedScan {
     pub scan: Scan,
     /// 1-based line number.
     pub line: usize,
+    /// Record time (s): `stamp_bag_s` (a bag's record time for a bag read as a leigh
+    /// log).
+    pub record_time: f64,
 }
 
 /// A hand-annotated person centre.
@@ -74,6 +78,12 @@ pub struct LeighScans {
     pub scans: Vec<IndexedScan>,
     /// Number of skipped lines per first word.
     pub skipped: BTreeMap<String, usize>,
+    /// The clock the scans' `timestamp`s are on: `stamp_header_s`
+    /// ([`StampClock::Header`]) or `stamp_bag_s` ([`StampClock::Record`]), by the rule
+    /// of [`crate::stamps`].
+    pub clock: StampClock,
+    /// Notes for the user (header stamps at fault), each naming the file.
+    pub notes: Vec<String>,
 }
 
 impl LeighScans {
@@ -106,16 +116,81 @@ const SCAN_HEAD: [&str; 10] = [
     "n",
 ];
 
-/// Reads a `scans.txt` log.
+/// Reads a `scans.txt` log, its scans placed by [`StampClock::Auto`].
 pub fn read_scans(path: impl AsRef<Path>) -> Result<LeighScans> {
-    let path = path.as_ref();
-    let text = read_text(path)?;
-    parse_scans(path, &text)
+    read_scans_with(path, StampClock::Auto)
 }
 
-/// Parses the text of a `scans.txt` log; `path` is only used in error messages.
+/// Reads a `scans.txt` log, its scans placed by the clock `clock` chooses
+/// ([`crate::stamps`]).
+pub fn read_scans_with(path: impl AsRef<Path>, clock: StampClock) -> Result<LeighScans> {
+    let path = path.as_ref();
+    let text = read_text(path)?;
+    parse_scans_with(path, &text, clock)
+}
+
+/// Parses the text of a `scans.txt` log ([`StampClock::Auto`]); `path` is only used
+/// in error messages.
 pub fn parse_scans(path: &Path, text: &str) -> Result<LeighScans> {
-    let mut out = LeighScans::default();
+    parse_scans_with(path, text, StampClock::Auto)
+}
+
+/// Parses the text of a `scans.txt` log, the scans placed by the clock `clock`
+/// chooses: `stamp_header_s` unless those are zero, repeated or go backwards in file
+/// order, then `stamp_bag_s` when it does not go backwards ([`crate::stamps`]);
+/// `path` is only used in messages.
+///
+/// # Errors
+/// As [`parse_scans`]; under [`StampClock::Header`] a stamp at fault, naming its line.
+pub fn parse_scans_with(path: &Path, text: &str, clock: StampClock) -> Result<LeighScans> {
+    let mut out = parse_scan_lines(path, text)?;
+    let faults = stamps::stamp_faults(out.scans.iter().map(|s| s.scan.timestamp));
+    let record_usable = stamps::non_decreasing(out.scans.iter().map(|s| s.record_time));
+    let used = stamps::chosen(clock, faults.is_some(), record_usable);
+    if let Some(f) = faults {
+        let at = &out.scans[f.first.at];
+        let what = format!(
+            "stamp_header_s: {} ({} of {} header stamps are zero, repeated or go backwards)",
+            f.first, f.count, f.total
+        );
+        if clock == StampClock::Header {
+            return Err(Error::Field {
+                path: path.to_path_buf(),
+                line: at.line,
+                field: "stamp_header_s".into(),
+                value: at.scan.timestamp.to_string(),
+                problem: format!(
+                    "{what}; with record times (clock `record` or `auto`) the log can be read"
+                ),
+            });
+        }
+        out.notes.push(format!(
+            "{}: line {}: {what}: {}",
+            path.display(),
+            at.line,
+            match (used, record_usable) {
+                (StampClock::Record, _) => "every scan is placed by stamp_bag_s".to_string(),
+                (_, false) => "stamp_bag_s goes backwards too: the header stamps are kept, \
+                               in file order"
+                    .to_string(),
+                _ => "the header stamps are kept".to_string(),
+            }
+        ));
+    }
+    if used == StampClock::Record {
+        for s in &mut out.scans {
+            s.scan.timestamp = s.record_time;
+        }
+    }
+    out.clock = used;
+    Ok(out)
+}
+
+fn parse_scan_lines(path: &Path, text: &str) -> Result<LeighScans> {
+    let mut out = LeighScans {
+        clock: StampClock::Header,
+        ..LeighScans::default()
+    };
     for (line, line_text) in lines(text) {
         let f = Fields::new(path, line, line_text);
         if f.tokens[0] != "SCAN" {
@@ -125,7 +200,7 @@ pub fn parse_scans(path: &Path, text: &str) -> Result<LeighScans> {
         let head = SCAN_HEAD.len();
         let index = f.count(1, "idx", head)?;
         let timestamp = f.timestamp(2, "stamp_header_s", head)?;
-        f.timestamp(3, "stamp_bag_s", head)?;
+        let record_time = f.timestamp(3, "stamp_bag_s", head)?;
         f.raw(4, "frame", head)?;
         let angle_min = f.bounded(
             5,
@@ -230,6 +305,7 @@ pub fn parse_scans(path: &Path, text: &str) -> Result<LeighScans> {
                 laser_offset: laser_offset(),
             },
             line,
+            record_time,
         });
     }
     Ok(out)

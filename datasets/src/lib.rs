@@ -41,6 +41,7 @@ pub mod pair;
 pub mod relations;
 pub mod sim;
 pub mod source;
+pub mod stamps;
 pub mod testdata;
 mod text;
 pub mod tracking_truth;

@@ -27,6 +27,7 @@ use crate::builders::{
 };
 use crate::carmen::CarmenOptions;
 use crate::error::Result;
+use crate::stamps::StampClock;
 use crate::tracking_truth::{
     bag_objects, leigh_objects, leigh_what, stored_objects, TrackingTruth,
 };
@@ -87,6 +88,8 @@ pub enum PairSource {
         odometry: Option<PathBuf>,
         /// The builder's options (`k`, thresholds, labelling rule).
         options: LeighPairOptions,
+        /// Which clock places the scans in time ([`crate::stamps`]).
+        clock: StampClock,
     },
     /// A ROS bag (ROS 1, MCAP, a ROS 2 bag directory, or one of them zipped): pairs
     /// `k` scans apart with the ground truth its topics give ([`crate::bag::pairs`]).
@@ -186,16 +189,18 @@ fn no_scans(path: &Path, lines: &str, skipped: &BTreeMap<String, usize>) -> crat
     }
 }
 
-/// Reads leigh-gtm1 scans (with odometry when given) and annotations; notes on skipped
-/// lines go to `notes`.
+/// Reads leigh-gtm1 scans (with odometry when given, placed by the clock `clock`
+/// chooses) and annotations; notes on skipped lines and stamps go to `notes`.
 pub fn read_leigh(
     scans: &Path,
     people: &Path,
     odometry: Option<&Path>,
+    clock: StampClock,
     notes: &mut Vec<String>,
 ) -> Result<(leigh::LeighScans, Vec<leigh::PersonAnnotation>)> {
-    let mut log = leigh::read_scans(scans)?;
+    let mut log = leigh::read_scans_with(scans, clock)?;
     notes.extend(skipped_note(scans, &log.skipped));
+    notes.extend(log.notes.iter().cloned());
     if log.scans.is_empty() {
         return Err(no_scans(scans, "SCAN", &log.skipped));
     }
@@ -233,6 +238,7 @@ impl PairSource {
             } => {
                 let carmen_log = carmen::read_carmen_with(log, *options)?;
                 notes.extend(skipped_note(log, &carmen_log.skipped));
+                notes.extend(carmen_log.notes.iter().cloned());
                 if carmen_log.scans.is_empty() {
                     return Err(no_scans(log, "FLASER / ROBOTLASER1", &carmen_log.skipped));
                 }
@@ -269,6 +275,7 @@ impl PairSource {
             PairSource::ConsecutiveLog { log: path, options } => {
                 let log = carmen::read_carmen_with(path, *options)?;
                 notes.extend(skipped_note(path, &log.skipped));
+                notes.extend(log.notes.iter().cloned());
                 if log.scans.is_empty() {
                     return Err(no_scans(path, "FLASER / ROBOTLASER1", &log.skipped));
                 }
@@ -303,9 +310,10 @@ impl PairSource {
                 people,
                 odometry,
                 options,
+                clock,
             } => {
                 let (log, annotations) =
-                    read_leigh(scans, people, odometry.as_deref(), &mut notes)?;
+                    read_leigh(scans, people, odometry.as_deref(), *clock, &mut notes)?;
                 let pairs = leigh_pairs(&log, &annotations, options).map_err(|e| {
                     crate::Error::Mismatch {
                         what: format!("{}: {e}", scans.display()),
@@ -362,10 +370,11 @@ impl PairSource {
                 people,
                 odometry,
                 options,
+                clock,
             } => {
                 let mut notes = Vec::new();
                 let (log, annotations) =
-                    read_leigh(scans, people, odometry.as_deref(), &mut notes)?;
+                    read_leigh(scans, people, odometry.as_deref(), *clock, &mut notes)?;
                 let objects = leigh_objects(&log, &annotations, options, &mut notes);
                 Ok(TrackingTruth {
                     scans: objects

@@ -498,6 +498,7 @@ fn leigh_bag_gives_the_pairs_of_its_text_export() {
                 people: d.join("people_gt.txt"),
                 odometry: Some(d.join("odom_at_scan.txt")),
                 options: leigh.clone(),
+                clock: Default::default(),
             }
             .load()
             .unwrap()

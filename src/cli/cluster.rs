@@ -243,6 +243,7 @@ fn load_pair(args: &OnePairArgs) -> Result<ScanPair, CliError> {
             front_laser_fov: args.laser_fov,
             front_laser_resolution: args.laser_resolution,
             front_laser_start: args.laser_start,
+            clock: args.bag.stamps,
             ..Default::default()
         };
         let log = pgm_datasets::carmen::read_carmen_with(path, options)

@@ -36,6 +36,7 @@ use pgm_datasets::builders::{
 };
 use pgm_datasets::mocap::{Footprint, MocapOptions};
 use pgm_datasets::source::{read_leigh, LoadedPairs, PairSource};
+use pgm_datasets::stamps::StampClock;
 use pgm_datasets::{carmen, leigh};
 use pgm_scan::Pose2;
 use std::path::{Path, PathBuf};
@@ -109,6 +110,17 @@ pub struct BagArgs {
     /// the two scans, else its returns are static background (0: always a mover).
     #[arg(long, requires = "bag", default_value_t = MocapOptions::default().object_min_speed, hide_short_help = true)]
     pub object_min_speed: f64,
+    /// Which clock places the messages of a bag, a leigh-gtm1 text log or a CARMEN log
+    /// in time: `auto` uses the header stamps (CARMEN: ipc_timestamp) unless a
+    /// topic's are zero, repeated or go backwards, then the record times (CARMEN:
+    /// logger_timestamp) for every topic; `header` refuses such stamps; `record` always
+    /// uses record times.
+    #[arg(long, default_value_t = StampClock::Auto, value_parser = parse_clock, hide_short_help = true)]
+    pub stamps: StampClock,
+}
+
+pub(super) fn parse_clock(text: &str) -> Result<StampClock, String> {
+    text.parse()
 }
 
 impl Default for BagArgs {
@@ -125,6 +137,7 @@ impl Default for BagArgs {
             object_footprint: None,
             label_margin: MocapOptions::default().label_margin,
             object_min_speed: MocapOptions::default().object_min_speed,
+            stamps: StampClock::Auto,
         }
     }
 }
@@ -182,6 +195,7 @@ impl BagArgs {
             people: self.people_topic.clone(),
             ego_pose: self.ego_pose_topic.clone(),
             object_pose: self.object_pose_topic.clone(),
+            clock: self.stamps,
         })
     }
 
@@ -338,6 +352,7 @@ impl SourceArgs {
             front_laser_fov: self.laser.laser_fov,
             front_laser_resolution: self.laser.laser_resolution,
             front_laser_start: self.laser.laser_start,
+            clock: self.bag.stamps,
             ..Default::default()
         }
     }
@@ -550,6 +565,7 @@ pub fn pair_source(
         people: people.clone(),
         odometry: source.odometry.clone(),
         options: leigh,
+        clock: source.bag.stamps,
     })
 }
 
@@ -629,8 +645,14 @@ fn leigh_log(
                     .into(),
             ));
         };
-        let (log, annotations) = read_leigh(scans, people, source.odometry.as_deref(), &mut notes)
-            .map_err(CliError::from_display)?;
+        let (log, annotations) = read_leigh(
+            scans,
+            people,
+            source.odometry.as_deref(),
+            source.bag.stamps,
+            &mut notes,
+        )
+        .map_err(CliError::from_display)?;
         (log, annotations, scans.display().to_string())
     };
     for note in &notes {

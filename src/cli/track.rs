@@ -20,7 +20,8 @@
 //! longest sequence ([`pgm::plot::TrackPicture`]).
 
 use super::data::{
-    load_pairs, pair_source, parse_pose, BagArgs, CarmenLaserArgs, LeighArgs, SourceArgs,
+    load_pairs, pair_source, parse_clock, parse_pose, BagArgs, CarmenLaserArgs, LeighArgs,
+    SourceArgs,
 };
 use super::eval_clustering::MethodArgs;
 use super::online::{mode_name, scan_sequence, track_scans, NamedReport, OnlineArgs};
@@ -28,6 +29,7 @@ use super::{check_not_an_input, check_output_file, resolved_output, CliError, Cl
 use clap::Args;
 use nalgebra::Point2;
 use pgm::plot::{ObjectState, TrackPicture, TrackedScan};
+use pgm_datasets::stamps::StampClock;
 use pgm_scan::{ParamGuard, Pose2};
 use pgm_tracking::{TrackState, TrackingCounts, TrackingParams};
 use serde::Serialize;
@@ -97,6 +99,12 @@ pub struct SequenceSourceArgs {
     /// CARMEN FLASER lines: the laser's geometry.
     #[command(flatten)]
     pub laser: CarmenLaserArgs,
+    /// Which clock places the scans and the odometry in time: `auto` uses the header
+    /// stamps (CARMEN: ipc_timestamp) unless a topic's are zero, repeated or go
+    /// backwards, then the record times (CARMEN: logger_timestamp) for every topic;
+    /// `header` refuses such stamps; `record` always uses record times.
+    #[arg(long, default_value_t = StampClock::Auto, value_parser = parse_clock, hide_short_help = true)]
+    pub stamps: StampClock,
 }
 
 impl SequenceSourceArgs {
@@ -109,6 +117,7 @@ impl SequenceSourceArgs {
                 scan_topic: self.scan_topic.clone(),
                 odom_topic: self.odom_topic.clone(),
                 laser_mount: self.laser_mount,
+                stamps: self.stamps,
                 ..BagArgs::default()
             },
             log: self.log.clone(),

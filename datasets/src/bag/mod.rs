@@ -18,7 +18,9 @@
 //! (REP 117) are beams without a return, another negative range is an error; beam `k`
 //! lies at `angle_min + k · angle_increment`, and `angle_max` must agree with the last
 //! beam's angle to within one increment (beyond that the message is refused; within
-//! it the increment wins); a scan's time stamp is its header stamp; frame names lose
+//! it the increment wins); a scan's time stamp is its header stamp, unless a topic's
+//! header stamps are zero, repeated or go backwards, when every topic is placed by its
+//! record times ([`crate::stamps`], [`BagTopics::clock`]); frame names lose
 //! a leading `/`. `float32` values are widened through their shortest decimal form
 //! ([`decode::widen_f32`]), so a bag and a text export of it give the same ranges.
 //! Messages of each topic are ordered by record time (file order for equal times).
@@ -46,6 +48,7 @@ pub mod pairs;
 pub mod synthetic;
 
 use crate::error::{limits, Error, Result};
+use crate::stamps::{self, StampClock};
 use container::{read_container, BagFormat, RawMessage, ReadError, TopicInfo};
 use decode::{Decoder, Value};
 use msgdef::Definitions;
@@ -68,6 +71,9 @@ pub struct BagTopics {
     pub ego_pose: Option<String>,
     /// The true pose of a moving object (motion capture, `geometry_msgs/PoseStamped`).
     pub object_pose: Option<String>,
+    /// Which clock places the messages in time ([`crate::stamps`]): header stamps
+    /// unless a topic's are zero, repeated or go backwards (the default).
+    pub clock: StampClock,
 }
 
 impl BagTopics {
@@ -78,6 +84,91 @@ impl BagTopics {
             ..Default::default()
         }
     }
+}
+
+/// One topic's messages in record order: (topic, number and record time of each
+/// message, their header stamps).
+type StampStream = (String, Vec<(usize, f64)>, Vec<f64>);
+
+/// Checks each topic's header stamps in record order and places every message by the
+/// clock `log.read.clock` chooses ([`crate::stamps`]): the first fault is an error
+/// under [`StampClock::Header`], a note (and record times) under
+/// [`StampClock::Auto`].
+fn place_by_clock(path: &Path, log: &mut BagLog) -> Result<()> {
+    let mut streams: Vec<StampStream> = vec![(
+        log.read.scan.clone(),
+        log.scans.iter().map(|s| (s.number, s.time)).collect(),
+        log.scans.iter().map(|s| s.stamp).collect(),
+    )];
+    for (topic, track) in [
+        (&log.read.odometry, &log.odometry),
+        (&log.read.ego_pose, &log.ego_poses),
+        (&log.read.object_pose, &log.object_poses),
+    ] {
+        if let Some(topic) = topic {
+            streams.push((
+                topic.clone(),
+                track.iter().map(|p| (p.number, p.time)).collect(),
+                track.iter().map(|p| p.stamp).collect(),
+            ));
+        }
+    }
+    let faults: Vec<(&str, (usize, f64), stamps::StampFaults)> = streams
+        .iter()
+        .filter_map(|(topic, at, stamps)| {
+            stamps::stamp_faults(stamps.iter().copied())
+                .map(|f| (topic.as_str(), at[f.first.at], f))
+        })
+        .collect();
+    let clock = stamps::chosen(log.read.clock, !faults.is_empty(), true);
+    if let Some((topic, (number, time), f)) = faults.first() {
+        let what = format!(
+            "header {} ({} of {} stamps of the topic are zero, repeated or go backwards in \
+             record order)",
+            f.first, f.count, f.total
+        );
+        if log.read.clock == StampClock::Header {
+            return Err(bag_error(
+                path,
+                BagLocation {
+                    topic: topic.to_string(),
+                    message: *number,
+                    time: Some(*time),
+                    field: "header.stamp".into(),
+                },
+                format!("{what}; with record times (clock `record` or `auto`) the bag can be read"),
+            ));
+        }
+        if clock == StampClock::Record {
+            let others: Vec<String> = faults[1..]
+                .iter()
+                .map(|(t, _, f)| format!("{t} ({} of {})", f.count, f.total))
+                .collect();
+            log.notes.push(format!(
+                "{}: {topic} message {number} (record time {time} s): {what}{}: every topic is \
+                 placed by its record times",
+                path.display(),
+                if others.is_empty() {
+                    String::new()
+                } else {
+                    format!("; also {}", others.join(", "))
+                }
+            ));
+        }
+    }
+    if clock == StampClock::Record {
+        for s in &mut log.scans {
+            s.stamp = s.time;
+            s.scan.timestamp = s.time;
+        }
+        for track in [&mut log.odometry, &mut log.ego_poses, &mut log.object_poses] {
+            for p in track.iter_mut() {
+                p.stamp = p.time;
+            }
+        }
+    }
+    log.clock = clock;
+    Ok(())
 }
 
 /// The topics `/tf` and `/tf_static` are also read, for the laser's mounting.
@@ -163,6 +254,12 @@ pub struct BagLog {
     pub transforms: Vec<FrameTransform>,
     /// The topics read.
     pub read: BagTopics,
+    /// The clock the messages were placed by: [`StampClock::Header`] or
+    /// [`StampClock::Record`] ([`crate::stamps`]); every `stamp` and every scan's
+    /// `timestamp` is on it.
+    pub clock: StampClock,
+    /// Notes for the user (header stamps at fault), each naming the bag.
+    pub notes: Vec<String>,
 }
 
 impl BagLog {
@@ -608,6 +705,8 @@ pub fn read_bag(path: &Path, topics: &BagTopics) -> Result<BagLog> {
         people: Vec::new(),
         transforms: Vec::new(),
         read: topics.clone(),
+        clock: StampClock::Header,
+        notes: Vec::new(),
     };
     let mut decoders: BTreeMap<(String, String, String), Decoder> = BTreeMap::new();
     let mut callback = |m: RawMessage<'_>| -> Result<()> {
@@ -703,6 +802,10 @@ pub fn read_bag(path: &Path, topics: &BagTopics) -> Result<BagLog> {
     let by_time = |a: f64, b: f64| a.total_cmp(&b);
     log.scans.sort_by(|a, b| by_time(a.time, b.time));
     log.people.sort_by(|a, b| by_time(a.time, b.time));
+    for track in [&mut log.odometry, &mut log.ego_poses, &mut log.object_poses] {
+        track.sort_by(|a, b| by_time(a.time, b.time));
+    }
+    place_by_clock(path, &mut log)?;
     for track in [&mut log.odometry, &mut log.ego_poses, &mut log.object_poses] {
         track.sort_by(|a, b| by_time(a.stamp, b.stamp));
     }

@@ -150,8 +150,10 @@ pub fn odometry_track(log: &BagLog) -> Option<PoseTrack> {
 }
 
 /// The bag's scans with the mounting set and the odometry (when the bag has it)
-/// interpolated at each scan's header stamp; notes on scans outside the odometry.
+/// interpolated at each scan's stamp (on the clock [`BagLog::clock`] chose); notes on
+/// scans outside the odometry, after the reader's own ([`BagLog::notes`]).
 pub fn prepared_scans(log: &BagLog, mount: &Pose2, notes: &mut Vec<String>) -> Vec<BagScan> {
+    notes.extend(log.notes.iter().cloned());
     let track = odometry_track(log);
     let mut outside = 0;
     let scans = log
@@ -192,9 +194,12 @@ pub fn to_leigh(
                 index,
                 scan: s.scan.clone(),
                 line: s.number,
+                record_time: s.time,
             })
             .collect(),
         skipped: BTreeMap::new(),
+        clock: log.clock,
+        notes: Vec::new(),
     };
     let mut annotations: BTreeMap<(usize, u32), PersonAnnotation> = BTreeMap::new();
     let (mut before, mut replaced) = (0, 0);
