@@ -7,11 +7,11 @@ set -eu
 cd "$(dirname "$0")"
 RUNS=${RUNS:-1000000}
 MAX_SECONDS=${MAX_SECONDS:-3600}
-TARGETS=${*:-"uai_model uai_evidence carmen relations leigh pair_json index_json weights_json bag ros_message"}
+TARGETS=${*:-"uai_model uai_evidence carmen relations leigh pair_json index_json weights_json bag mcap ros_message clear_mot"}
 for t in $TARGETS; do
     # Bags are larger than text files: the seeds are 7-23 kB.
     LEN=8192
-    [ "$t" = bag ] && LEN=32768
+    { [ "$t" = bag ] || [ "$t" = mcap ]; } && LEN=32768
     mkdir -p "work/$t" "corpus/$t"
     cp seeds/"$t"/* "work/$t/" 2>/dev/null || true
     cp corpus/"$t"/* "work/$t/" 2>/dev/null || true

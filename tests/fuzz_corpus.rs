@@ -77,3 +77,13 @@ fn bag_corpus() {
 fn ros_message_corpus() {
     run("ros_message", harness::ros_message);
 }
+
+#[test]
+fn mcap_corpus() {
+    run("mcap", harness::mcap);
+}
+
+#[test]
+fn clear_mot_corpus() {
+    run("clear_mot", harness::clear_mot);
+}

@@ -83,7 +83,8 @@ pub(crate) fn returns_near(scan: &Scan, centre: &Point2<f64>, radius: f64) -> us
 
 /// Every annotated person of every annotated scan of a leigh-gtm1 log (module docs),
 /// by scan index. `moving` follows `options`' track rule (walking speed and window)
-/// when the scans have odometry, else it is `None` (and a note says so).
+/// when the scans have odometry, else it is `None` (and a note says so). Annotations
+/// of a scan the log does not hold are left out, with a note.
 pub fn leigh_objects(
     scans: &LeighScans,
     people: &[PersonAnnotation],
@@ -106,7 +107,21 @@ pub fn leigh_objects(
     };
     let period = scan_period(scans);
     let mut by_scan: BTreeMap<usize, BTreeMap<u32, Point2<f64>>> = BTreeMap::new();
-    for a in people {
+    let absent: Vec<&PersonAnnotation> = people
+        .iter()
+        .filter(|a| scans.get(a.scan).is_none())
+        .collect();
+    if let Some(first) = absent.first() {
+        notes.push(format!(
+            "{} of {} annotations name a scan the log does not hold (first: line {}, scan \
+             {}): they are left out of the tracking truth",
+            absent.len(),
+            people.len(),
+            first.line,
+            first.scan
+        ));
+    }
+    for a in people.iter().filter(|a| scans.get(a.scan).is_some()) {
         by_scan
             .entry(a.scan)
             .or_default()
@@ -280,6 +295,28 @@ pub fn leigh_what(options: &LeighPairOptions) -> String {
 mod tests {
     use super::*;
     use crate::mocap::Footprint;
+
+    #[test]
+    fn annotations_of_scans_not_in_the_log_are_left_out_with_a_note() {
+        use crate::leigh::{parse_people, parse_scans};
+        use std::path::Path;
+        let line = |i: usize| format!("SCAN {i} {i}.0 {i}.0 laser -1.0 0.5 0.1 10.0 5 1 2 3 2 1\n");
+        let scans = parse_scans(Path::new("scans.txt"), &(line(0) + &line(1))).unwrap();
+        let people = parse_people(
+            Path::new("people.txt"),
+            "PERSON 0 1 1.0 0.5\nPERSON 1 1 1.1 0.5\nPERSON 7 1 1.2 0.5\n",
+        )
+        .unwrap();
+        let mut notes = Vec::new();
+        let truth = leigh_objects(&scans, &people, &LeighPairOptions::default(), &mut notes);
+        assert_eq!(truth.keys().copied().collect::<Vec<_>>(), vec![0, 1]);
+        assert!(
+            notes
+                .iter()
+                .any(|n| n.contains("1 of 3 annotations") && n.contains("line 3, scan 7")),
+            "{notes:?}"
+        );
+    }
 
     #[test]
     fn pair_names_split_into_log_and_scans() {

@@ -32,7 +32,11 @@ fn topics(clock: StampClock) -> BagTopics {
 fn broken_drive() -> Vec<Record> {
     let mut records = drive(30);
     let mut previous = 0;
-    for (k, r) in records.iter_mut().filter(|r| r.topic == "/scan").enumerate() {
+    for (k, r) in records
+        .iter_mut()
+        .filter(|r| r.topic == "/scan")
+        .enumerate()
+    {
         if let Msg::Scan { stamp_ns, .. } = &mut r.msg {
             let original = *stamp_ns;
             match k {

@@ -63,8 +63,25 @@ pub fn uai_evidence(data: &[u8]) {
 pub fn carmen(data: &[u8]) {
     use pgm_datasets::builders::{carmen_scan_pair, consecutive_pairs};
     use pgm_datasets::carmen::{parse_carmen, CarmenOptions};
+    use pgm_datasets::stamps::{stamp_faults, StampClock};
     let Some(text) = text(data) else { return };
     let path = Path::new("fuzz.clf");
+    for clock in [StampClock::Header, StampClock::Record] {
+        let options = CarmenOptions {
+            clock,
+            ..CarmenOptions::default()
+        };
+        if let Ok(read) = parse_carmen(path, text, options) {
+            let stamps = read.scans.iter().map(|s| s.scan.timestamp);
+            match clock {
+                StampClock::Header => assert!(
+                    stamp_faults(stamps).is_none(),
+                    "header clock refuses faults"
+                ),
+                _ => assert!(read.scans.iter().all(|s| s.scan.timestamp == s.record_time)),
+            }
+        }
+    }
     let Ok(log) = parse_carmen(path, text, CarmenOptions::default()) else {
         return;
     };
@@ -91,9 +108,25 @@ pub fn relations(data: &[u8]) {
     else {
         return;
     };
-    for r in relations {
+    for r in &relations {
         assert!(r.t1.is_finite() && r.t2.is_finite() && r.motion.is_finite());
         assert!(r.line >= 1);
+    }
+    let read = relations.len();
+    if let Ok(once) = pgm_datasets::relations::dedupe_relations(Path::new("fuzz.rel"), relations) {
+        assert_eq!(
+            once.relations.len() + once.repeated.len(),
+            read,
+            "every relation kept or dropped"
+        );
+        assert!(
+            once.repeated.iter().all(|(a, b)| a < b),
+            "a repeat names the earlier line first"
+        );
+        assert!(
+            once.relations.windows(2).all(|w| w[0].line < w[1].line),
+            "file order"
+        );
     }
 }
 
@@ -101,7 +134,11 @@ pub fn relations(data: &[u8]) {
 /// files separated by the byte 0x1E; the pairs built from them are valid.
 pub fn leigh(data: &[u8]) {
     use pgm_datasets::builders::{leigh_pairs, summarize_leigh_pairs, LeighPairOptions};
-    use pgm_datasets::leigh::{attach_odometry, parse_odometry, parse_people, parse_scans};
+    use pgm_datasets::leigh::{
+        attach_odometry, parse_odometry, parse_people, parse_scans, parse_scans_with,
+    };
+    use pgm_datasets::stamps::{stamp_faults, StampClock};
+    use pgm_datasets::tracking_truth::leigh_objects;
     let Some(text) = text(data) else { return };
     let mut parts = text.split('\u{1e}');
     let (scans, odometry, people) = (
@@ -109,6 +146,18 @@ pub fn leigh(data: &[u8]) {
         parts.next().unwrap_or(""),
         parts.next().unwrap_or(""),
     );
+    for clock in [StampClock::Header, StampClock::Record] {
+        if let Ok(read) = parse_scans_with(Path::new("scans.txt"), scans, clock) {
+            let stamps = read.scans.iter().map(|s| s.scan.timestamp);
+            match clock {
+                StampClock::Header => assert!(
+                    stamp_faults(stamps).is_none(),
+                    "header clock refuses faults"
+                ),
+                _ => assert!(read.scans.iter().all(|s| s.scan.timestamp == s.record_time)),
+            }
+        }
+    }
     let Ok(mut scans) = parse_scans(Path::new("scans.txt"), scans) else {
         return;
     };
@@ -138,6 +187,14 @@ pub fn leigh(data: &[u8]) {
             let summary = summarize_leigh_pairs(k, &pairs);
             assert!(summary.returns_per_scan.is_none_or(f64::is_finite));
             assert_eq!(summary.returns_per_scan.is_none(), pairs.is_empty());
+        }
+        let objects = leigh_objects(&scans, &people, &options, &mut Vec::new());
+        for (scan, seen) in &objects {
+            assert!(
+                scans.scans.iter().any(|s| s.index == *scan),
+                "scan {scan} exists"
+            );
+            assert!(seen.iter().all(|o| o.x.is_finite() && o.y.is_finite()));
         }
     }
 }
@@ -242,11 +299,37 @@ pub fn weights_json(data: &[u8]) {
 /// `/people` instead), the rest is the file. Scans read are valid; every pair built
 /// (k = 1, 2) passes `ScanPair::validate`.
 pub fn bag(data: &[u8]) {
+    let Some((&select, file)) = data.split_first() else {
+        return;
+    };
+    bag_file(select, file);
+}
+
+/// MCAP files whose CRCs are rewritten to match their bytes before reading
+/// ([`pgm_datasets::bag::synthetic::reseal_mcap`]), so a mutation inside a chunk reaches
+/// the record and message parsers behind the CRC check; the input is laid out and
+/// checked as [`bag`]'s. An input whose CRCs are not rewritten (an MCAP file without
+/// them, or a compressed chunk) goes through the CRC check as it is.
+pub fn mcap(data: &[u8]) {
+    let Some((&select, file)) = data.split_first() else {
+        return;
+    };
+    let mut file = file.to_vec();
+    pgm_datasets::bag::synthetic::reseal_mcap(&mut file);
+    bag_file(select, &file);
+}
+
+/// The checks of [`bag`] and [`mcap`]: `select` picks the topics (bits 0-3) and the
+/// clock (bit 4 `header`, bit 5 `record`, else `auto`).
+fn bag_file(select: u8, file: &[u8]) {
     use pgm_datasets::bag::pairs::{bag_pairs, BagPairOptions};
     use pgm_datasets::bag::{read_bag, BagTopics};
     use pgm_datasets::mocap::Footprint;
-    let Some((&select, file)) = data.split_first() else {
-        return;
+    use pgm_datasets::stamps::{stamp_faults, StampClock};
+    let clock = match (select >> 4) & 3 {
+        1 => StampClock::Header,
+        2 => StampClock::Record,
+        _ => StampClock::Auto,
     };
     let topic = |bit: u8, name: &str| (select & bit != 0).then(|| name.to_string());
     let topics = BagTopics {
@@ -254,6 +337,7 @@ pub fn bag(data: &[u8]) {
         ego_pose: topic(2, "/ego_pose"),
         object_pose: topic(2, "/ego_pose").and(topic(4, "/box_pose")),
         people: topic(8, "/people"),
+        clock,
         ..BagTopics::new("/scan")
     };
     let path = std::env::temp_dir().join(format!(
@@ -278,6 +362,14 @@ pub fn bag(data: &[u8]) {
             .all(|p| p.pose.is_finite() && p.stamp.is_finite()));
         assert!(track.windows(2).all(|w| w[0].stamp <= w[1].stamp), "sorted");
     }
+    match clock {
+        StampClock::Header => assert!(
+            stamp_faults(log.scans.iter().map(|s| s.stamp)).is_none(),
+            "the header clock refuses stamps at fault"
+        ),
+        StampClock::Record => assert!(log.scans.iter().all(|s| s.stamp == s.time)),
+        StampClock::Auto => {}
+    }
     for k in 1..=2 {
         let options = BagPairOptions {
             k,
@@ -294,7 +386,86 @@ pub fn bag(data: &[u8]) {
                 assert_eq!(p.validate(), Ok(()), "{}", p.name);
             }
         }
+        if let Ok(truth) = pgm_datasets::tracking_truth::bag_objects(&log, &options) {
+            for seen in truth.scans.values() {
+                assert!(seen.iter().all(|o| o.x.is_finite() && o.y.is_finite()));
+            }
+        }
     }
+}
+
+/// CLEAR-MOT scoring of arbitrary frames: 1 byte of options (protocol, bearing window,
+/// false positives counted), then frames of 1 byte `(estimates << 4) | annotations`
+/// followed by 3 bytes per object (id, x, y on a 0.25 m grid around the sensor). The
+/// streaming scorer equals the batch scorer, every annotation is a match or a miss,
+/// every estimate a match or a false positive, MOTA is at most 1 and MOTP within the
+/// threshold.
+pub fn clear_mot(data: &[u8]) {
+    use pgm_datasets::clear_mot::{
+        score, score_frames, BearingWindow, ClearMotOptions, Frame, Protocol,
+    };
+    let Some((&select, mut rest)) = data.split_first() else {
+        return;
+    };
+    let opts = ClearMotOptions {
+        protocol: if select & 1 == 0 {
+            Protocol::Benchmark
+        } else {
+            Protocol::Standard
+        },
+        bearing_window: (select & 2 != 0).then(BearingWindow::general_tracking),
+        count_false_positives: select & 4 == 0,
+        threshold_m: [0.75, 0.5, 1.0, 0.25][(select >> 3) as usize & 3],
+    };
+    let mut frames = Vec::new();
+    while let Some((&head, tail)) = rest.split_first() {
+        let (ne, nt) = ((head >> 4) as usize, (head & 15) as usize);
+        let need = 3 * (ne + nt);
+        if tail.len() < need {
+            break;
+        }
+        let object = |b: &[u8]| {
+            (
+                b[0] as u64,
+                (b[1] as i8) as f64 * 0.25,
+                (b[2] as i8) as f64 * 0.25,
+            )
+        };
+        frames.push(Frame {
+            estimates: tail[..3 * ne].chunks(3).map(object).collect(),
+            truth: tail[3 * ne..need].chunks(3).map(object).collect(),
+        });
+        rest = &tail[need..];
+    }
+    let Ok((summary, detail)) = score_frames(&frames, &opts) else {
+        return;
+    };
+    assert_eq!(
+        score(&frames, &opts).ok(),
+        Some(summary.clone()),
+        "stream = batch"
+    );
+    assert_eq!(detail.len(), frames.len());
+    let c = summary.counts;
+    assert_eq!(
+        c.matches + c.misses,
+        c.truth,
+        "each annotation matched or missed"
+    );
+    if c.false_positives_counted {
+        assert_eq!(
+            c.matches + c.false_positives,
+            c.estimates,
+            "each estimate matched or not"
+        );
+    } else {
+        assert_eq!(c.false_positives, 0);
+    }
+    assert!(c.id_switches <= c.matches);
+    assert!(summary.mota.is_none_or(|m| m <= 1.0 && m.is_finite()));
+    assert!(summary
+        .motp_m
+        .is_none_or(|m| (0.0..opts.threshold_m).contains(&m)));
 }
 
 /// One ROS message and its definition: the first byte picks the serialisation (bit 0:
