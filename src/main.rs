@@ -45,6 +45,7 @@ enum Command {
 
 fn main() -> ExitCode {
     quiet_on_closed_stdout();
+    clean_up_on_signals();
     let cli = Cli::parse();
     let outcome = match cli.command {
         Command::Map(args) => cli::infer::run(args, cli::infer::Task::Map),
@@ -68,6 +69,41 @@ fn main() -> ExitCode {
         }
     }
 }
+
+/// On SIGINT (Ctrl-C) or SIGTERM: remove every output file this process has started
+/// and not finished ([`pgm_core::fsutil::remove_unfinished`]: temporary files, a data
+/// set half-written by `pgm sim --out` or `pgm data pairs --out`), say so on stderr,
+/// and exit with status 128 + the signal (130, 143), as a shell reports a process
+/// stopped by it. Without this, the default action would stop the process wherever
+/// it is and leave its temporary files behind. If the handler cannot be installed,
+/// the default action stays (and the next write cleans up after it).
+#[cfg(unix)]
+fn clean_up_on_signals() {
+    use signal_hook::consts::{SIGINT, SIGTERM};
+    let Ok(mut signals) = signal_hook::iterator::Signals::new([SIGINT, SIGTERM]) else {
+        return;
+    };
+    std::thread::spawn(move || {
+        if let Some(signal) = signals.forever().next() {
+            let name = if signal == SIGINT {
+                "SIGINT"
+            } else {
+                "SIGTERM"
+            };
+            let removed = pgm_core::fsutil::remove_unfinished();
+            let what = match removed {
+                0 => String::new(),
+                1 => ": removed 1 unfinished output".to_string(),
+                n => format!(": removed {n} unfinished outputs (files and directories)"),
+            };
+            eprintln!("pgm: stopped by {name}{what}");
+            std::process::exit(128 + signal);
+        }
+    });
+}
+
+#[cfg(not(unix))]
+fn clean_up_on_signals() {}
 
 /// Rust ignores SIGPIPE, so printing to a closed pipe (`pgm … | head`) panics with
 /// "failed printing to stdout: Broken pipe". The reader has what it wanted: end

@@ -117,6 +117,143 @@ fn a_write_killed_at_any_moment_leaves_the_old_data_set_or_the_new_one() {
     assert!(names.iter().all(|n| !n.starts_with('.')), "{names:?}");
 }
 
+/// Every entry of `dir` (hidden ones included), sorted.
+fn entries(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .map(|d| {
+            d.map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+                .collect()
+        })
+        .unwrap_or_default();
+    names.sort();
+    names
+}
+
+/// Starts `pgm sim --out ds` with `pairs` pairs, waits until `writing(dir)` says its
+/// write has begun, sends `signal` (`INT`, `TERM`) and returns the exit status and
+/// stderr; `None` when the run ended before it was caught writing.
+#[cfg(unix)]
+fn stopped_while_writing(
+    dir: &Path,
+    pairs: &str,
+    signal: &str,
+    writing: impl Fn(&Path) -> bool,
+) -> Option<(Option<i32>, String)> {
+    let ds = dir.join("ds");
+    let mut child = command(&[
+        "sim",
+        "--pairs",
+        pairs,
+        "--seed",
+        "5",
+        "--out",
+        ds.to_str().unwrap(),
+    ])
+    .stdout(Stdio::null())
+    .stderr(Stdio::piped())
+    .spawn()
+    .unwrap();
+    let started = Instant::now();
+    while !writing(dir) {
+        if child.try_wait().unwrap().is_some() || started.elapsed().as_secs() > 120 {
+            let _ = child.kill();
+            let _ = child.wait();
+            return None;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    let sent = std::process::Command::new("kill")
+        .args([format!("-{signal}"), child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(sent.success());
+    let out = child.wait_with_output().unwrap();
+    Some((
+        out.status.code(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    ))
+}
+
+#[cfg(unix)]
+#[test]
+fn ctrl_c_and_sigterm_remove_what_the_write_had_started() {
+    // sim-interrupt: `pgm sim --out` stopped by Ctrl-C left ~1,300 partial pair files,
+    // a journal and a temporary file behind until the next write.
+    let dir = temp_dir("signals");
+    let ds = dir.join("ds");
+    // A fresh data set: stopped while its temporary directory fills, nothing is left.
+    let temporary_has_files = |d: &Path| {
+        entries(d)
+            .iter()
+            .any(|n| n.starts_with(".ds.pgm-tmp") && entries(&d.join(n)).len() > 20)
+    };
+    let mut caught = false;
+    for pairs in ["3000", "12000"] {
+        if let Some((code, stderr)) = stopped_while_writing(&dir, pairs, "INT", temporary_has_files)
+        {
+            assert_eq!(code, Some(130), "{stderr}");
+            assert!(stderr.contains("stopped by SIGINT: removed"), "{stderr}");
+            assert_eq!(entries(&dir), Vec::<String>::new(), "nothing left");
+            caught = true;
+            break;
+        }
+        let _ = std::fs::remove_dir_all(&ds);
+    }
+    assert!(caught, "never caught pgm sim writing");
+    // A replacement: stopped while its new pair files appear, the old data set is
+    // whole and alone (no new pair file, no journal, no temporary file).
+    ok(&[
+        "sim",
+        "--pairs",
+        "30",
+        "--seed",
+        "1",
+        "--out",
+        ds.to_str().unwrap(),
+    ]);
+    let old = entries(&ds);
+    let old_index = std::fs::read(ds.join("index.json")).unwrap();
+    let new_files = |d: &Path| {
+        entries(&d.join("ds"))
+            .iter()
+            .filter(|n| n.starts_with("pair-g"))
+            .count()
+            > 20
+    };
+    let mut caught = false;
+    for pairs in ["3000", "12000"] {
+        match stopped_while_writing(&dir, pairs, "TERM", new_files) {
+            Some((code, stderr)) => {
+                assert_eq!(code, Some(143), "{stderr}");
+                assert!(stderr.contains("stopped by SIGTERM: removed"), "{stderr}");
+                assert_eq!(entries(&ds), old);
+                assert_eq!(std::fs::read(ds.join("index.json")).unwrap(), old_index);
+                caught = true;
+                break;
+            }
+            None => {
+                let _ = std::fs::remove_dir_all(&ds);
+                ok(&[
+                    "sim",
+                    "--pairs",
+                    "30",
+                    "--seed",
+                    "1",
+                    "--out",
+                    ds.to_str().unwrap(),
+                ]);
+            }
+        }
+    }
+    assert!(caught, "never caught pgm sim replacing");
+    // A signal while nothing is written yet ends the command at once, writing nothing.
+    let start = Instant::now();
+    let waiting = |_: &Path| start.elapsed().as_millis() > 300;
+    let (code, _) = stopped_while_writing(&dir, "20000", "INT", waiting).unwrap();
+    assert_eq!(code, Some(130));
+    assert_eq!(entries(&ds), old);
+}
+
 #[test]
 fn a_failing_command_writes_nothing_not_even_its_result() {
     let dir = temp_dir("writes");

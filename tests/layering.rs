@@ -14,7 +14,7 @@ fn allowed() -> BTreeMap<&'static str, Vec<&'static str>> {
         ("pgm-scan", vec!["pgm-core"]),
         ("pgm-features", vec!["pgm-core", "pgm-scan"]),
         ("pgm-tracking", vec!["pgm-core", "pgm-scan"]),
-        ("pgm-datasets", vec!["pgm-scan"]),
+        ("pgm-datasets", vec!["pgm-core", "pgm-scan"]),
         ("pgm-eval", vec!["pgm-scan", "pgm-datasets"]),
         ("pgm-baselines", models.clone()),
         ("pgm-crf-clustering", models.clone()),

@@ -46,6 +46,7 @@
 
 use crate::error::{limits, Error, Result};
 use crate::pair::{PairViolation, ScanPair};
+use pgm_core::fsutil::{self, Ticket};
 use pgm_scan::Pose2;
 use serde::{Deserialize, Serialize};
 use std::io::Write;
@@ -397,25 +398,25 @@ pub fn read_chosen_pair(
 }
 
 /// Writes `bytes` to `path` through a temporary file in the same directory, flushed
-/// to disk and renamed into place.
+/// to disk and renamed into place ([`pgm_core::fsutil::write_atomically`]: a process
+/// stopped by a signal `pgm` handles leaves neither the temporary file nor a changed
+/// `path`).
 pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
-    let dir = path.parent().unwrap_or(Path::new("."));
-    let file_name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "output".into());
-    let tmp: PathBuf = dir.join(format!(".{file_name}.tmp-{}", std::process::id()));
-    let result = (|| {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
-        std::fs::rename(&tmp, path)
-    })();
-    if let Err(e) = result {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(Error::io(path, e));
+    pgm_core::fsutil::write_atomically(path, bytes).map_err(|e| core_io(path, e))
+}
+
+/// As [`write_atomically`], `path` registered as unfinished until the ticket is
+/// dropped or finished ([`pgm_core::fsutil::write_unfinished`]).
+fn write_unfinished(path: &Path, bytes: &[u8]) -> Result<Ticket> {
+    fsutil::write_unfinished(path, bytes).map_err(|e| core_io(path, e))
+}
+
+/// The core's write error as this crate's, naming `path` when the core names none.
+fn core_io(path: &Path, e: pgm_core::Error) -> Error {
+    match e {
+        pgm_core::Error::Io { path, source } => Error::io(path, source),
+        other => Error::io(path, std::io::Error::other(other.to_string())),
     }
-    Ok(())
 }
 
 /// A file written under a temporary name beside its destination and renamed into place
@@ -426,6 +427,8 @@ pub struct StagedFile {
     tmp: PathBuf,
     path: PathBuf,
     committed: bool,
+    // Keeps `tmp` registered as unfinished; dropped after `Drop::drop` removed it.
+    _unfinished: Ticket,
 }
 
 impl StagedFile {
@@ -440,22 +443,29 @@ impl StagedFile {
             .file_name()
             .map(|n| n.to_string_lossy().into_owned())
             .unwrap_or_else(|| "output".into());
-        let tmp = dir.join(format!(".{name}.tmp-{}", std::process::id()));
-        let staged = Self {
-            tmp,
-            path,
-            committed: false,
-        };
-        write_flushed(&staged.tmp, bytes).map_err(|e| match e {
-            Error::Io { source, .. } => Error::io(&staged.path, source),
-            other => other,
-        })?;
-        Ok(staged)
+        let tmp = fsutil::temporary_path(&dir.join(name)).map_err(|e| core_io(&path, e))?;
+        match write_flushed(&tmp, bytes) {
+            Ok(ticket) => Ok(Self {
+                tmp,
+                path,
+                committed: false,
+                _unfinished: ticket,
+            }),
+            Err(e) => {
+                let _ = std::fs::remove_file(&tmp);
+                Err(match e {
+                    Error::Io { source, .. } => Error::io(&path, source),
+                    other => other,
+                })
+            }
+        }
     }
 
     /// Renames the file into place.
     pub fn commit(mut self) -> Result<()> {
+        let mut list = fsutil::lock();
         std::fs::rename(&self.tmp, &self.path).map_err(|e| Error::io(&self.path, e))?;
+        list.finish([&self._unfinished]);
         self.committed = true;
         Ok(())
     }
@@ -533,10 +543,15 @@ fn classify(dir: &Path) -> Result<Target> {
 }
 
 /// Writes `bytes` to `path` (a new file), flushed to disk.
-fn write_flushed(path: &Path, bytes: &[u8]) -> Result<()> {
-    let mut f = std::fs::File::create(path).map_err(|e| Error::io(path, e))?;
-    f.write_all(bytes).map_err(|e| Error::io(path, e))?;
-    f.sync_all().map_err(|e| Error::io(path, e))
+/// Writes `bytes` to the new file `path`, flushed to disk, registered as unfinished
+/// under the returned ticket (the caller removes the file on failure).
+fn write_flushed(path: &Path, bytes: &[u8]) -> Result<Ticket> {
+    let (ticket, ()) = fsutil::create_unfinished(path, false, || {
+        let mut f = std::fs::File::create(path).map_err(|e| Error::io(path, e))?;
+        f.write_all(bytes).map_err(|e| Error::io(path, e))?;
+        f.sync_all().map_err(|e| Error::io(path, e))
+    })?;
+    Ok(ticket)
 }
 
 /// Flushes a directory's entries (renames) to disk; a no-op where directories cannot
@@ -593,7 +608,10 @@ fn write_fresh(dir: &Path, pairs: &[ScanPair], contents: &[Vec<u8>]) -> Result<(
         .duration_since(std::time::UNIX_EPOCH)
         .map_or(0, |d| d.as_nanos());
     let tmp = parent.join(format!(".{name}.pgm-tmp-{}-{stamp}", std::process::id()));
-    std::fs::create_dir(&tmp).map_err(|e| Error::io(&tmp, e))?;
+    let (tmp_ticket, ()) = fsutil::create_unfinished(&tmp, true, || {
+        std::fs::create_dir(&tmp).map_err(|e| Error::io(&tmp, e))
+    })?;
+    let mut tickets = vec![tmp_ticket];
     let written = (|| {
         let mut index = Index {
             format: FORMAT_NAME.into(),
@@ -602,19 +620,28 @@ fn write_fresh(dir: &Path, pairs: &[ScanPair], contents: &[Vec<u8>]) -> Result<(
         };
         for (k, (p, bytes)) in pairs.iter().zip(contents).enumerate() {
             let file = pair_file_name(k);
-            write_flushed(&tmp.join(&file), bytes)?;
+            tickets.push(write_flushed(&tmp.join(&file), bytes)?);
             index.pairs.push(IndexEntry {
                 name: p.name.clone(),
                 file,
             });
         }
         let index_path = tmp.join(INDEX_FILE);
-        write_flushed(&index_path, &index_bytes(&index_path, &index)?)?;
+        tickets.push(write_flushed(
+            &index_path,
+            &index_bytes(&index_path, &index)?,
+        )?);
         sync_dir(&tmp);
-        // Renaming onto an empty directory replaces it (POSIX); elsewhere remove it first.
-        if std::fs::rename(&tmp, dir).is_err() {
-            let _ = std::fs::remove_dir(dir);
-            std::fs::rename(&tmp, dir).map_err(|e| Error::io(dir, e))?;
+        {
+            // The rename finishes every file at once.
+            let mut list = fsutil::lock();
+            // Renaming onto an empty directory replaces it (POSIX); elsewhere remove it
+            // first.
+            if std::fs::rename(&tmp, dir).is_err() {
+                let _ = std::fs::remove_dir(dir);
+                std::fs::rename(&tmp, dir).map_err(|e| Error::io(dir, e))?;
+            }
+            list.finish(&tickets);
         }
         sync_dir(&parent);
         Ok(())
@@ -673,14 +700,28 @@ fn replace_data_set(
         path: journal.clone(),
         source,
     })?;
-    write_atomically(&journal, &journal_bytes)?;
-    let mut created = Vec::new();
+    // Until the journal is removed, a signal removes it (the replacement is then
+    // undone or completed).
+    let _journal_ticket = write_unfinished(&journal, &journal_bytes)?;
+    let mut created: Vec<(PathBuf, Ticket)> = Vec::new();
+    // The old data set's own pair files that the new index does not list (never
+    // anything else).
+    let listed: std::collections::HashSet<String> = (0..pairs.len())
+        .map(|k| generation_file_name(generation, k))
+        .collect();
+    let stale: Vec<PathBuf> = old
+        .pairs
+        .iter()
+        .map(|e| e.file.as_str())
+        .filter(|name| is_pair_file_name(name) && !listed.contains(*name))
+        .map(|name| dir.join(name))
+        .collect();
     let switched = (|| {
         for (k, (p, bytes)) in pairs.iter().zip(contents).enumerate() {
             let file = generation_file_name(generation, k);
             let path = dir.join(&file);
-            write_atomically(&path, bytes)?;
-            created.push(path);
+            let ticket = write_unfinished(&path, bytes)?;
+            created.push((path, ticket));
             index.pairs.push(IndexEntry {
                 name: p.name.clone(),
                 file,
@@ -688,34 +729,52 @@ fn replace_data_set(
         }
         sync_dir(dir);
         let index_path = dir.join(INDEX_FILE);
-        write_atomically(&index_path, &index_bytes(&index_path, &index)?)?;
+        let index_ticket =
+            write_unfinished_temporary(&index_path, &index_bytes(&index_path, &index)?)?;
+        // The switch: from here a signal completes the replacement (removes the old
+        // pair files) instead of undoing it.
+        let mut list = fsutil::lock();
+        let temporary = fsutil::temporary_path(&index_path).map_err(|e| core_io(&index_path, e))?;
+        if let Err(e) = std::fs::rename(&temporary, &index_path) {
+            let _ = std::fs::remove_file(&temporary);
+            return Err(Error::io(&index_path, e));
+        }
+        list.finish(created.iter().map(|(_, t)| t).chain([&index_ticket]));
+        let old_files: Vec<Ticket> = stale.iter().map(|p| list.register(p, false)).collect();
+        drop(list);
         sync_dir(dir);
-        Ok(())
+        Ok(old_files)
     })();
-    if let Err(e) = switched {
-        for path in &created {
-            let _ = std::fs::remove_file(path);
-        }
-        let _ = std::fs::remove_file(&journal);
-        return Err(e);
-    }
-    // The old data set's own pair files, now unlisted (never anything else).
-    let listed: std::collections::HashSet<&str> =
-        index.pairs.iter().map(|e| e.file.as_str()).collect();
-    for entry in &old.pairs {
-        let name = entry.file.as_str();
-        if is_pair_file_name(name) && !listed.contains(name) {
-            let path = dir.join(name);
-            match std::fs::remove_file(&path) {
-                Ok(()) => {}
-                Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
-                Err(e) => return Err(Error::io(path, e)),
+    let old_files = match switched {
+        Ok(t) => t,
+        Err(e) => {
+            for (path, _) in &created {
+                let _ = std::fs::remove_file(path);
             }
+            let _ = std::fs::remove_file(&journal);
+            return Err(e);
+        }
+    };
+    for path in &stale {
+        match std::fs::remove_file(path) {
+            Ok(()) => {}
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+            Err(e) => return Err(Error::io(path, e)),
         }
     }
+    drop(old_files);
     std::fs::remove_file(&journal).map_err(|e| Error::io(&journal, e))?;
     sync_dir(dir);
     Ok(())
+}
+
+/// Writes `bytes` to the temporary sibling of `path` ([`fsutil::temporary_path`]),
+/// flushed, registered as unfinished; the caller renames it.
+fn write_unfinished_temporary(path: &Path, bytes: &[u8]) -> Result<Ticket> {
+    let temporary = fsutil::temporary_path(path).map_err(|e| core_io(path, e))?;
+    write_flushed(&temporary, bytes).inspect_err(|_| {
+        let _ = std::fs::remove_file(&temporary);
+    })
 }
 
 /// File in a data-set directory that lists the pair files a replacement is about to
@@ -738,14 +797,9 @@ fn is_pair_file_name(name: &str) -> bool {
 /// index in place does not list, and temporary files.
 fn clear_interrupted_write(dir: &Path, journal: &Path, current: &Index) -> Result<()> {
     // A journal that never reached its name (killed while writing it).
-    let journal_tmp = format!(".{JOURNAL_FILE}.tmp-");
     if let Ok(entries) = std::fs::read_dir(dir) {
         for entry in entries.flatten() {
-            if entry
-                .file_name()
-                .to_string_lossy()
-                .starts_with(&journal_tmp)
-            {
+            if fsutil::is_temporary_of(&entry.file_name().to_string_lossy(), JOURNAL_FILE) {
                 let _ = std::fs::remove_file(entry.path());
             }
         }
@@ -755,17 +809,16 @@ fn clear_interrupted_write(dir: &Path, journal: &Path, current: &Index) -> Resul
     };
     if let Ok(j) = serde_json::from_str::<Journal>(&text) {
         // Temporary files of the listed files and of the index ([`write_atomically`]).
-        let prefixes: Vec<String> = j
+        let owners: Vec<&str> = j
             .files
             .iter()
             .map(String::as_str)
             .chain([INDEX_FILE])
-            .map(|name| format!(".{name}.tmp-"))
             .collect();
         if let Ok(entries) = std::fs::read_dir(dir) {
             for entry in entries.flatten() {
                 let name = entry.file_name().to_string_lossy().into_owned();
-                if prefixes.iter().any(|p| name.starts_with(p.as_str())) {
+                if owners.iter().any(|o| fsutil::is_temporary_of(&name, o)) {
                     let _ = std::fs::remove_file(entry.path());
                 }
             }

@@ -173,7 +173,7 @@ fn a_killed_replacement_leaves_the_old_data_set_and_is_cleaned_up_next_time() {
     )
     .unwrap();
     std::fs::write(dir.join("pair-g1-00000.json"), "{}").unwrap();
-    std::fs::write(dir.join(".pair-g1-00001.json.tmp-1"), "{").unwrap();
+    std::fs::write(dir.join(".pair-g1-00001.json.1.tmp"), "{").unwrap();
     assert_eq!(read_pairs(&dir).unwrap(), vec![pair("old")]);
     write_pairs(&dir, &[pair("new")]).unwrap();
     assert_eq!(read_pairs(&dir).unwrap(), vec![pair("new")]);

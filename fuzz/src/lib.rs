@@ -440,11 +440,7 @@ pub fn clear_mot(data: &[u8]) {
     let Ok((summary, detail)) = score_frames(&frames, &opts) else {
         return;
     };
-    assert_eq!(
-        score(&frames, &opts).ok(),
-        Some(summary.clone()),
-        "stream = batch"
-    );
+    assert_eq!(score(&frames, &opts).ok(), Some(summary), "stream = batch");
     assert_eq!(detail.len(), frames.len());
     let c = summary.counts;
     assert_eq!(

@@ -262,7 +262,9 @@ fn read_directory<E>(
 }
 
 /// A temporary file removed when dropped.
-struct TempFile(PathBuf);
+/// A temporary file, removed when dropped, and by a signal handler before then
+/// ([`pgm_core::fsutil::remove_unfinished`]).
+struct TempFile(PathBuf, #[allow(dead_code)] pgm_core::fsutil::Ticket);
 
 impl Drop for TempFile {
     fn drop(&mut self) {
@@ -302,18 +304,21 @@ fn read_zip<E>(
     let stem = Path::new(name.as_str())
         .file_name()
         .map_or_else(|| "bag".into(), |s| s.to_string_lossy().into_owned());
-    let temp = TempFile(std::env::temp_dir().join(format!(
+    let temp_path = std::env::temp_dir().join(format!(
         "pgm-{}-{}-{stem}",
         std::process::id(),
         unique_counter()
-    )));
+    ));
+    let (ticket, mut out) =
+        pgm_core::fsutil::create_unfinished(&temp_path, false, || fs::File::create(&temp_path))
+            .map_err(|e| {
+                container(format!(
+                    "cannot write the temporary file {}: {e}",
+                    temp_path.display()
+                ))
+            })?;
+    let temp = TempFile(temp_path, ticket);
     {
-        let mut out = fs::File::create(&temp.0).map_err(|e| {
-            container(format!(
-                "cannot write the temporary file {}: {e}",
-                temp.0.display()
-            ))
-        })?;
         // Never more than the entry declares.
         let mut limited = (&mut entry).take(declared);
         std::io::copy(&mut limited, &mut out)
