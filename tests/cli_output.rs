@@ -382,8 +382,16 @@ fn results_on_stdout_diagnostics_on_stderr_names_as_typed() {
         diagnostics_only(&err);
     }
     // The demo's table is its result; the picture it drew is a note.
-    let demo_svg = path(&dir, "demo.svg");
-    let (out, err) = ok(&["demo", "--pairs", "2", "--svg", &demo_svg]);
+    let (demo_svg, joint_svg) = (path(&dir, "demo.svg"), path(&dir, "demo-joint.svg"));
+    let (out, err) = ok(&[
+        "demo",
+        "--pairs",
+        "2",
+        "--svg",
+        &demo_svg,
+        "--joint-svg",
+        &joint_svg,
+    ]);
     assert!(out.contains("V") && !out.contains("drew"), "{out}");
     assert!(err.contains("drew pair 0"), "{err}");
     diagnostics_only(&err);
