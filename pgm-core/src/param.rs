@@ -139,3 +139,89 @@ pub trait ParamGuard {
         }
     }
 }
+
+/// Declares the checked type of a parameter struct that holds nothing but the
+/// parameters, and implements [`ParamGuard`] with it.
+///
+/// `checked_params! { #[derive(…)] pub struct Checked(Params) -> Error; }` declares
+/// `pub struct Checked { params: Params }` with the given attributes and docs, and
+/// implements:
+/// - [`ParamGuard`] for `Params`: `check_ref` is `Params`'s own inherent
+///   `fn validate(&self) -> Result<(), Error>` (which the caller writes), `check`
+///   validates and wraps;
+/// - `Default` for `Checked`: the default parameters, checked (it panics only if the
+///   defaults themselves are invalid, which every crate's tests rule out);
+/// - `Checked::params(&self) -> &Params`.
+///
+/// Every algorithm of the workspace whose checked type is just its parameters is
+/// declared this way (ICP, the association sources, belief propagation, TRW-S, the
+/// learner, the baselines, …), so the pattern is written once.
+///
+/// ```
+/// use pgm_core::param::{InvalidParameter, ParamGuard};
+///
+/// /// Unchecked parameters of a toy algorithm.
+/// #[derive(Clone, Debug, Default, PartialEq)]
+/// pub struct SmoothingParams {
+///     /// Window length in samples (at least 1).
+///     pub window: usize,
+/// }
+///
+/// impl SmoothingParams {
+///     fn validate(&self) -> Result<(), InvalidParameter> {
+///         if self.window == 0 {
+///             return Err(InvalidParameter::new("window", self.window, "at least 1"));
+///         }
+///         Ok(())
+///     }
+/// }
+///
+/// pgm_core::checked_params! {
+///     /// The smoothing with checked parameters.
+///     #[derive(Clone, Debug, PartialEq)]
+///     pub struct Smoothing(SmoothingParams) -> InvalidParameter;
+/// }
+///
+/// let err = SmoothingParams::default().check().unwrap_err();
+/// assert_eq!(err.to_string(), "parameter `window` = 0: expected at least 1");
+/// let smoothing = SmoothingParams { window: 3 }.check().unwrap();
+/// assert_eq!(smoothing.params().window, 3);
+/// ```
+#[macro_export]
+macro_rules! checked_params {
+    ($(#[$meta:meta])* $vis:vis struct $checked:ident($params:ty) -> $error:ty;) => {
+        $(#[$meta])*
+        $vis struct $checked {
+            params: $params,
+        }
+
+        impl $crate::param::ParamGuard for $params {
+            type Checked = $checked;
+            type Error = $error;
+
+            fn check_ref(&self) -> ::core::result::Result<(), $error> {
+                self.validate()
+            }
+
+            fn check(self) -> ::core::result::Result<$checked, $error> {
+                self.validate()?;
+                ::core::result::Result::Ok($checked { params: self })
+            }
+        }
+
+        impl ::core::default::Default for $checked {
+            fn default() -> Self {
+                $crate::param::ParamGuard::check_unwrap(
+                    <$params as ::core::default::Default>::default(),
+                )
+            }
+        }
+
+        impl $checked {
+            /// The parameters (checked).
+            $vis fn params(&self) -> &$params {
+                &self.params
+            }
+        }
+    };
+}

@@ -100,7 +100,7 @@ use crate::error::{Error, Result};
 use crate::factor::{Incoming, Mode};
 use crate::graph::{EdgeId, FactorGraph, FactorId, VariableId};
 use crate::observer::{Observe, TrwsProgress};
-use crate::param::ParamGuard;
+
 use crate::support::{self, Method, Support, ZeroDecoding, ZeroProbability, ZeroProof};
 use std::ops::ControlFlow;
 use std::time::{Duration, Instant};
@@ -177,15 +177,12 @@ impl TrwsParams {
     }
 }
 
-impl ParamGuard for TrwsParams {
-    type Checked = Trws;
-    type Error = Error;
-
+impl TrwsParams {
     /// Checks the settings.
     ///
     /// # Errors
     /// [`Error::InvalidParameter`] for zero iterations or a tolerance that is negative or not finite.
-    fn check_ref(&self) -> Result<()> {
+    fn validate(&self) -> Result<()> {
         if self.max_iterations == 0 {
             return Err(Error::InvalidParameter {
                 name: "max_iterations",
@@ -201,11 +198,6 @@ impl ParamGuard for TrwsParams {
             });
         }
         Ok(())
-    }
-
-    fn check(self) -> Result<Trws> {
-        self.check_ref()?;
-        Ok(Trws { params: self })
     }
 }
 
@@ -254,19 +246,14 @@ pub struct TrwsResult {
     pub zero_decoding: Option<ZeroDecoding>,
 }
 
-/// Sequential tree-reweighted max-product with checked settings (build with
-/// [`TrwsParams`]).
-#[derive(Clone, Debug, PartialEq)]
-pub struct Trws {
-    params: TrwsParams,
+crate::checked_params! {
+    /// Sequential tree-reweighted max-product with checked settings (build with
+    /// [`TrwsParams`]).
+    #[derive(Clone, Debug, PartialEq)]
+    pub struct Trws(TrwsParams) -> Error;
 }
 
 impl Trws {
-    /// The settings.
-    pub fn params(&self) -> &TrwsParams {
-        &self.params
-    }
-
     /// Runs TRW-S on `graph`.
     ///
     /// # Errors

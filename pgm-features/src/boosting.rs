@@ -38,7 +38,7 @@
 //! assert!(booster.score(&[0.9, 0.5]) < 0.0);
 //! ```
 
-use pgm_core::param::{InvalidParameter, ParamGuard};
+use pgm_core::param::InvalidParameter;
 use pgm_scan::{Error, Result};
 use serde::{Deserialize, Serialize};
 
@@ -264,26 +264,20 @@ impl BoosterParams {
     }
 }
 
-/// AdaBoost with checked parameters.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct AdaBoost {
-    params: BoosterParams,
+pgm_core::checked_params! {
+    /// AdaBoost with checked parameters.
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct AdaBoost(BoosterParams) -> Error;
 }
 
-impl ParamGuard for BoosterParams {
-    type Checked = AdaBoost;
-    type Error = Error;
-
-    fn check_ref(&self) -> Result<()> {
+impl BoosterParams {
+    /// `ParamGuard::check_ref`: checks every value; the error names the first
+    /// invalid one.
+    fn validate(&self) -> Result<()> {
         if !(1..=10_000).contains(&self.stumps) {
             return Err(InvalidParameter::new("stumps", self.stumps, "1..=10000 stumps").into());
         }
         Ok(())
-    }
-
-    fn check(self) -> Result<AdaBoost> {
-        self.check_ref()?;
-        Ok(AdaBoost { params: self })
     }
 }
 
@@ -430,6 +424,7 @@ fn best_stump(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use pgm_core::ParamGuard;
 
     #[test]
     fn step_function_equals_the_stumps() {

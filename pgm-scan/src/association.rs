@@ -203,11 +203,10 @@ impl Default for SegmentParams {
     }
 }
 
-impl ParamGuard for NearestParams {
-    type Checked = NearestAfterIcp;
-    type Error = Error;
-
-    fn check_ref(&self) -> Result<()> {
+impl NearestParams {
+    /// `ParamGuard::check_ref`: checks every value; the error names the first
+    /// invalid one.
+    fn validate(&self) -> Result<()> {
         self.icp.check_ref()?;
         InvalidParameter::non_negative(
             "occlusion_margin",
@@ -225,46 +224,30 @@ impl ParamGuard for NearestParams {
         InvalidParameter::positive("gate", self.gate, "a positive number of metres")?;
         Ok(())
     }
-
-    fn check(self) -> Result<NearestAfterIcp> {
-        self.check_ref()?;
-        Ok(NearestAfterIcp { params: self })
-    }
 }
 
-/// Nearest reference return within a gate after ICP (see also the module docs).
-///
-/// ICP from the odometry prior (identity without) gives the ego-motion; each current
-/// point moved by it takes its nearest reference return within
-/// [`NearestParams::gate`]. A point the reference scan cannot have seen ([`Scan::sees`](crate::Scan::sees):
-/// outside its field of view, no return near its bearing, or more than
-/// [`NearestParams::occlusion_margin`] behind the returns there) is an outlier —
-/// typically background revealed behind an object that moved, whose nearest return
-/// is the object's old position — unless its gap segment as a whole does not follow
-/// the ego-motion ([`NearestParams::static_tolerance`]). That case is an object that
-/// moved away along the beams, a person walking away from the robot: its points lie
-/// behind where the reference saw it, and the nearest reference return is that old
-/// position, the right partner, provided the current scan sees through that old
-/// position (the object left it; [`Scan::in_free_space`](crate::Scan::in_free_space)). Revealed background belongs to a
-/// surface whose other points fit the ego-motion, or lies behind an occluder that is
-/// still there.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct NearestAfterIcp {
-    params: NearestParams,
+pgm_core::checked_params! {
+    /// Nearest reference return within a gate after ICP (see also the module docs).
+    ///
+    /// ICP from the odometry prior (identity without) gives the ego-motion; each current
+    /// point moved by it takes its nearest reference return within
+    /// [`NearestParams::gate`]. A point the reference scan cannot have seen ([`Scan::sees`](crate::Scan::sees):
+    /// outside its field of view, no return near its bearing, or more than
+    /// [`NearestParams::occlusion_margin`] behind the returns there) is an outlier —
+    /// typically background revealed behind an object that moved, whose nearest return
+    /// is the object's old position — unless its gap segment as a whole does not follow
+    /// the ego-motion ([`NearestParams::static_tolerance`]). That case is an object that
+    /// moved away along the beams, a person walking away from the robot: its points lie
+    /// behind where the reference saw it, and the nearest reference return is that old
+    /// position, the right partner, provided the current scan sees through that old
+    /// position (the object left it; [`Scan::in_free_space`](crate::Scan::in_free_space)). Revealed background belongs to a
+    /// surface whose other points fit the ego-motion, or lies behind an occluder that is
+    /// still there.
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct NearestAfterIcp(NearestParams) -> Error;
 }
 
-impl Default for NearestAfterIcp {
-    fn default() -> Self {
-        NearestParams::default().check_unwrap()
-    }
-}
-
-impl NearestAfterIcp {
-    /// The parameters.
-    pub fn params(&self) -> &NearestParams {
-        &self.params
-    }
-}
+impl NearestAfterIcp {}
 
 impl AssociationSource for NearestAfterIcp {
     fn name(&self) -> &str {
@@ -276,11 +259,10 @@ impl AssociationSource for NearestAfterIcp {
     }
 }
 
-impl ParamGuard for SegmentParams {
-    type Checked = SegmentIcp;
-    type Error = Error;
-
-    fn check_ref(&self) -> Result<()> {
+impl SegmentParams {
+    /// `ParamGuard::check_ref`: checks every value; the error names the first
+    /// invalid one.
+    fn validate(&self) -> Result<()> {
         self.nearest.check_ref()?;
         for (name, value) in [
             ("segment_gap", self.segment_gap),
@@ -318,57 +300,41 @@ impl ParamGuard for SegmentParams {
         }
         Ok(())
     }
-
-    fn check(self) -> Result<SegmentIcp> {
-        self.check_ref()?;
-        Ok(SegmentIcp { params: self })
-    }
 }
 
-/// Segment-wise ICP, then nearest neighbours under each segment's own motion.
-///
-/// ICP nearest neighbours follow the ego-motion only, so the points of a car that
-/// moved metres find no partner on the car (or a wrong one). Here:
-///
-/// 1. ICP from the odometry prior (identity without) gives the ego-motion.
-/// 2. The current scan is cut into segments at gaps above
-///    [`SegmentParams::segment_gap`]. A segment with at least
-///    [`SegmentParams::static_fraction`] inliers under the ego-motion keeps it.
-/// 3. Every other segment with at least [`SegmentParams::min_points`] points is
-///    aligned on its own by ICP, started from the ego-motion and from the ego-motion
-///    shifted so that the segment's centroid lands on the centroid of each reference
-///    segment within [`SegmentParams::search_radius`] (a moved object is some
-///    reference segment nearby). The start with the lowest truncated cost wins; it is
-///    accepted when its cost is below [`SegmentParams::improvement`] times the cost
-///    under the ego-motion, at least [`SegmentParams::aligned_fraction`] of the
-///    segment's points are inliers under it, and free space shows that something
-///    moved: at least [`SegmentParams::free_space_fraction`] of the segment's points,
-///    moved by the ego-motion, lie where the reference scan saw free space, or as many
-///    of the reference returns it aligned to, moved back into the current frame, lie
-///    where the current scan sees free space (the object left). A newly revealed
-///    static surface fits the ego-motion poorly too, and a straight wall fits many
-///    shifted walls, but neither passes the free-space test.
-/// 4. Each point then takes its nearest reference return within the gate under
-///    the motion (ego or its segment's) that puts it nearer to one, provided the
-///    reference scan can have seen it there ([`Scan::sees`](crate::Scan::sees)); otherwise it is an
-///    outlier.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SegmentIcp {
-    params: SegmentParams,
+pgm_core::checked_params! {
+    /// Segment-wise ICP, then nearest neighbours under each segment's own motion.
+    ///
+    /// ICP nearest neighbours follow the ego-motion only, so the points of a car that
+    /// moved metres find no partner on the car (or a wrong one). Here:
+    ///
+    /// 1. ICP from the odometry prior (identity without) gives the ego-motion.
+    /// 2. The current scan is cut into segments at gaps above
+    ///    [`SegmentParams::segment_gap`]. A segment with at least
+    ///    [`SegmentParams::static_fraction`] inliers under the ego-motion keeps it.
+    /// 3. Every other segment with at least [`SegmentParams::min_points`] points is
+    ///    aligned on its own by ICP, started from the ego-motion and from the ego-motion
+    ///    shifted so that the segment's centroid lands on the centroid of each reference
+    ///    segment within [`SegmentParams::search_radius`] (a moved object is some
+    ///    reference segment nearby). The start with the lowest truncated cost wins; it is
+    ///    accepted when its cost is below [`SegmentParams::improvement`] times the cost
+    ///    under the ego-motion, at least [`SegmentParams::aligned_fraction`] of the
+    ///    segment's points are inliers under it, and free space shows that something
+    ///    moved: at least [`SegmentParams::free_space_fraction`] of the segment's points,
+    ///    moved by the ego-motion, lie where the reference scan saw free space, or as many
+    ///    of the reference returns it aligned to, moved back into the current frame, lie
+    ///    where the current scan sees free space (the object left). A newly revealed
+    ///    static surface fits the ego-motion poorly too, and a straight wall fits many
+    ///    shifted walls, but neither passes the free-space test.
+    /// 4. Each point then takes its nearest reference return within the gate under
+    ///    the motion (ego or its segment's) that puts it nearer to one, provided the
+    ///    reference scan can have seen it there ([`Scan::sees`](crate::Scan::sees)); otherwise it is an
+    ///    outlier.
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct SegmentIcp(SegmentParams) -> Error;
 }
 
-impl Default for SegmentIcp {
-    fn default() -> Self {
-        SegmentParams::default().check_unwrap()
-    }
-}
-
-impl SegmentIcp {
-    /// The parameters.
-    pub fn params(&self) -> &SegmentParams {
-        &self.params
-    }
-}
+impl SegmentIcp {}
 
 impl AssociationSource for SegmentIcp {
     fn name(&self) -> &str {

@@ -204,11 +204,10 @@ const MAX_DEPTH: u32 = 7;
 /// Largest lookup value (a return exactly on a reference return).
 const FULL: u32 = 255;
 
-impl ParamGuard for CorrelativeParams {
-    type Checked = CorrelativeMatcher;
-    type Error = Error;
-
-    fn check_ref(&self) -> Result<()> {
+impl CorrelativeParams {
+    /// `ParamGuard::check_ref`: checks every value; the error names the first
+    /// invalid one.
+    fn validate(&self) -> Result<()> {
         let p = self;
         InvalidParameter::non_negative(
             "translation_window",
@@ -299,11 +298,6 @@ impl ParamGuard for CorrelativeParams {
         InvalidParameter::fraction("min_relative_score", p.min_relative_score)?;
         Ok(())
     }
-
-    fn check(self) -> Result<CorrelativeMatcher> {
-        self.check_ref()?;
-        Ok(CorrelativeMatcher { params: self })
-    }
 }
 
 /// One candidate motion found by the search.
@@ -317,18 +311,12 @@ pub struct Hypothesis {
     pub score: f64,
 }
 
-/// The correlative matcher with checked parameters: builds the lookup grids of a
-/// reference scan ([`CorrelativeMatcher::reference`]) and searches motions
-/// ([`CorrelativeMatcher::search`], [`CorrelativeMatcher::align`]).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct CorrelativeMatcher {
-    params: CorrelativeParams,
-}
-
-impl Default for CorrelativeMatcher {
-    fn default() -> Self {
-        CorrelativeParams::default().check_unwrap()
-    }
+pgm_core::checked_params! {
+    /// The correlative matcher with checked parameters: builds the lookup grids of a
+    /// reference scan ([`CorrelativeMatcher::reference`]) and searches motions
+    /// ([`CorrelativeMatcher::search`], [`CorrelativeMatcher::align`]).
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct CorrelativeMatcher(CorrelativeParams) -> Error;
 }
 
 /// What [`CorrelativeMatcher::align`] found.
@@ -344,11 +332,6 @@ pub struct CorrelativeAlignment {
 }
 
 impl CorrelativeMatcher {
-    /// The parameters.
-    pub fn params(&self) -> &CorrelativeParams {
-        &self.params
-    }
-
     /// Builds the lookup grid and its max-pooled copies on `reference`'s valid
     /// returns within `max_range`, for any number of searches.
     ///

@@ -105,11 +105,10 @@ impl Default for IcpParams {
     }
 }
 
-impl ParamGuard for IcpParams {
-    type Checked = IcpMatcher;
-    type Error = Error;
-
-    fn check_ref(&self) -> Result<()> {
+impl IcpParams {
+    /// `ParamGuard::check_ref`: checks every value; the error names the first
+    /// invalid one.
+    fn validate(&self) -> Result<()> {
         let bad = |name: &'static str, value: f64, expected: &'static str| {
             Err(InvalidParameter::new(name, value, expected).into())
         };
@@ -169,34 +168,18 @@ impl ParamGuard for IcpParams {
         }
         Ok(())
     }
-
-    fn check(self) -> Result<IcpMatcher> {
-        self.check_ref()?;
-        Ok(IcpMatcher { params: self })
-    }
 }
 
-/// ICP with checked parameters: prepares the search structures of a reference scan
-/// ([`IcpMatcher::reference`]) and estimates the ego-motion of scan pairs (a
-/// [`ScanMatcher`](crate::methods::ScanMatcher), started from the pair's odometry
-/// prior, the identity without one).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct IcpMatcher {
-    params: IcpParams,
-}
-
-impl Default for IcpMatcher {
-    fn default() -> Self {
-        IcpParams::default().check_unwrap()
-    }
+pgm_core::checked_params! {
+    /// ICP with checked parameters: prepares the search structures of a reference scan
+    /// ([`IcpMatcher::reference`]) and estimates the ego-motion of scan pairs (a
+    /// [`ScanMatcher`](crate::methods::ScanMatcher), started from the pair's odometry
+    /// prior, the identity without one).
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct IcpMatcher(IcpParams) -> Error;
 }
 
 impl IcpMatcher {
-    /// The parameters.
-    pub fn params(&self) -> &IcpParams {
-        &self.params
-    }
-
     /// Builds the search structures on `reference`'s returns.
     ///
     /// # Errors

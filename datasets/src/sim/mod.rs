@@ -73,7 +73,6 @@ pub use stats::DatasetStats;
 pub use truth::{association_tolerance, MOVING_SPEED};
 
 use crate::pair::ScanPair;
-use pgm_scan::ParamGuard;
 use pgm_scan::Pose2;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -229,10 +228,10 @@ impl SimConfig {
     }
 }
 
-/// A [`SimConfig`] whose values have been checked.
-#[derive(Clone, Debug, PartialEq)]
-pub struct ValidSimConfig {
-    params: SimConfig,
+pgm_core::checked_params! {
+    /// A [`SimConfig`] whose values have been checked.
+    #[derive(Clone, Debug, PartialEq)]
+    pub struct ValidSimConfig(SimConfig) -> SimError;
 }
 
 /// Most pairs one call of the simulator is asked for ([`ValidSimConfig::check_pairs`]):
@@ -244,11 +243,6 @@ pub const MAX_PAIRS: usize = 100_000;
 pub const MAX_TOTAL_BEAMS: usize = 20_000_000;
 
 impl ValidSimConfig {
-    /// The checked parameters.
-    pub fn params(&self) -> &SimConfig {
-        &self.params
-    }
-
     /// Checks a number of pairs to simulate before anything is allocated: at least
     /// one, at most [`MAX_PAIRS`], and at most [`MAX_TOTAL_BEAMS`] beams in all (a
     /// count of 2^64 − 1 overflowed the vector's capacity and panicked).
@@ -278,17 +272,9 @@ fn invalid(name: &'static str, value: impl std::fmt::Debug, expected: &'static s
     }
 }
 
-impl ParamGuard for SimConfig {
-    type Checked = ValidSimConfig;
-    type Error = SimError;
-
-    fn check(self) -> Result<ValidSimConfig> {
-        self.check_ref()?;
-        Ok(ValidSimConfig { params: self })
-    }
-
+impl SimConfig {
     /// Checks every value once; the error names the field and the offending value.
-    fn check_ref(&self) -> Result<()> {
+    fn validate(&self) -> Result<()> {
         if !(2..=100_000).contains(&self.beams) {
             return Err(invalid("beams", self.beams, "an integer in 2..=100000"));
         }

@@ -52,11 +52,10 @@ impl Default for ConsistencyParams {
     }
 }
 
-impl ParamGuard for ConsistencyParams {
-    type Checked = ConsistencyDetector;
-    type Error = Error;
-
-    fn check_ref(&self) -> Result<()> {
+impl ConsistencyParams {
+    /// `ParamGuard::check_ref`: checks every value; the error names the first
+    /// invalid one.
+    fn validate(&self) -> Result<()> {
         InvalidParameter::non_negative("margin", self.margin, "a number of metres >= 0")?;
         InvalidParameter::non_negative("segment_gap", self.segment_gap, "a number of metres >= 0")?;
         if !(0.0..1.0).contains(&self.dynamic_fraction) {
@@ -70,23 +69,12 @@ impl ParamGuard for ConsistencyParams {
         self.icp.check_ref()?;
         Ok(())
     }
-
-    fn check(self) -> Result<ConsistencyDetector> {
-        self.check_ref()?;
-        Ok(ConsistencyDetector { params: self })
-    }
 }
 
-/// The consistency-based detector with checked parameters (see the module docs).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ConsistencyDetector {
-    params: ConsistencyParams,
-}
-
-impl Default for ConsistencyDetector {
-    fn default() -> Self {
-        ConsistencyParams::default().check_unwrap()
-    }
+pgm_core::checked_params! {
+    /// The consistency-based detector with checked parameters (see the module docs).
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct ConsistencyDetector(ConsistencyParams) -> Error;
 }
 
 impl MotionClusterer for ConsistencyDetector {
@@ -130,11 +118,6 @@ pub struct ConsistencyResult {
 }
 
 impl ConsistencyDetector {
-    /// The parameters.
-    pub fn params(&self) -> &ConsistencyParams {
-        &self.params
-    }
-
     /// Runs CBD on `pair`. Errors name the pair.
     pub fn detect(&self, pair: &ScanPair) -> Result<ConsistencyResult> {
         detect(pair, &self.params).map_err(|e| match e {

@@ -19,7 +19,7 @@
 
 use crate::{Error, Result};
 use nalgebra::Point2;
-use pgm_core::param::{InvalidParameter, ParamGuard};
+use pgm_core::param::InvalidParameter;
 use pgm_scan::methods::{ClusterWithAssociations, MotionClustering};
 use pgm_scan::scan::segment_by_gap;
 use pgm_scan::{
@@ -47,11 +47,10 @@ impl Default for MotionKMeansParams {
     }
 }
 
-impl ParamGuard for MotionKMeansParams {
-    type Checked = MotionKMeans;
-    type Error = Error;
-
-    fn check_ref(&self) -> Result<()> {
+impl MotionKMeansParams {
+    /// `ParamGuard::check_ref`: checks every value; the error names the first
+    /// invalid one.
+    fn validate(&self) -> Result<()> {
         if self.k == 0 || self.k > 64 {
             return Err(
                 InvalidParameter::new("k", self.k, "a number of clusters in 1..=64").into(),
@@ -69,25 +68,14 @@ impl ParamGuard for MotionKMeansParams {
         )?;
         Ok(())
     }
-
-    fn check(self) -> Result<MotionKMeans> {
-        self.check_ref()?;
-        Ok(MotionKMeans { params: self })
-    }
 }
 
-/// Motion K-Means with checked parameters (see the module docs); with an association
-/// source it is a [`MotionClusterer`](pgm_scan::MotionClusterer)
-/// ([`pgm_scan::methods::Associated`]).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct MotionKMeans {
-    params: MotionKMeansParams,
-}
-
-impl Default for MotionKMeans {
-    fn default() -> Self {
-        MotionKMeansParams::default().check_unwrap()
-    }
+pgm_core::checked_params! {
+    /// Motion K-Means with checked parameters (see the module docs); with an association
+    /// source it is a [`MotionClusterer`](pgm_scan::MotionClusterer)
+    /// ([`pgm_scan::methods::Associated`]).
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct MotionKMeans(MotionKMeansParams) -> Error;
 }
 
 impl ClusterWithAssociations for MotionKMeans {
@@ -139,11 +127,6 @@ fn fit(stats: &RigidAlignment) -> Option<Pose2> {
 }
 
 impl MotionKMeans {
-    /// The parameters.
-    pub fn params(&self) -> &MotionKMeansParams {
-        &self.params
-    }
-
     /// Runs motion K-Means on `pair` with `associations` (one per current beam).
     /// Errors name the pair.
     pub fn run(

@@ -88,7 +88,7 @@ use super::{FlatChain, PairPattern};
 use crate::error::{Error, Result};
 use crate::graph::VariableId;
 use crate::learning::{DenseFeatures, FeatureSet, LabelledInstance, LogLinearModel, TemplateId};
-use crate::param::{InvalidParameter, ParamGuard};
+use crate::param::InvalidParameter;
 use std::ops::ControlFlow;
 use std::sync::Arc;
 
@@ -372,21 +372,15 @@ impl HybridChainParams {
     }
 }
 
-impl ParamGuard for HybridChainParams {
-    type Checked = HybridChain;
-    type Error = Error;
-
-    fn check_ref(&self) -> Result<()> {
+impl HybridChainParams {
+    /// `ParamGuard::check_ref`: checks every value; the error names the first
+    /// invalid one.
+    fn validate(&self) -> Result<()> {
         if self.max_sweeps == 0 {
             return Err(InvalidParameter::new("max_sweeps", self.max_sweeps, "at least 1").into());
         }
         InvalidParameter::non_negative("tolerance", self.tolerance, "a finite number >= 0")?;
         Ok(())
-    }
-
-    fn check(self) -> Result<HybridChain> {
-        self.check_ref()?;
-        Ok(HybridChain { params: self })
     }
 }
 
@@ -489,24 +483,13 @@ impl ChainBuffers {
     }
 }
 
-/// The checked hybrid chain solver (see the module docs).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct HybridChain {
-    params: HybridChainParams,
-}
-
-impl Default for HybridChain {
-    fn default() -> Self {
-        HybridChainParams::default().check_unwrap()
-    }
+crate::checked_params! {
+    /// The checked hybrid chain solver (see the module docs).
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct HybridChain(HybridChainParams) -> Error;
 }
 
 impl HybridChain {
-    /// The parameters.
-    pub fn params(&self) -> &HybridChainParams {
-        &self.params
-    }
-
     /// Runs the alternation from `initial[chain][i]`, the starting label of each
     /// position (Algorithm 1, line 1: the labels are fed to the model and the
     /// continuous values solved once before the first sweep).

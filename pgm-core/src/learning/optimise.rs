@@ -13,7 +13,7 @@ use super::model::{FeatureSet, LabelledInstance};
 use super::pseudo_likelihood::{PseudoLikelihood, DEFAULT_FEATURE_CACHE_BYTES};
 use super::weights::Weights;
 use crate::error::{Error, Result};
-use crate::param::ParamGuard;
+
 use argmin::core::{
     CostFunction, Executor, Gradient, IterState, Problem, Solver, State, TerminationReason,
     TerminationStatus, KV,
@@ -130,16 +130,10 @@ impl LearnerParams {
     }
 }
 
-impl ParamGuard for LearnerParams {
-    type Checked = Learner;
-    type Error = Error;
-
-    fn check(self) -> Result<Learner> {
-        self.check_ref()?;
-        Ok(Learner { params: self })
-    }
-
-    fn check_ref(&self) -> Result<()> {
+impl LearnerParams {
+    /// `ParamGuard::check_ref`: checks every value; the error names the first
+    /// invalid one.
+    fn validate(&self) -> Result<()> {
         let invalid = |name, value: f64, expected| Error::InvalidParameter {
             name,
             value: value.to_string(),
@@ -178,42 +172,42 @@ impl ParamGuard for LearnerParams {
     }
 }
 
-/// Checked learning parameters: learns weights by maximum pseudo-likelihood.
-///
-/// ```
-/// use std::sync::Arc;
-/// use std::ops::ControlFlow;
-/// use pgm_core::learning::{DenseFeatures, FeatureSet, LabelledInstance, LearnerParams, LogLinearModel};
-/// use pgm_core::{ParamGuard, VariableId};
-///
-/// // A biased coin seen 3 times heads, once tails: the MLE of the log-odds is ln 3.
-/// let mut features = FeatureSet::new("coin", 1);
-/// let bias = features.add_template("bias", &["heads"]).unwrap();
-/// let features = Arc::new(features);
-/// let data: Vec<LabelledInstance> = [1, 1, 1, 0]
-///     .into_iter()
-///     .map(|label| {
-///         let mut model = LogLinearModel::new(Arc::clone(&features), &[2]).unwrap();
-///         let table = DenseFeatures::new(vec![VariableId(0)], vec![2], 1, vec![0.0, 1.0]).unwrap();
-///         model.add_clique(bias, table).unwrap();
-///         LabelledInstance::new(model, vec![label])
-///     })
-///     .collect();
-///
-/// let learner = LearnerParams::default().prior_variance(f64::INFINITY).check().unwrap();
-/// let mut log = Vec::new();
-/// let mut observer = |p: &pgm_core::learning::Progress| {
-///     log.push(p.objective);
-///     ControlFlow::Continue(())
-/// };
-/// let result = learner.learn(&features, &data, &mut observer).unwrap();
-/// assert!((result.weights.get("bias.heads").unwrap() - 3f64.ln()).abs() < 1e-5);
-/// assert!(!log.is_empty());
-/// println!("{}", result.weights); // {bias.heads: 1.0986...}
-/// ```
-#[derive(Clone, Debug, PartialEq)]
-pub struct Learner {
-    params: LearnerParams,
+crate::checked_params! {
+    /// Checked learning parameters: learns weights by maximum pseudo-likelihood.
+    ///
+    /// ```
+    /// use std::sync::Arc;
+    /// use std::ops::ControlFlow;
+    /// use pgm_core::learning::{DenseFeatures, FeatureSet, LabelledInstance, LearnerParams, LogLinearModel};
+    /// use pgm_core::{ParamGuard, VariableId};
+    ///
+    /// // A biased coin seen 3 times heads, once tails: the MLE of the log-odds is ln 3.
+    /// let mut features = FeatureSet::new("coin", 1);
+    /// let bias = features.add_template("bias", &["heads"]).unwrap();
+    /// let features = Arc::new(features);
+    /// let data: Vec<LabelledInstance> = [1, 1, 1, 0]
+    ///     .into_iter()
+    ///     .map(|label| {
+    ///         let mut model = LogLinearModel::new(Arc::clone(&features), &[2]).unwrap();
+    ///         let table = DenseFeatures::new(vec![VariableId(0)], vec![2], 1, vec![0.0, 1.0]).unwrap();
+    ///         model.add_clique(bias, table).unwrap();
+    ///         LabelledInstance::new(model, vec![label])
+    ///     })
+    ///     .collect();
+    ///
+    /// let learner = LearnerParams::default().prior_variance(f64::INFINITY).check().unwrap();
+    /// let mut log = Vec::new();
+    /// let mut observer = |p: &pgm_core::learning::Progress| {
+    ///     log.push(p.objective);
+    ///     ControlFlow::Continue(())
+    /// };
+    /// let result = learner.learn(&features, &data, &mut observer).unwrap();
+    /// assert!((result.weights.get("bias.heads").unwrap() - 3f64.ln()).abs() < 1e-5);
+    /// assert!(!log.is_empty());
+    /// println!("{}", result.weights); // {bias.heads: 1.0986...}
+    /// ```
+    #[derive(Clone, Debug, PartialEq)]
+    pub struct Learner(LearnerParams) -> Error;
 }
 
 /// The outcome of [`Learner::learn`].
@@ -237,11 +231,6 @@ pub struct LearningResult {
 }
 
 impl Learner {
-    /// The parameters.
-    pub fn params(&self) -> &LearnerParams {
-        &self.params
-    }
-
     /// Learns the weights of `features` from `instances`, reporting to `observer`.
     pub fn learn(
         &self,
