@@ -78,6 +78,17 @@ impl GraphSpec {
     }
 }
 
+/// The graphs of `specs` with at most `max_states` joint states: small enough for
+/// [`brute_force`](crate::exact::brute_force) to enumerate.
+pub fn enumerable(
+    specs: impl Strategy<Value = GraphSpec>,
+    max_states: u64,
+) -> impl Strategy<Value = GraphSpec> {
+    specs.prop_filter("small enough to enumerate", move |s| {
+        s.joint_states() <= max_states
+    })
+}
+
 /// Log-potentials in `[-range, range]`, with probability `hard_zero` of −∞.
 pub fn log_potential(range: f64, hard_zero: f64) -> impl Strategy<Value = f64> {
     (0.0..1.0f64, -range..=range)

@@ -1,9 +1,10 @@
 //! Tests of hybrid observed-continuous inference.
 
+mod common;
+
 use pgm_core::hybrid::{ClusterMeans, DiscreteSummary, HybridInference, UpdatePolicy};
 use pgm_core::{BpParams, Flooding, Mode, ParamGuard, Residual, Schedule, Sequential};
 use proptest::prelude::*;
-use proptest::test_runner::FileFailurePersistence;
 
 fn observations() -> impl Strategy<Value = (Vec<f64>, Vec<f64>)> {
     (2usize..40, 1usize..5).prop_flat_map(|(n, k)| {
@@ -15,12 +16,7 @@ fn observations() -> impl Strategy<Value = (Vec<f64>, Vec<f64>)> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig {
-        cases: 128,
-        // Failing cases are saved here and replayed first (commit the file).
-        failure_persistence: Some(Box::new(FileFailurePersistence::Direct("proptest-regressions/hybrid.txt"))),
-        ..ProptestConfig::default()
-    })]
+    #![proptest_config(common::persisted(128, "proptest-regressions/hybrid.txt"))]
 
     /// With the continuous values frozen, hybrid inference is plain BP on the same
     /// potentials: same messages, beliefs and assignment, bit for bit.

@@ -3,6 +3,8 @@
 //! properties on one and two chains with positions of varying state counts, and
 //! sparse pairwise tables (`PairPattern`) against the same model written densely.
 
+mod common;
+
 use pgm_core::exact::{brute_force, BruteForceLimit};
 use pgm_core::hybrid::chain::{
     chain_instance, ChainUpdate, Convergence, FeatureSink, HybridChainModel, HybridChainParams,
@@ -13,7 +15,6 @@ use pgm_core::hybrid::{ClusterMeans, HybridInference, UpdatePolicy};
 use pgm_core::learning::{FeatureSet, LabelledInstance};
 use pgm_core::{BpParams, FactorGraph, Mode, ParamGuard, Sequential, TableFactor};
 use proptest::prelude::*;
-use proptest::test_runner::FileFailurePersistence;
 use std::sync::Arc;
 
 /// Cluster means over one or two chains of observations. Position `i` of chain `c`
@@ -204,11 +205,7 @@ fn problem_with(
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig {
-        cases: 256,
-        failure_persistence: Some(Box::new(FileFailurePersistence::Direct("proptest-regressions/hybrid_chain.txt"))),
-        ..ProptestConfig::default()
-    })]
+    #![proptest_config(common::persisted(256, "proptest-regressions/hybrid_chain.txt"))]
 
     /// With the continuous values frozen, one sweep is the exact MAP of each chain
     /// (brute force), for positions with any number of states.
@@ -578,11 +575,7 @@ fn same_instance(a: &LabelledInstance, b: &LabelledInstance) -> Result<(), TestC
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig {
-        cases: 256,
-        failure_persistence: Some(Box::new(FileFailurePersistence::Direct("proptest-regressions/hybrid_chain.txt"))),
-        ..ProptestConfig::default()
-    })]
+    #![proptest_config(common::persisted(256, "proptest-regressions/hybrid_chain.txt"))]
 
     /// A model declaring sparse pairs runs exactly as the same model written densely
     /// (labels, max-marginals, sweeps, solves, under both update policies, on one or

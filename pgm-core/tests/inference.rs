@@ -1,24 +1,17 @@
 //! Property tests of the inference engine against the exact references.
 
+mod common;
+
 use pgm_core::exact::{brute_force, forward_backward, tree_marginals, viterbi, BruteForceLimit};
 use pgm_core::strategies::{self, GraphSpec};
 use pgm_core::uai::UaiModel;
 use pgm_core::{
     BpParams, Error, Factor, FactorGraph, Flooding, Incoming, Mode, ParamGuard, PottsFactor,
-    Residual, Schedule, Sequential, ShiftedIdentityFactor, TableFactor, VariableId,
+    Sequential, ShiftedIdentityFactor, TableFactor, VariableId,
 };
 use proptest::prelude::*;
-use proptest::test_runner::FileFailurePersistence;
 
 const MAX_STATES: u64 = 1 << 17;
-
-fn schedules() -> Vec<(&'static str, Box<dyn Schedule>)> {
-    vec![
-        ("flooding", Box::new(Flooding)),
-        ("sequential", Box::new(Sequential::default())),
-        ("residual", Box::new(Residual::default())),
-    ]
-}
 
 fn close(a: f64, b: f64, tol: f64) -> bool {
     (a == b) || (a - b).abs() <= tol * (1.0 + b.abs())
@@ -52,7 +45,7 @@ fn check_exact_on_tree(spec: &GraphSpec) -> Result<(), TestCaseError> {
         .unwrap();
     prop_assert!(close(one.log_score, exact.map_log_score, 1e-9));
     let mut first_marginals: Option<Vec<Vec<f64>>> = None;
-    for (name, mut schedule) in schedules() {
+    for (name, mut schedule) in common::schedules() {
         let map = BpParams::new(Mode::MaxProduct)
             .max_iterations(200)
             .check_unwrap()
@@ -98,30 +91,22 @@ fn check_exact_on_tree(spec: &GraphSpec) -> Result<(), TestCaseError> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig {
-        cases: 200,
-        // Failing cases are saved here and replayed first (commit the file).
-        failure_persistence: Some(Box::new(FileFailurePersistence::Direct("proptest-regressions/inference.txt"))),
-        ..ProptestConfig::default()
-    })]
+    #![proptest_config(common::persisted(200, "proptest-regressions/inference.txt"))]
 
     #[test]
-    fn bp_is_exact_on_random_trees(spec in strategies::tree(12, 4, 50.0, 0.1)
-        .prop_filter("small enough to enumerate", |s| s.joint_states() <= MAX_STATES)) {
+    fn bp_is_exact_on_random_trees(spec in strategies::enumerable(strategies::tree(12, 4, 50.0, 0.1), MAX_STATES)) {
         check_exact_on_tree(&spec)?;
     }
 
     #[test]
-    fn bp_is_exact_on_random_chains(spec in strategies::chain(12, 4, 50.0, 0.1)
-        .prop_filter("small enough to enumerate", |s| s.joint_states() <= MAX_STATES)) {
+    fn bp_is_exact_on_random_chains(spec in strategies::enumerable(strategies::chain(12, 4, 50.0, 0.1), MAX_STATES)) {
         check_exact_on_tree(&spec)?;
     }
 
     /// Log-potentials in {−1, 0, 1} (and −∞) make many assignments tie for the MAP;
     /// consistent decoding must still return one of them on trees.
     #[test]
-    fn decoding_is_exact_on_trees_with_ties(spec in strategies::tree(10, 3, 1.0, 0.1)
-        .prop_filter("small enough to enumerate", |s| s.joint_states() <= MAX_STATES)) {
+    fn decoding_is_exact_on_trees_with_ties(spec in strategies::enumerable(strategies::tree(10, 3, 1.0, 0.1), MAX_STATES)) {
         let mut spec = spec;
         for f in &mut spec.factors {
             if let strategies::FactorSpec::Table { log_table, .. } = f {
@@ -130,7 +115,7 @@ proptest! {
         }
         let graph = spec.build();
         let Ok(exact) = brute_force(&graph, BruteForceLimit(MAX_STATES)) else { return Ok(()); };
-        for (name, mut schedule) in schedules() {
+        for (name, mut schedule) in common::schedules() {
             let r = BpParams::new(Mode::MaxProduct).max_iterations(200).check_unwrap().run(&graph, &mut schedule).unwrap();
             prop_assert!(close(r.log_score, exact.map_log_score, 1e-12), "{name}: {} vs {}", r.log_score, exact.map_log_score);
         }
@@ -151,8 +136,7 @@ proptest! {
     }
 
     #[test]
-    fn chain_references_agree(spec in strategies::chain(10, 4, 20.0, 0.1)
-        .prop_filter("small enough to enumerate", |s| s.joint_states() <= MAX_STATES)) {
+    fn chain_references_agree(spec in strategies::enumerable(strategies::chain(10, 4, 20.0, 0.1), MAX_STATES)) {
         let graph = spec.build();
         let Ok(bf) = brute_force(&graph, BruteForceLimit(MAX_STATES)) else { return Ok(()); };
         let (_, score) = viterbi(&graph).unwrap();
@@ -173,7 +157,7 @@ proptest! {
     ) {
         let graph = spec.build();
         for mode in [Mode::MaxProduct, Mode::SumProduct] {
-            for (name, mut schedule) in schedules() {
+            for (name, mut schedule) in common::schedules() {
                 // Unchecked decoding: the numbers of every run, feasible or not (`run`
                 // refuses models without positive assignments, tested below).
                 let bp = BpParams::new(mode).damping(damping).max_iterations(30).check_unwrap();
@@ -194,7 +178,7 @@ proptest! {
     #[test]
     fn potts_grids_give_normalised_beliefs(spec in strategies::potts_grid(5, 4, 5.0)) {
         let graph = spec.build();
-        for (_, mut schedule) in schedules() {
+        for (_, mut schedule) in common::schedules() {
             let r = BpParams::new(Mode::SumProduct).damping(0.3).max_iterations(50).check_unwrap()
                 .run(&graph, &mut schedule).unwrap();
             for b in &r.beliefs {
@@ -226,7 +210,7 @@ proptest! {
             log_table.iter_mut().for_each(|x| *x += shift as f64);
         }
         let shifted = shifted_spec.build();
-        for (name, mut schedule) in schedules() {
+        for (name, mut schedule) in common::schedules() {
             let bp = BpParams::new(Mode::MaxProduct).max_iterations(20).check_unwrap();
             // A shift keeps the hard zeros: both runs are refused or neither is.
             let (a, b) = match (bp.run(&base, &mut schedule), bp.run(&shifted, &mut schedule)) {
@@ -346,7 +330,7 @@ fn ties_decode_to_one_consistent_map() {
         g.add_factor(PottsFactor::new(VariableId(v), VariableId(v + 1), 2, 0.0, 1.0).unwrap())
             .unwrap();
     }
-    for (_, mut s) in schedules() {
+    for (_, mut s) in common::schedules() {
         let r = BpParams::new(Mode::MaxProduct)
             .check_unwrap()
             .run(&g, &mut s)
@@ -498,7 +482,7 @@ fn damping_never_changes_the_fixed_point_on_the_b15_star() {
     let g = star_with_evidence();
     let exact = brute_force(&g, BruteForceLimit::default()).unwrap();
     for damping in [0.0, 0.5, 0.9] {
-        for (name, mut schedule) in schedules() {
+        for (name, mut schedule) in common::schedules() {
             let r = BpParams::new(Mode::SumProduct)
                 .damping(damping)
                 .tolerance(1e-12)
@@ -521,24 +505,19 @@ fn damping_never_changes_the_fixed_point_on_the_b15_star() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig {
-        cases: 100,
-        failure_persistence: Some(Box::new(FileFailurePersistence::Direct("proptest-regressions/inference.txt"))),
-        ..ProptestConfig::default()
-    })]
+    #![proptest_config(common::persisted(100, "proptest-regressions/inference.txt"))]
 
     /// Damping changes the path to the fixed point, never the fixed point: on trees
     /// (a unique fixed point, the exact one) every schedule with every damping ends at
     /// the exact marginals and MAP score, and reports convergence only there.
     #[test]
     fn damping_never_changes_the_fixed_point(
-        spec in strategies::tree(9, 3, 5.0, 0.05)
-            .prop_filter("small enough to enumerate", |s| s.joint_states() <= MAX_STATES),
+        spec in strategies::enumerable(strategies::tree(9, 3, 5.0, 0.05), MAX_STATES),
         damping in prop_oneof![Just(0.3), Just(0.6), Just(0.9)],
     ) {
         let graph = spec.build();
         let Ok(exact) = brute_force(&graph, BruteForceLimit(MAX_STATES)) else { return Ok(()); };
-        for (name, mut schedule) in schedules() {
+        for (name, mut schedule) in common::schedules() {
             let mar = BpParams::new(Mode::SumProduct)
                 .damping(damping)
                 .tolerance(1e-12)
@@ -567,7 +546,7 @@ proptest! {
 fn observer_sees_every_iteration_of_every_schedule() {
     use pgm_core::observer::{BpProgress, History};
     let g = star_with_evidence();
-    for (name, mut schedule) in schedules() {
+    for (name, mut schedule) in common::schedules() {
         let mut history = History::<BpProgress>::default();
         let r = BpParams::new(Mode::SumProduct)
             .damping(0.5)
@@ -619,11 +598,7 @@ fn observer_sees_every_iteration_of_every_schedule() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig {
-        cases: 60,
-        failure_persistence: Some(Box::new(FileFailurePersistence::Direct("proptest-regressions/inference.txt"))),
-        ..ProptestConfig::default()
-    })]
+    #![proptest_config(common::persisted(60, "proptest-regressions/inference.txt"))]
 
     /// Potts tables written out densely (as UAI files hold them) and turned back into
     /// Potts factors give the same max-product messages and decisions, and the same
@@ -643,7 +618,7 @@ proptest! {
         let pairs = dense_spec.factors.iter().filter(|f| matches!(f, strategies::FactorSpec::Table { scope, .. } if scope.len() == 2)).count();
         let k = spec.cardinalities[0];
         prop_assert_eq!(specialised.specialise_factors(), if k >= 2 { pairs } else { 0 });
-        for (name, mut schedule) in schedules() {
+        for (name, mut schedule) in common::schedules() {
             let bp = BpParams::new(Mode::MaxProduct).max_iterations(15).check_unwrap();
             let a = bp.run(&dense, &mut schedule).unwrap();
             let b = bp.run(&specialised, &mut schedule).unwrap();

@@ -2,6 +2,8 @@
 //! exact likelihood, recovery of known weights from exact samples, weight files, and
 //! clear errors on bad input.
 
+mod common;
+
 use pgm_core::exact::{brute_force, forward_backward, BruteForceLimit, ChainSampler};
 use pgm_core::learning::{
     CliqueFeatures, DenseFeatures, FeatureSet, LabelledInstance, LearnerParams, LogLinearModel,
@@ -9,7 +11,6 @@ use pgm_core::learning::{
 };
 use pgm_core::{BpParams, Error, Mode, ParamGuard, Sequential, VariableId};
 use proptest::prelude::*;
-use proptest::test_runner::FileFailurePersistence;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::ops::ControlFlow;
@@ -150,12 +151,7 @@ fn problem(max_extra: usize) -> impl Strategy<Value = ProblemSpec> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig {
-        cases: 256,
-        // Failing cases are saved here and replayed first (commit the file).
-        failure_persistence: Some(Box::new(FileFailurePersistence::Direct("proptest-regressions/learning.txt"))),
-        ..ProptestConfig::default()
-    })]
+    #![proptest_config(common::persisted(256, "proptest-regressions/learning.txt"))]
 
     /// The analytic gradient of `−PL + ‖w‖²/(2σ²)` matches central finite differences
     /// (step 1e-5; truncation error ~h² ≈ 1e-10, rounding ~1e-16·|f|/h ≈ 1e-10) to a

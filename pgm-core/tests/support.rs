@@ -8,25 +8,19 @@
 //! with two colours, K4 with three, a feasible even cycle) built by hand, and on random
 //! loopy models against brute force.
 
+mod common;
+
 use pgm_core::exact::{brute_force, BruteForceLimit};
 use pgm_core::strategies;
 use pgm_core::support::{first_violation, Method, ZeroProbability, ZeroProof};
 use pgm_core::{
-    BpParams, Error, FactorGraph, Flooding, Mode, ParamGuard, PottsFactor, Residual, Schedule,
-    Sequential, TableFactor, TrwsParams, VariableId,
+    BpParams, Error, FactorGraph, Flooding, Mode, ParamGuard, PottsFactor, Sequential, TableFactor,
+    TrwsParams, VariableId,
 };
 use proptest::prelude::*;
 use rand::{Rng, SeedableRng};
 
 const INF: f64 = f64::NEG_INFINITY;
-
-fn schedules() -> Vec<(&'static str, Box<dyn Schedule>)> {
-    vec![
-        ("flooding", Box::new(Flooding)),
-        ("sequential", Box::new(Sequential::default())),
-        ("residual", Box::new(Residual::default())),
-    ]
-}
 
 /// Hard "not equal" tables with `k` colours on `edges`, as Potts factors or as dense
 /// tables (the two message paths).
@@ -60,24 +54,20 @@ fn complete(n: usize) -> Vec<(usize, usize)> {
 
 /// The three models of the case, and variants of the same kinds.
 fn infeasible_models() -> Vec<(String, FactorGraph)> {
+    let kinds = [
+        ("triangle, 2 colours", 3, 2, cycle(3)),
+        ("K4, 3 colours", 4, 3, complete(4)),
+        ("7-cycle, 2 colours", 7, 2, cycle(7)),
+        ("K6, 5 colours", 6, 5, complete(6)),
+    ];
     let mut out = Vec::new();
     for dense in [false, true] {
-        out.push((
-            format!("triangle, 2 colours, dense {dense}"),
-            colouring(3, 2, &cycle(3), dense),
-        ));
-        out.push((
-            format!("K4, 3 colours, dense {dense}"),
-            colouring(4, 3, &complete(4), dense),
-        ));
-        out.push((
-            format!("7-cycle, 2 colours, dense {dense}"),
-            colouring(7, 2, &cycle(7), dense),
-        ));
-        out.push((
-            format!("K6, 5 colours, dense {dense}"),
-            colouring(6, 5, &complete(6), dense),
-        ));
+        for (name, n, k, edges) in &kinds {
+            out.push((
+                format!("{name}, dense {dense}"),
+                colouring(*n, *k, edges, dense),
+            ));
+        }
     }
     out
 }
@@ -103,7 +93,7 @@ fn check_refusal(graph: &FactorGraph, why: &ZeroProbability, method: Method, wha
 #[test]
 fn odd_cycles_and_k4_are_refused_by_every_method() {
     for (what, g) in infeasible_models() {
-        for (name, mut schedule) in schedules() {
+        for (name, mut schedule) in common::schedules() {
             for (mode, method) in [
                 (Mode::MaxProduct, Method::MaxProduct),
                 (Mode::SumProduct, Method::SumProduct),
@@ -144,7 +134,7 @@ fn odd_cycles_and_k4_are_refused_by_every_method() {
 fn the_even_cycle_succeeds_everywhere() {
     for dense in [false, true] {
         let g = colouring(6, 2, &cycle(6), dense);
-        for (name, mut schedule) in schedules() {
+        for (name, mut schedule) in common::schedules() {
             let map = BpParams::new(Mode::MaxProduct)
                 .check_unwrap()
                 .run(&g, &mut schedule)
@@ -288,7 +278,7 @@ fn check_against_brute_force(g: &FactorGraph, what: &str) -> (usize, usize) {
         .map(|e| e.map_log_score);
     let mut fallbacks = (0, 0);
     for iterations in [1, 300] {
-        for (name, mut schedule) in schedules() {
+        for (name, mut schedule) in common::schedules() {
             for mode in [Mode::MaxProduct, Mode::SumProduct] {
                 let run = BpParams::new(mode)
                     .max_iterations(iterations)
@@ -358,8 +348,7 @@ proptest! {
 
     #[test]
     fn refused_exactly_when_no_assignment_is_positive(
-        spec in strategies::loopy(7, 3, 4, 5.0, 0.4)
-            .prop_filter("small enough to enumerate", |s| s.joint_states() <= 1 << 16)
+        spec in strategies::enumerable(strategies::loopy(7, 3, 4, 5.0, 0.4), 1 << 16)
     ) {
         check_against_brute_force(&spec.build(), &format!("{spec:?}"));
     }

@@ -2,6 +2,8 @@
 //! models its bound is an upper bound on the optimum that never increases, and its
 //! assignment never scores above the bound.
 
+mod common;
+
 use pgm_core::exact::{brute_force, BruteForceLimit};
 use pgm_core::observer::{History, TrwsProgress};
 use pgm_core::strategies::{self, GraphSpec};
@@ -9,7 +11,6 @@ use pgm_core::support::{Method, ZeroProof};
 use pgm_core::trws::{TrwsParams, TrwsTermination};
 use pgm_core::{Error, FactorGraph, ParamGuard, PottsFactor, TableFactor, VariableId};
 use proptest::prelude::*;
-use proptest::test_runner::FileFailurePersistence;
 use std::ops::ControlFlow;
 
 const MAX_STATES: u64 = 1 << 16;
@@ -24,14 +25,18 @@ fn at_most(a: f64, b: f64) -> bool {
     a <= b || (b.is_finite() && a <= b + slack(b))
 }
 
-fn check_exact(spec: &GraphSpec) -> Result<(), TestCaseError> {
+/// Runs `check` with the backward pass decoding off and on.
+fn for_both_decodings(
+    spec: &GraphSpec,
+    check: fn(&GraphSpec, bool) -> Result<(), TestCaseError>,
+) -> Result<(), TestCaseError> {
     for decode_backward in [false, true] {
-        check_exact_with(spec, decode_backward)?;
+        check(spec, decode_backward)?;
     }
     Ok(())
 }
 
-fn check_exact_with(spec: &GraphSpec, decode_backward: bool) -> Result<(), TestCaseError> {
+fn check_exact(spec: &GraphSpec, decode_backward: bool) -> Result<(), TestCaseError> {
     let graph = spec.build();
     let Ok(exact) = brute_force(&graph, BruteForceLimit(MAX_STATES)) else {
         return Ok(());
@@ -63,14 +68,7 @@ fn check_exact_with(spec: &GraphSpec, decode_backward: bool) -> Result<(), TestC
     Ok(())
 }
 
-fn check_bound(spec: &GraphSpec) -> Result<(), TestCaseError> {
-    for decode_backward in [false, true] {
-        check_bound_with(spec, decode_backward)?;
-    }
-    Ok(())
-}
-
-fn check_bound_with(spec: &GraphSpec, decode_backward: bool) -> Result<(), TestCaseError> {
+fn check_bound(spec: &GraphSpec, decode_backward: bool) -> Result<(), TestCaseError> {
     let graph = spec.build();
     let mut history = History::<TrwsProgress>::default();
     let run = TrwsParams::default()
@@ -144,34 +142,26 @@ fn check_bound_with(spec: &GraphSpec, decode_backward: bool) -> Result<(), TestC
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig {
-        cases: 200,
-        failure_persistence: Some(Box::new(FileFailurePersistence::Direct("proptest-regressions/trws.txt"))),
-        ..ProptestConfig::default()
-    })]
+    #![proptest_config(common::persisted(200, "proptest-regressions/trws.txt"))]
 
     #[test]
-    fn trws_is_exact_on_chains(spec in strategies::chain(12, 4, 20.0, 0.1)
-        .prop_filter("small enough to enumerate", |s| s.joint_states() <= MAX_STATES)) {
-        check_exact(&spec)?;
+    fn trws_is_exact_on_chains(spec in strategies::enumerable(strategies::chain(12, 4, 20.0, 0.1), MAX_STATES)) {
+        for_both_decodings(&spec, check_exact)?;
     }
 
     #[test]
-    fn trws_is_exact_on_trees(spec in strategies::tree(12, 4, 20.0, 0.1)
-        .prop_filter("small enough to enumerate", |s| s.joint_states() <= MAX_STATES)) {
-        check_exact(&spec)?;
+    fn trws_is_exact_on_trees(spec in strategies::enumerable(strategies::tree(12, 4, 20.0, 0.1), MAX_STATES)) {
+        for_both_decodings(&spec, check_exact)?;
     }
 
     #[test]
-    fn trws_bound_holds_on_loopy_graphs(spec in strategies::loopy(9, 3, 5, 10.0, 0.1)
-        .prop_filter("small enough to enumerate", |s| s.joint_states() <= MAX_STATES)) {
-        check_bound(&spec)?;
+    fn trws_bound_holds_on_loopy_graphs(spec in strategies::enumerable(strategies::loopy(9, 3, 5, 10.0, 0.1), MAX_STATES)) {
+        for_both_decodings(&spec, check_bound)?;
     }
 
     #[test]
-    fn trws_bound_holds_on_potts_grids(spec in strategies::potts_grid(4, 3, 3.0)
-        .prop_filter("small enough to enumerate", |s| s.joint_states() <= MAX_STATES)) {
-        check_bound(&spec)?;
+    fn trws_bound_holds_on_potts_grids(spec in strategies::enumerable(strategies::potts_grid(4, 3, 3.0), MAX_STATES)) {
+        for_both_decodings(&spec, check_bound)?;
     }
 }
 
