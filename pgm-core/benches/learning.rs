@@ -6,7 +6,8 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use pgm_core::exact::ChainSampler;
 use pgm_core::learning::{
-    CliqueFeatures, FeatureSet, LabelledInstance, LearnerParams, LogLinearModel, TemplateId,
+    CliqueFeatures, FeatureSet, FnFeatures, LabelledInstance, LearnerParams, LogLinearModel,
+    TemplateId,
 };
 use pgm_core::{ParamGuard, VariableId};
 use rand::{Rng, SeedableRng};
@@ -18,50 +19,6 @@ const STATES: usize = 5;
 const OBSERVATIONS: usize = 4;
 const LENGTH: usize = 361;
 const INSTANCES: usize = 30;
-
-/// Unary: state `k` weighs each of the point's 4 observations with its own weight
-/// (5 × 4 = 20 weights).
-struct Observation {
-    scope: [VariableId; 1],
-    shape: [usize; 1],
-    z: [f64; OBSERVATIONS],
-}
-
-impl CliqueFeatures for Observation {
-    fn scope(&self) -> &[VariableId] {
-        &self.scope
-    }
-    fn shape(&self) -> &[usize] {
-        &self.shape
-    }
-    fn features(&self, states: &[usize], out: &mut [f64]) {
-        let k = states[0];
-        out[k * OBSERVATIONS..(k + 1) * OBSERVATIONS].copy_from_slice(&self.z);
-    }
-}
-
-/// Pairwise: neighbours in the same state `k` get `[1, d]` on that state's two weights
-/// (5 × 2 = 10 weights), `d` the distance between the points.
-struct Neighbour {
-    scope: [VariableId; 2],
-    shape: [usize; 2],
-    distance: f64,
-}
-
-impl CliqueFeatures for Neighbour {
-    fn scope(&self) -> &[VariableId] {
-        &self.scope
-    }
-    fn shape(&self) -> &[usize] {
-        &self.shape
-    }
-    fn features(&self, states: &[usize], out: &mut [f64]) {
-        if states[0] == states[1] {
-            out[states[0]] = 1.0;
-            out[STATES + states[0]] = self.distance;
-        }
-    }
-}
 
 fn training_set() -> (Arc<FeatureSet>, Vec<LabelledInstance>) {
     let mut features = FeatureSet::new("bench-chain", 1);
@@ -109,22 +66,39 @@ fn chain(
     let mut model = LogLinearModel::new(Arc::clone(features), &[STATES; LENGTH]).unwrap();
     for i in 0..LENGTH {
         let z = std::array::from_fn(|_| rng.random::<f64>() * 2.0 - 1.0);
-        let clique = Observation {
-            scope: [VariableId(i)],
-            shape: [STATES],
-            z,
-        };
-        model.add_clique(observation, clique).unwrap();
+        model
+            .add_clique(observation, observation_clique(i, z))
+            .unwrap();
         if i > 0 {
-            let clique = Neighbour {
-                scope: [VariableId(i - 1), VariableId(i)],
-                shape: [STATES; 2],
-                distance: rng.random::<f64>() * 0.5,
-            };
-            model.add_clique(neighbour, clique).unwrap();
+            let distance = rng.random::<f64>() * 0.5;
+            model
+                .add_clique(neighbour, neighbour_clique(i, distance))
+                .unwrap();
         }
     }
     model
+}
+
+/// Unary at point `i`: state `k` weighs each of the point's 4 observations `z` with
+/// its own weight (5 × 4 = 20 weights).
+fn observation_clique(i: usize, z: [f64; OBSERVATIONS]) -> impl CliqueFeatures {
+    FnFeatures::new([VariableId(i)], [STATES], move |states, out| {
+        let k = states[0];
+        out[k * OBSERVATIONS..(k + 1) * OBSERVATIONS].copy_from_slice(&z);
+    })
+}
+
+/// Pairwise between points `i - 1` and `i`: neighbours in the same state `k` get
+/// `[1, d]` on that state's two weights (5 × 2 = 10 weights), `d` the distance
+/// between the points.
+fn neighbour_clique(i: usize, distance: f64) -> impl CliqueFeatures {
+    let scope = [VariableId(i - 1), VariableId(i)];
+    FnFeatures::new(scope, [STATES; 2], move |states, out| {
+        if states[0] == states[1] {
+            out[states[0]] = 1.0;
+            out[STATES + states[0]] = distance;
+        }
+    })
 }
 
 fn learning(c: &mut Criterion) {

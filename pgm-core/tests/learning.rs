@@ -6,8 +6,8 @@ mod common;
 
 use pgm_core::exact::{brute_force, forward_backward, BruteForceLimit, ChainSampler};
 use pgm_core::learning::{
-    CliqueFeatures, DenseFeatures, FeatureSet, LabelledInstance, LearnerParams, LogLinearModel,
-    Progress, PseudoLikelihood, TemplateId, Weights, DEFAULT_FEATURE_CACHE_BYTES,
+    CliqueFeatures, DenseFeatures, FeatureSet, FnFeatures, LabelledInstance, LearnerParams,
+    LogLinearModel, Progress, PseudoLikelihood, TemplateId, Weights, DEFAULT_FEATURE_CACHE_BYTES,
 };
 use pgm_core::{BpParams, Error, Mode, ParamGuard, Sequential, VariableId};
 use proptest::prelude::*;
@@ -219,49 +219,6 @@ proptest! {
 // ---------------------------------------------------------------------------------
 // A chain CRF with known weights.
 
-/// Unary feature of the test chain: state `k` scores observation `z[k]` with its own
-/// weight (3 weights).
-struct Observation {
-    scope: [VariableId; 1],
-    shape: [usize; 1],
-    z: Vec<f64>,
-}
-
-impl CliqueFeatures for Observation {
-    fn scope(&self) -> &[VariableId] {
-        &self.scope
-    }
-    fn shape(&self) -> &[usize] {
-        &self.shape
-    }
-    fn features(&self, states: &[usize], out: &mut [f64]) {
-        out[states[0]] = self.z[states[0]];
-    }
-}
-
-/// Pairwise feature of the test chain: `[1, d]` when neighbours agree, where `d` is an
-/// observed distance (like CRF-Clustering's neighbour and weighted-neighbour features).
-struct Agreement {
-    scope: [VariableId; 2],
-    shape: [usize; 2],
-    distance: f64,
-}
-
-impl CliqueFeatures for Agreement {
-    fn scope(&self) -> &[VariableId] {
-        &self.scope
-    }
-    fn shape(&self) -> &[usize] {
-        &self.shape
-    }
-    fn features(&self, states: &[usize], out: &mut [f64]) {
-        if states[0] == states[1] {
-            out[0] = 1.0;
-            out[1] = self.distance;
-        }
-    }
-}
-
 const STATES: usize = 3;
 const TRUE_WEIGHTS: [f64; 5] = [1.0, 0.7, 1.3, 1.2, -0.6];
 
@@ -289,33 +246,54 @@ fn sampled_chain(
     for i in 0..length {
         let z = (0..STATES).map(|_| normal(rng)).collect();
         model
-            .add_clique(
-                observation,
-                Observation {
-                    scope: [VariableId(i)],
-                    shape: [STATES],
-                    z,
-                },
-            )
+            .add_clique(observation, observation_clique(i, z))
             .unwrap();
         if i > 0 {
             let distance = rng.random::<f64>() * 2.0;
-            let scope = [VariableId(i - 1), VariableId(i)];
             model
-                .add_clique(
-                    agreement,
-                    Agreement {
-                        scope,
-                        shape: [STATES; 2],
-                        distance,
-                    },
-                )
+                .add_clique(agreement, agreement_clique(i, distance))
                 .unwrap();
         }
     }
     let graph = model.to_factor_graph(&TRUE_WEIGHTS).unwrap();
     let labels = ChainSampler::new(&graph).unwrap().sample(rng);
     LabelledInstance::new(model, labels)
+}
+
+/// `count` chains of `length` variables sampled by [`sampled_chain`] from a generator
+/// seeded with `seed`, and their feature set.
+fn sampled_chains(
+    seed: u64,
+    count: usize,
+    length: usize,
+) -> (Arc<FeatureSet>, Vec<LabelledInstance>) {
+    let features = chain_features();
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let data = (0..count)
+        .map(|_| sampled_chain(&features, length, &mut rng))
+        .collect();
+    (features, data)
+}
+
+/// Unary feature of the test chain at variable `i`: state `k` scores observation
+/// `z[k]` with its own weight (3 weights).
+fn observation_clique(i: usize, z: Vec<f64>) -> impl CliqueFeatures {
+    FnFeatures::new([VariableId(i)], [STATES], move |states, out| {
+        out[states[0]] = z[states[0]];
+    })
+}
+
+/// Pairwise feature of the test chain between variables `i - 1` and `i`: `[1, d]` when
+/// the neighbours agree, where `d` is an observed distance (like CRF-Clustering's
+/// neighbour and weighted-neighbour features).
+fn agreement_clique(i: usize, distance: f64) -> impl CliqueFeatures {
+    let scope = [VariableId(i - 1), VariableId(i)];
+    FnFeatures::new(scope, [STATES; 2], move |states, out| {
+        if states[0] == states[1] {
+            out[0] = 1.0;
+            out[1] = distance;
+        }
+    })
 }
 
 /// A standard normal draw (Box–Muller), to avoid a rand_distr dependency.
@@ -374,11 +352,7 @@ fn invert(mut a: Vec<Vec<f64>>) -> Vec<Vec<f64>> {
 /// deterministic).
 #[test]
 fn recovers_known_weights() {
-    let features = chain_features();
-    let mut rng = ChaCha8Rng::seed_from_u64(20_240_611);
-    let data: Vec<LabelledInstance> = (0..150)
-        .map(|_| sampled_chain(&features, 40, &mut rng))
-        .collect();
+    let (features, data) = sampled_chains(20_240_611, 150, 40);
     let learner = LearnerParams::default()
         .prior_variance(f64::INFINITY)
         .check()
@@ -472,11 +446,7 @@ fn chain_sampler_matches_exact_marginals() {
 
 #[test]
 fn learned_model_runs_belief_propagation() {
-    let features = chain_features();
-    let mut rng = ChaCha8Rng::seed_from_u64(11);
-    let data: Vec<LabelledInstance> = (0..20)
-        .map(|_| sampled_chain(&features, 15, &mut rng))
-        .collect();
+    let (features, data) = sampled_chains(11, 20, 15);
     let result = LearnerParams::default()
         .check()
         .unwrap()
@@ -504,11 +474,7 @@ fn learned_model_runs_belief_propagation() {
 
 #[test]
 fn observer_sees_every_iteration_and_can_stop() {
-    let features = chain_features();
-    let mut rng = ChaCha8Rng::seed_from_u64(5);
-    let data: Vec<LabelledInstance> = (0..10)
-        .map(|_| sampled_chain(&features, 20, &mut rng))
-        .collect();
+    let (features, data) = sampled_chains(5, 10, 20);
     let learner = LearnerParams::default().check().unwrap();
 
     let mut seen: Vec<Progress> = Vec::new();
@@ -545,11 +511,7 @@ fn observer_sees_every_iteration_and_can_stop() {
 
 #[test]
 fn iteration_limit_is_respected() {
-    let features = chain_features();
-    let mut rng = ChaCha8Rng::seed_from_u64(6);
-    let data: Vec<LabelledInstance> = (0..5)
-        .map(|_| sampled_chain(&features, 20, &mut rng))
-        .collect();
+    let (features, data) = sampled_chains(6, 5, 20);
     let result = LearnerParams::default()
         .max_iterations(3)
         .check()
@@ -623,6 +585,20 @@ fn two_variable_set() -> (Arc<FeatureSet>, TemplateId) {
     (Arc::new(features), t)
 }
 
+/// A model over two binary variables of [`two_variable_set`] with one clique, a zero
+/// unary on the first variable (the second has no factors yet).
+fn unary_on_first() -> (Arc<FeatureSet>, TemplateId, LogLinearModel) {
+    let (features, t) = two_variable_set();
+    let mut model = LogLinearModel::new(Arc::clone(&features), &[2, 2]).unwrap();
+    model
+        .add_clique(
+            t,
+            DenseFeatures::new(vec![VariableId(0)], vec![2], 2, vec![0.0; 4]).unwrap(),
+        )
+        .unwrap();
+    (features, t, model)
+}
+
 #[test]
 fn label_out_of_range_names_instance_and_variable() {
     let (features, t) = two_variable_set();
@@ -659,14 +635,7 @@ fn label_out_of_range_names_instance_and_variable() {
 
 #[test]
 fn variable_without_factors_is_an_error() {
-    let (features, t) = two_variable_set();
-    let mut model = LogLinearModel::new(Arc::clone(&features), &[2, 2]).unwrap();
-    model
-        .add_clique(
-            t,
-            DenseFeatures::new(vec![VariableId(0)], vec![2], 2, vec![0.0; 4]).unwrap(),
-        )
-        .unwrap();
+    let (features, _, model) = unary_on_first();
     let data = vec![LabelledInstance::new(model, vec![0, 0])];
     let error = PseudoLikelihood::new(features, &data, 1.0).unwrap_err();
     assert!(
@@ -684,14 +653,7 @@ fn variable_without_factors_is_an_error() {
 #[test]
 fn non_finite_features_are_errors_naming_instance_and_variable() {
     for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
-        let (features, t) = two_variable_set();
-        let mut model = LogLinearModel::new(Arc::clone(&features), &[2, 2]).unwrap();
-        model
-            .add_clique(
-                t,
-                DenseFeatures::new(vec![VariableId(0)], vec![2], 2, vec![0.0; 4]).unwrap(),
-            )
-            .unwrap();
+        let (features, t, mut model) = unary_on_first();
         // The bad value sits at joint state (1, 0), feature b.
         let table = vec![0.0, 0.0, 0.0, 0.0, 0.0, bad, 0.0, 0.0];
         model
@@ -744,9 +706,7 @@ fn non_finite_features_are_errors_naming_instance_and_variable() {
 
 #[test]
 fn bad_weights_and_parameters_are_errors() {
-    let features = chain_features();
-    let mut rng = ChaCha8Rng::seed_from_u64(9);
-    let data = vec![sampled_chain(&features, 5, &mut rng)];
+    let (features, data) = sampled_chains(9, 1, 5);
     let objective = PseudoLikelihood::new(Arc::clone(&features), &data, 1.0).unwrap();
     let error = objective
         .value(&[0.0, f64::NAN, 0.0, 0.0, 0.0])

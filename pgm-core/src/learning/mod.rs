@@ -77,8 +77,8 @@ mod pseudo_likelihood;
 mod weights;
 
 pub use model::{
-    CliqueFeatures, DenseFeatures, FeatureSet, LabelledInstance, LogLinearModel, Template,
-    TemplateId, MAX_ABS_WEIGHT,
+    CliqueFeatures, DenseFeatures, FeatureSet, FnFeatures, LabelledInstance, LogLinearModel,
+    Template, TemplateId, MAX_ABS_WEIGHT,
 };
 pub use optimise::{Learner, LearnerParams, LearningObserver, LearningResult, Progress};
 pub use pseudo_likelihood::{PseudoLikelihood, DEFAULT_FEATURE_CACHE_BYTES};

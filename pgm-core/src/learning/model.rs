@@ -257,6 +257,67 @@ pub trait CliqueFeatures: Send + Sync {
     fn features(&self, states: &[usize], out: &mut [f64]);
 }
 
+/// A clique over a fixed number `N` of variables whose features a function computes:
+/// [`CliqueFeatures`] for a scope, a shape and a closure holding the observations,
+/// without a type of its own.
+///
+/// ```
+/// use pgm_core::learning::{CliqueFeatures, FnFeatures};
+/// use pgm_core::VariableId;
+///
+/// // `[1, d]` when both points share a cluster, `d` the distance between the points.
+/// let distance = 0.5;
+/// let same_cluster = FnFeatures::new([VariableId(0), VariableId(1)], [3, 3], move |states, out| {
+///     if states[0] == states[1] {
+///         out[0] = 1.0;
+///         out[1] = distance;
+///     }
+/// });
+/// assert_eq!(same_cluster.shape(), &[3, 3]);
+/// let mut out = [0.0; 2];
+/// same_cluster.features(&[2, 2], &mut out);
+/// assert_eq!(out, [1.0, 0.5]);
+/// ```
+#[derive(Clone)]
+pub struct FnFeatures<F, const N: usize> {
+    scope: [VariableId; N],
+    shape: [usize; N],
+    features: F,
+}
+
+impl<F, const N: usize> FnFeatures<F, N>
+where
+    F: Fn(&[usize], &mut [f64]) + Send + Sync,
+{
+    /// The clique over `scope` (`shape[j]` states for `scope[j]`) whose feature vector
+    /// at a joint state `features(states, out)` writes into `out` (zero on entry, as
+    /// in [`CliqueFeatures::features`]).
+    pub fn new(scope: [VariableId; N], shape: [usize; N], features: F) -> Self {
+        Self {
+            scope,
+            shape,
+            features,
+        }
+    }
+}
+
+impl<F, const N: usize> CliqueFeatures for FnFeatures<F, N>
+where
+    F: Fn(&[usize], &mut [f64]) + Send + Sync,
+{
+    fn scope(&self) -> &[VariableId] {
+        &self.scope
+    }
+
+    fn shape(&self) -> &[usize] {
+        &self.shape
+    }
+
+    fn features(&self, states: &[usize], out: &mut [f64]) {
+        (self.features)(states, out)
+    }
+}
+
 /// A dense feature table: for every joint state (row-major, last scope position
 /// fastest, the order of [`TableFactor`]) a contiguous feature vector of `width`
 /// entries.
