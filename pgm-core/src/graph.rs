@@ -189,41 +189,13 @@ impl FactorGraph {
     }
 
     fn check_factor(&self, index: usize, factor: &dyn Factor) -> Result<()> {
-        let scope = factor.scope();
-        let shape = factor.shape();
-        if scope.len() != shape.len() {
-            return Err(Error::InvalidParameter {
-                name: "factor shape",
-                value: format!(
-                    "{} scope entries, {} shape entries",
-                    scope.len(),
-                    shape.len()
-                ),
-                expected: "one shape entry per scope variable",
-            });
-        }
-        for (position, (&v, &k)) in scope.iter().zip(shape).enumerate() {
-            if v.0 >= self.cardinalities.len() {
-                return Err(Error::UnknownVariable {
-                    factor: index,
-                    variable: v.0,
-                    num_variables: self.cardinalities.len(),
-                });
-            }
-            if self.cardinalities[v.0] != k {
-                return Err(Error::ShapeMismatch {
-                    factor: index,
-                    position,
-                    variable: v.0,
-                    factor_states: k,
-                    variable_states: self.cardinalities[v.0],
-                });
-            }
-            if scope[..position].contains(&v) {
-                return Err(Error::RepeatedVariable { variable: v.0 });
-            }
-        }
-        Ok(())
+        crate::factor::check_scope_against(
+            index,
+            factor.scope(),
+            factor.shape(),
+            &self.cardinalities,
+            "factor shape",
+        )
     }
 
     /// Number of variables.

@@ -772,48 +772,42 @@ mod tests {
         UaiModel::parse_str("m.uai", text)
     }
 
+    /// Asserts that `text` is refused with an error that mentions every one of `needles`.
+    fn assert_parse_error(text: &str, needles: &[&str]) {
+        let err = model(text).unwrap_err().to_string();
+        assert!(needles.iter().all(|n| err.contains(n)), "{err}");
+    }
+
+    /// The preamble of a MARKOV file of `n` binary variables and one function over all
+    /// of them, up to its table.
+    fn one_scope_over_binaries(n: usize) -> String {
+        let cards = vec!["2"; n].join(" ");
+        let scope: Vec<String> = (0..n).map(|v| v.to_string()).collect();
+        format!("MARKOV\n{n}\n{cards}\n1\n{n} {}\n", scope.join(" "))
+    }
+
     #[test]
     fn joint_state_products_that_overflow_are_parse_errors() {
         // 64 binary variables in one scope: 2^64 wraps to 0, which must not match a
         // table of size 0.
-        let n = 64;
-        let cards = vec!["2"; n].join(" ");
-        let scope: Vec<String> = (0..n).map(|v| v.to_string()).collect();
-        let text = format!("MARKOV\n{n}\n{cards}\n1\n{n} {}\n0\n", scope.join(" "));
-        let err = model(&text).unwrap_err().to_string();
-        assert!(
-            err.contains("m.uai:6:") && err.contains("overflows"),
-            "{err}"
-        );
+        let text = format!("{}0\n", one_scope_over_binaries(64));
+        assert_parse_error(&text, &["m.uai:6:", "overflows"]);
     }
 
     #[test]
     fn declared_table_sizes_are_not_allocated_before_the_data_is_there() {
         // 36 binary variables: the table would need 2^36 entries (512 GiB of f64).
-        let n = 36;
-        let cards = vec!["2"; n].join(" ");
-        let scope: Vec<String> = (0..n).map(|v| v.to_string()).collect();
-        let text = format!(
-            "MARKOV\n{n}\n{cards}\n1\n{n} {}\n{}\n0.5 0.5\n",
-            scope.join(" "),
-            1u64 << 36
-        );
-        let err = model(&text).unwrap_err().to_string();
-        assert!(
-            err.contains("unexpected end of file") && err.contains("68719476736"),
-            "{err}"
-        );
+        let text = format!("{}{}\n0.5 0.5\n", one_scope_over_binaries(36), 1u64 << 36);
+        assert_parse_error(&text, &["unexpected end of file", "68719476736"]);
     }
 
     #[test]
     fn states_of_a_variable_in_no_function_are_bounded_by_the_file() {
         // Found by fuzzing: 77777777773 states for a variable no table mentions made
         // the zero propagation (and BP's beliefs) allocate 78 GB.
-        let err = model("MARKOV\n2\n2 77777777773\n1\n0\n1 0\n").unwrap_err();
-        let err = err.to_string();
-        assert!(
-            err.contains("m.uai:3:") && err.contains("variable 1"),
-            "{err}"
+        assert_parse_error(
+            "MARKOV\n2\n2 77777777773\n1\n0\n1 0\n",
+            &["m.uai:3:", "variable 1"],
         );
         assert!(model("MARKOV\n2\n2 3\n1\n1 0\n2 1 1\n").is_ok());
     }

@@ -236,13 +236,9 @@ fn joint_value<F: Factor + ?Sized>(
     v
 }
 
-/// Checks that a scope and a shape describe the same variables with at least one state
-/// each; returns the number of joint states. `what` names the caller in errors.
-pub(crate) fn check_scope_shape(
-    scope: &[VariableId],
-    shape: &[usize],
-    what: &'static str,
-) -> crate::Result<usize> {
+/// Checks that `shape` has one entry per variable of `scope`; `what` names the caller
+/// in the error.
+fn check_shape_len(scope: &[VariableId], shape: &[usize], what: &'static str) -> crate::Result<()> {
     if scope.len() != shape.len() {
         return Err(crate::Error::InvalidParameter {
             name: what,
@@ -254,6 +250,54 @@ pub(crate) fn check_scope_shape(
             expected: "one shape entry per scope variable",
         });
     }
+    Ok(())
+}
+
+/// Checks the `scope` and `shape` of factor (or clique) `index` against the
+/// `cardinalities` of the variables: one shape entry per scope variable (else
+/// [`InvalidParameter`](crate::Error::InvalidParameter) named `what`), known
+/// variables, their numbers of states, and no variable twice.
+pub(crate) fn check_scope_against(
+    index: usize,
+    scope: &[VariableId],
+    shape: &[usize],
+    cardinalities: &[usize],
+    what: &'static str,
+) -> crate::Result<()> {
+    use crate::Error;
+    check_shape_len(scope, shape, what)?;
+    for (position, (&v, &k)) in scope.iter().zip(shape).enumerate() {
+        let Some(&states) = cardinalities.get(v.0) else {
+            return Err(Error::UnknownVariable {
+                factor: index,
+                variable: v.0,
+                num_variables: cardinalities.len(),
+            });
+        };
+        if states != k {
+            return Err(Error::ShapeMismatch {
+                factor: index,
+                position,
+                variable: v.0,
+                factor_states: k,
+                variable_states: states,
+            });
+        }
+        if scope[..position].contains(&v) {
+            return Err(Error::RepeatedVariable { variable: v.0 });
+        }
+    }
+    Ok(())
+}
+
+/// Checks that a scope and a shape describe the same variables with at least one state
+/// each; returns the number of joint states. `what` names the caller in errors.
+pub(crate) fn check_scope_shape(
+    scope: &[VariableId],
+    shape: &[usize],
+    what: &'static str,
+) -> crate::Result<usize> {
+    check_shape_len(scope, shape, what)?;
     if let Some(p) = shape.iter().position(|&k| k == 0) {
         return Err(crate::Error::ZeroCardinality {
             variable: scope[p].0,

@@ -517,25 +517,11 @@ impl HybridChain {
         observer: &mut dyn FnMut(&SweepReport) -> ControlFlow<()>,
     ) -> Result<HybridChainResult> {
         let chains = model.num_chains();
-        if initial.len() != chains {
-            return Err(InvalidParameter::new(
-                "initial labels",
-                format!("{} chains of labels for {chains} chains", initial.len()),
-                "one label sequence per chain",
-            )
-            .into());
-        }
+        check_label_count("initial labels", initial, chains, None)?;
         let mut buffers = Vec::with_capacity(chains);
         for (c, start) in initial.iter().enumerate() {
             let n = model.chain_len(c);
-            if start.len() != n {
-                return Err(InvalidParameter::new(
-                    "initial labels",
-                    format!("{} labels for the {n} positions of chain {c}", start.len()),
-                    "one label per position",
-                )
-                .into());
-            }
+            check_label_count("initial labels", start, n, Some(c))?;
             for (i, &l) in start.iter().enumerate() {
                 let s = model.num_states(c, i);
                 if l >= s {
@@ -762,27 +748,13 @@ pub fn chain_instance<M: HybridChainModel>(
         .into());
     }
     let chains = model.num_chains();
-    if labels.len() != chains {
-        return Err(InvalidParameter::new(
-            "labels",
-            format!("{} chains of labels for {chains} chains", labels.len()),
-            "one label sequence per chain",
-        )
-        .into());
-    }
+    check_label_count("labels", labels, chains, None)?;
     let mut first = Vec::with_capacity(chains);
     let mut cardinalities = Vec::new();
     let mut all_labels = Vec::new();
     for (c, l) in labels.iter().enumerate() {
         let n = model.chain_len(c);
-        if l.len() != n {
-            return Err(InvalidParameter::new(
-                "labels",
-                format!("{} labels for the {n} positions of chain {c}", l.len()),
-                "one label per position",
-            )
-            .into());
-        }
+        check_label_count("labels", l, n, Some(c))?;
         first.push(cardinalities.len());
         for i in 0..n {
             cardinalities.push(model.num_states(c, i));
@@ -823,6 +795,32 @@ pub fn chain_instance<M: HybridChainModel>(
         }
     }
     Ok(LabelledInstance::new(model_out, all_labels))
+}
+
+/// Checks the length of `labels`, the parameter `what`: one label sequence for each
+/// of the `expected` chains (`chain` is `None`), or one label for each of the
+/// `expected` positions of chain `chain`.
+fn check_label_count<T>(
+    what: &'static str,
+    labels: &[T],
+    expected: usize,
+    chain: Option<usize>,
+) -> Result<()> {
+    if labels.len() == expected {
+        return Ok(());
+    }
+    let found = labels.len();
+    let (value, expectation) = match chain {
+        None => (
+            format!("{found} chains of labels for {expected} chains"),
+            "one label sequence per chain",
+        ),
+        Some(c) => (
+            format!("{found} labels for the {expected} positions of chain {c}"),
+            "one label per position",
+        ),
+    };
+    Err(InvalidParameter::new(what, value, expectation).into())
 }
 
 /// The pattern of the pair `(i, i + 1)` of chain `c`, checked against the states.

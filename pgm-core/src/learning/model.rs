@@ -476,38 +476,13 @@ impl LogLinearModel {
             })?
             .weights();
         let (scope, shape) = (clique.scope(), clique.shape());
-        if scope.len() != shape.len() {
-            return Err(Error::InvalidParameter {
-                name: "clique shape",
-                value: format!(
-                    "{} scope entries, {} shape entries",
-                    scope.len(),
-                    shape.len()
-                ),
-                expected: "one shape entry per scope variable",
-            });
-        }
-        for (position, (&v, &k)) in scope.iter().zip(shape).enumerate() {
-            let Some(&states) = self.cardinalities.get(v.0) else {
-                return Err(Error::UnknownVariable {
-                    factor: index,
-                    variable: v.0,
-                    num_variables: self.cardinalities.len(),
-                });
-            };
-            if states != k {
-                return Err(Error::ShapeMismatch {
-                    factor: index,
-                    position,
-                    variable: v.0,
-                    factor_states: k,
-                    variable_states: states,
-                });
-            }
-            if scope[..position].contains(&v) {
-                return Err(Error::RepeatedVariable { variable: v.0 });
-            }
-        }
+        crate::factor::check_scope_against(
+            index,
+            scope,
+            shape,
+            &self.cardinalities,
+            "clique shape",
+        )?;
         for (slot, &v) in scope.iter().enumerate() {
             self.variable_cliques[v.0].push((index, slot));
         }

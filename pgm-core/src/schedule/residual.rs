@@ -164,6 +164,13 @@ impl IndexedMaxHeap {
         }
     }
 
+    /// Puts `item` in slot `i` and records its position.
+    #[inline]
+    fn place(&mut self, i: usize, item: (u64, usize)) {
+        self.heap[i] = item;
+        self.positions[item.1] = i;
+    }
+
     /// Places `item` at the hole `i` or above it.
     #[inline]
     fn sift_up(&mut self, mut i: usize, item: (u64, usize)) {
@@ -173,12 +180,10 @@ impl IndexedMaxHeap {
             if !Self::before(item, p) {
                 break;
             }
-            self.heap[i] = p;
-            self.positions[p.1] = i;
+            self.place(i, p);
             i = parent;
         }
-        self.heap[i] = item;
-        self.positions[item.1] = i;
+        self.place(i, item);
     }
 
     /// Places `item` at the hole `i` or below it.
@@ -203,12 +208,10 @@ impl IndexedMaxHeap {
             if !Self::before(best_item, item) {
                 break;
             }
-            self.heap[i] = best_item;
-            self.positions[best_item.1] = i;
+            self.place(i, best_item);
             i = best;
         }
-        self.heap[i] = item;
-        self.positions[item.1] = i;
+        self.place(i, item);
     }
 }
 

@@ -91,33 +91,21 @@ impl Schedule for Sequential {
                 self.order = Some(SequentialUnit::Edges(two_pass_edges(graph)));
                 self.backward = false;
             }
-            Some(SequentialUnit::Variables(o)) => {
-                if let Some(v) = o.iter().find(|v| v.0 >= graph.num_variables()) {
-                    return Err(Error::InvalidParameter {
-                        name: "sequential order",
-                        value: v.0.to_string(),
-                        expected: "variable indices of the graph",
-                    });
-                }
-            }
-            Some(SequentialUnit::Factors(o)) => {
-                if let Some(a) = o.iter().find(|a| a.0 >= graph.num_factors()) {
-                    return Err(Error::InvalidParameter {
-                        name: "sequential order",
-                        value: a.0.to_string(),
-                        expected: "factor indices of the graph",
-                    });
-                }
-            }
-            Some(SequentialUnit::Edges(o)) => {
-                if let Some(e) = o.iter().find(|e| e.0 >= graph.num_edges()) {
-                    return Err(Error::InvalidParameter {
-                        name: "sequential order",
-                        value: e.0.to_string(),
-                        expected: "edge indices of the graph",
-                    });
-                }
-            }
+            Some(SequentialUnit::Variables(o)) => check_order(
+                o.iter().map(|v| v.0),
+                graph.num_variables(),
+                "variable indices of the graph",
+            )?,
+            Some(SequentialUnit::Factors(o)) => check_order(
+                o.iter().map(|a| a.0),
+                graph.num_factors(),
+                "factor indices of the graph",
+            )?,
+            Some(SequentialUnit::Edges(o)) => check_order(
+                o.iter().map(|e| e.0),
+                graph.num_edges(),
+                "edge indices of the graph",
+            )?,
         }
         Ok(())
     }
@@ -140,6 +128,23 @@ impl Schedule for Sequential {
             }
         }
         None
+    }
+}
+
+/// Fails on the first index of a sequential order that is not below `count`, the
+/// number of graph items it indexes (`expected` says which).
+fn check_order(
+    mut indices: impl Iterator<Item = usize>,
+    count: usize,
+    expected: &'static str,
+) -> Result<()> {
+    match indices.find(|&i| i >= count) {
+        Some(i) => Err(Error::InvalidParameter {
+            name: "sequential order",
+            value: i.to_string(),
+            expected,
+        }),
+        None => Ok(()),
     }
 }
 
