@@ -7,7 +7,7 @@ use pgm_core::strategies::{self, GraphSpec};
 use pgm_core::uai::UaiModel;
 use pgm_core::{
     BpParams, Error, Factor, FactorGraph, Flooding, Incoming, Mode, ParamGuard, PottsFactor,
-    Sequential, ShiftedIdentityFactor, TableFactor, VariableId,
+    Schedule, Sequential, ShiftedIdentityFactor, TableFactor, VariableId,
 };
 use proptest::prelude::*;
 
@@ -17,6 +17,38 @@ fn close(a: f64, b: f64, tol: f64) -> bool {
     (a == b) || (a - b).abs() <= tol * (1.0 + b.abs())
 }
 
+/// Compares two ways `a` and `b` of computing the messages of a pairwise factor whose
+/// first variable receives `q0` and second `q1`: under both modes, towards both
+/// variables, they agree to 1e-12. Failures start with `what`.
+fn check_pairwise_messages(
+    q0: &[f64],
+    q1: &[f64],
+    what: &str,
+    a: impl Fn(usize, &Incoming<'_>, Mode, &mut [f64]),
+    b: impl Fn(usize, &Incoming<'_>, Mode, &mut [f64]),
+) -> Result<(), TestCaseError> {
+    let (k0, k1) = (q0.len(), q1.len());
+    let mut values = q0.to_vec();
+    values.extend_from_slice(q1);
+    let offsets = [0, k0, k0 + k1];
+    let incoming = Incoming::new(&values, &offsets);
+    for mode in [Mode::MaxProduct, Mode::SumProduct] {
+        for (target, k) in [(0usize, k0), (1, k1)] {
+            let mut x = vec![0.0; k];
+            let mut y = vec![0.0; k];
+            a(target, &incoming, mode, &mut x);
+            b(target, &incoming, mode, &mut y);
+            for (p, q) in x.iter().zip(&y) {
+                prop_assert!(
+                    close(*p, *q, 1e-12),
+                    "{what}{mode:?} target {target}: {x:?} vs {y:?}"
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Checks max-product and sum-product on a tree-structured graph with every schedule.
 fn check_exact_on_tree(spec: &GraphSpec) -> Result<(), TestCaseError> {
     let graph = spec.build();
@@ -24,12 +56,16 @@ fn check_exact_on_tree(spec: &GraphSpec) -> Result<(), TestCaseError> {
         // Every assignment has probability zero: nothing to compare.
         return Ok(());
     };
+    // A run of `mode` with at most `iterations` iterations.
+    let run = |mode, iterations, schedule: &mut dyn Schedule| {
+        BpParams::new(mode)
+            .max_iterations(iterations)
+            .check_unwrap()
+            .run(&graph, schedule)
+            .unwrap()
+    };
     // The default sequential schedule (two-pass edge order) is exact after one iteration.
-    let one = BpParams::new(Mode::SumProduct)
-        .max_iterations(1)
-        .check_unwrap()
-        .run(&graph, &mut Sequential::default())
-        .unwrap();
+    let one = run(Mode::SumProduct, 1, &mut Sequential::default());
     for (b, e) in one.beliefs.iter().zip(&exact.marginals) {
         for (p, q) in b.iter().zip(e) {
             prop_assert!(
@@ -38,19 +74,11 @@ fn check_exact_on_tree(spec: &GraphSpec) -> Result<(), TestCaseError> {
             );
         }
     }
-    let one = BpParams::new(Mode::MaxProduct)
-        .max_iterations(1)
-        .check_unwrap()
-        .run(&graph, &mut Sequential::default())
-        .unwrap();
+    let one = run(Mode::MaxProduct, 1, &mut Sequential::default());
     prop_assert!(close(one.log_score, exact.map_log_score, 1e-9));
     let mut first_marginals: Option<Vec<Vec<f64>>> = None;
     for (name, mut schedule) in common::schedules() {
-        let map = BpParams::new(Mode::MaxProduct)
-            .max_iterations(200)
-            .check_unwrap()
-            .run(&graph, &mut schedule)
-            .unwrap();
+        let map = run(Mode::MaxProduct, 200, &mut schedule);
         prop_assert!(
             map.converged,
             "{name}: max-product did not converge ({} iterations)",
@@ -62,11 +90,7 @@ fn check_exact_on_tree(spec: &GraphSpec) -> Result<(), TestCaseError> {
             map.log_score,
             exact.map_log_score
         );
-        let mar = BpParams::new(Mode::SumProduct)
-            .max_iterations(200)
-            .check_unwrap()
-            .run(&graph, &mut schedule)
-            .unwrap();
+        let mar = run(Mode::SumProduct, 200, &mut schedule);
         prop_assert!(mar.converged, "{name}: sum-product did not converge");
         for (v, (b, e)) in mar.beliefs.iter().zip(&exact.marginals).enumerate() {
             for (x, (p, q)) in b.iter().zip(e).enumerate() {
@@ -269,21 +293,13 @@ proptest! {
             (&shifted as &dyn Factor, &dense_shifted, k1),
             (&potts as &dyn Factor, &dense_potts, k0),
         ] {
-            let mut values: Vec<f64> = q0[..k0].to_vec();
-            values.extend_from_slice(&q1[..k1]);
-            let offsets = [0, k0, k0 + k1];
-            let incoming = Incoming::new(&values, &offsets);
-            for mode in [Mode::MaxProduct, Mode::SumProduct] {
-                for (target, k) in [(0usize, k0), (1, k1)] {
-                    let mut x = vec![0.0; k];
-                    let mut y = vec![0.0; k];
-                    structured.message(target, &incoming, mode, &mut x);
-                    dense.message(target, &incoming, mode, &mut y);
-                    for (p, q) in x.iter().zip(&y) {
-                        prop_assert!(close(*p, *q, 1e-12), "{} {mode:?} target {target}: {x:?} vs {y:?}", structured.kind());
-                    }
-                }
-            }
+            check_pairwise_messages(
+                &q0[..k0],
+                &q1[..k1],
+                &format!("{} ", structured.kind()),
+                |target, incoming, mode, out| structured.message(target, incoming, mode, out),
+                |target, incoming, mode, out| dense.message(target, incoming, mode, out),
+            )?;
         }
     }
 }
@@ -518,24 +534,20 @@ proptest! {
         let graph = spec.build();
         let Ok(exact) = brute_force(&graph, BruteForceLimit(MAX_STATES)) else { return Ok(()); };
         for (name, mut schedule) in common::schedules() {
-            let mar = BpParams::new(Mode::SumProduct)
+            let mut run = |mode| BpParams::new(mode)
                 .damping(damping)
                 .tolerance(1e-12)
                 .max_iterations(20_000).check_unwrap()
                 .run(&graph, &mut schedule)
                 .unwrap();
+            let mar = run(Mode::SumProduct);
             prop_assert!(mar.converged, "{name}, damping {damping}: sum-product not converged");
             for (v, (b, e)) in mar.beliefs.iter().zip(&exact.marginals).enumerate() {
                 for (p, q) in b.iter().zip(e) {
                     prop_assert!((p - q).abs() < 1e-8, "{name}, damping {damping}: P(x{v}) = {b:?}, exact {e:?}");
                 }
             }
-            let map = BpParams::new(Mode::MaxProduct)
-                .damping(damping)
-                .tolerance(1e-12)
-                .max_iterations(20_000).check_unwrap()
-                .run(&graph, &mut schedule)
-                .unwrap();
+            let map = run(Mode::MaxProduct);
             prop_assert!(map.converged, "{name}, damping {damping}: max-product not converged");
             prop_assert!(close(map.log_score, exact.map_log_score, 1e-9), "{name}, damping {damping}: {} vs {}", map.log_score, exact.map_log_score);
         }
@@ -646,20 +658,14 @@ proptest! {
         q in proptest::collection::vec(strategies::log_potential(30.0, 0.2), 20),
     ) {
         let factor = TableFactor::new(vec![VariableId(0), VariableId(1)], vec![k0, k1], table[..k0 * k1].to_vec()).unwrap();
-        let mut values = q[..k0].to_vec();
-        values.extend_from_slice(&q[10..10 + k1]);
-        let offsets = [0, k0, k0 + k1];
-        let incoming = Incoming::new(&values, &offsets);
-        for mode in [Mode::MaxProduct, Mode::SumProduct] {
-            for (target, k) in [(0usize, k0), (1, k1)] {
-                let mut fast = vec![0.0; k];
-                let mut enumerated = vec![0.0; k];
-                factor.message(target, &incoming, mode, &mut fast);
-                pgm_core::factor::enumerated_message(&factor, target, &incoming, mode, &mut enumerated);
-                for (a, b) in fast.iter().zip(&enumerated) {
-                    prop_assert!(close(*a, *b, 1e-12), "{mode:?} target {target}: {fast:?} vs {enumerated:?}");
-                }
-            }
-        }
+        check_pairwise_messages(
+            &q[..k0],
+            &q[10..10 + k1],
+            "",
+            |target, incoming, mode, out| factor.message(target, incoming, mode, out),
+            |target, incoming, mode, out| {
+                pgm_core::factor::enumerated_message(&factor, target, incoming, mode, out)
+            },
+        )?;
     }
 }

@@ -622,6 +622,36 @@ impl SparseScratch {
         let mark = &self.mark;
         self.order[1..].iter().copied().find(|&y| mark[y] != stamp)
     }
+
+    /// The unlisted entries of a sparse table in a message: raises each `cur[y]` to
+    /// `from[x] + default` for the best score `from[x]` of a state `x` that the
+    /// pattern does not list with `y` (`listed(y)` lists those it does;
+    /// `listed_with(x)` the states listed with `x`). `depth` is the longest listing
+    /// that is not full, plus one (0: every listing is full).
+    fn add_unlisted<'p>(
+        &mut self,
+        from: &[f64],
+        cur: &mut [f64],
+        default: f64,
+        depth: usize,
+        listed_with: impl Fn(usize) -> &'p [usize],
+        listed: impl Fn(usize) -> &'p [usize],
+    ) {
+        if default == f64::NEG_INFINITY || depth == 0 {
+            return;
+        }
+        self.select(from, depth);
+        let top = self.mark_top(listed_with(self.order[0]));
+        for (y, c) in cur.iter_mut().enumerate() {
+            let xs = listed(y);
+            if xs.len() == from.len() {
+                continue;
+            }
+            if let Some(x) = self.first_unlisted(y, top, xs) {
+                *c = larger(*c, from[x] + default);
+            }
+        }
+    }
 }
 
 /// The forward message over a sparse table (`p`: listed values then the default):
@@ -648,21 +678,14 @@ fn sparse_forward(
         }
     }
     // The unlisted entries, column by column.
-    let default = p[pattern.default_entry()];
-    if default == f64::NEG_INFINITY || pattern.column_depth() == 0 {
-        return;
-    }
-    scratch.select(u, pattern.column_depth());
-    let top = scratch.mark_top(pattern.row_columns(scratch.order[0]));
-    for (b, c) in cur.iter_mut().enumerate() {
-        let rows = pattern.column_rows(b);
-        if rows.len() == u.len() {
-            continue;
-        }
-        if let Some(a) = scratch.first_unlisted(b, top, rows) {
-            *c = larger(*c, u[a] + default);
-        }
-    }
+    scratch.add_unlisted(
+        u,
+        cur,
+        p[pattern.default_entry()],
+        pattern.column_depth(),
+        |a| pattern.row_columns(a),
+        |b| pattern.column_rows(b),
+    );
 }
 
 /// The backward message over a sparse table:
@@ -683,21 +706,14 @@ fn sparse_backward(
         }
         *c = best;
     }
-    let default = p[pattern.default_entry()];
-    if default == f64::NEG_INFINITY || pattern.row_depth() == 0 {
-        return;
-    }
-    scratch.select(w, pattern.row_depth());
-    let top = scratch.mark_top(pattern.column_rows(scratch.order[0]));
-    for (a, c) in cur.iter_mut().enumerate() {
-        let columns = pattern.row_columns(a);
-        if columns.len() == w.len() {
-            continue;
-        }
-        if let Some(b) = scratch.first_unlisted(a, top, columns) {
-            *c = larger(*c, default + w[b]);
-        }
-    }
+    scratch.add_unlisted(
+        w,
+        cur,
+        p[pattern.default_entry()],
+        pattern.row_depth(),
+        |b| pattern.column_rows(b),
+        |a| pattern.row_columns(a),
+    );
 }
 
 /// `max_k x[k] + y[k]` (`−∞` for empty slices), in four independent lanes so that it
