@@ -864,26 +864,24 @@ fn raw_message(
 /// without subtraction. Small `k` get loops the compiler unrolls.
 #[inline]
 fn leave_one_out(block: &[f64], own: usize, k: usize, dst: &mut [f64]) {
-    match k {
-        2 => leave_one_out_fixed::<2>(block, own, dst),
-        3 => leave_one_out_fixed::<3>(block, own, dst),
-        4 => leave_one_out_fixed::<4>(block, own, dst),
-        5 => leave_one_out_fixed::<5>(block, own, dst),
-        6 => leave_one_out_fixed::<6>(block, own, dst),
-        7 => leave_one_out_fixed::<7>(block, own, dst),
-        8 => leave_one_out_fixed::<8>(block, own, dst),
-        _ => {
-            dst.iter_mut().for_each(|d| *d = 0.0);
-            let mut start = 0;
-            for chunk in block.chunks_exact(k.max(1)) {
-                if start != own {
-                    for (d, c) in dst.iter_mut().zip(chunk) {
-                        *d += c;
-                    }
-                }
-                start += k;
+    with_small_states!(
+        k,
+        K => leave_one_out_fixed::<K>(block, own, dst),
+        leave_one_out_any(block, own, k, dst),
+    )
+}
+
+/// [`leave_one_out`] for any `k`.
+fn leave_one_out_any(block: &[f64], own: usize, k: usize, dst: &mut [f64]) {
+    dst.iter_mut().for_each(|d| *d = 0.0);
+    let mut start = 0;
+    for chunk in block.chunks_exact(k.max(1)) {
+        if start != own {
+            for (d, c) in dst.iter_mut().zip(chunk) {
+                *d += c;
             }
         }
+        start += k;
     }
 }
 

@@ -141,6 +141,25 @@
 //! its bound), observers, hooks, exact references and UAI I/O are complete; hybrid
 //! continuous nodes and pseudo-likelihood learning build on them.
 
+/// Runs code generic over a small state count fixed at compile time, so that its short
+/// loops over states unroll: `with_small_states!(k, K => fixed, other)` evaluates
+/// `fixed` with the constant `K` equal to `k` when `k` is 2 to 8, and `other`
+/// otherwise.
+macro_rules! with_small_states {
+    ($k:expr, $K:ident => $fixed:expr, $other:expr $(,)?) => {
+        with_small_states!(@sizes [2 3 4 5 6 7 8] $k, $K => $fixed, $other)
+    };
+    (@sizes [$($n:literal)*] $k:expr, $K:ident => $fixed:expr, $other:expr) => {
+        match $k {
+            $($n => {
+                const $K: usize = $n;
+                $fixed
+            })*
+            _ => $other,
+        }
+    };
+}
+
 pub mod bp;
 pub mod error;
 pub mod exact;

@@ -720,16 +720,11 @@ impl State {
             };
             // Few states: the same code with the state count fixed at compile time,
             // so the many short loops over states unroll.
-            match self.cardinality[i] {
-                2 => self.visit::<2>(graph, i, forward, decode, &mut outcome),
-                3 => self.visit::<3>(graph, i, forward, decode, &mut outcome),
-                4 => self.visit::<4>(graph, i, forward, decode, &mut outcome),
-                5 => self.visit::<5>(graph, i, forward, decode, &mut outcome),
-                6 => self.visit::<6>(graph, i, forward, decode, &mut outcome),
-                7 => self.visit::<7>(graph, i, forward, decode, &mut outcome),
-                8 => self.visit::<8>(graph, i, forward, decode, &mut outcome),
-                _ => self.visit::<0>(graph, i, forward, decode, &mut outcome),
-            }
+            with_small_states!(
+                self.cardinality[i],
+                K => self.visit::<K>(graph, i, forward, decode, &mut outcome),
+                self.visit::<0>(graph, i, forward, decode, &mut outcome),
+            )
         }
         let PassOutcome {
             mut bound,

@@ -71,16 +71,11 @@ impl Factor for PottsFactor {
         if mode == Mode::MaxProduct && q.len() <= SMALL && q.len() == out.len() {
             let (same, different) = (self.same, self.different);
             // Fixed sizes let the compiler unroll the two loops.
-            match q.len() {
-                2 => potts_max_fixed::<2>(q, out, same, different),
-                3 => potts_max_fixed::<3>(q, out, same, different),
-                4 => potts_max_fixed::<4>(q, out, same, different),
-                5 => potts_max_fixed::<5>(q, out, same, different),
-                6 => potts_max_fixed::<6>(q, out, same, different),
-                7 => potts_max_fixed::<7>(q, out, same, different),
-                8 => potts_max_fixed::<8>(q, out, same, different),
-                _ => potts_max_small(q, out, same, different),
-            }
+            with_small_states!(
+                q.len(),
+                K => potts_max_fixed::<K>(q, out, same, different),
+                potts_max_small(q, out, same, different),
+            );
             return;
         }
         diagonal_message(q, out, 0, self.same, self.different, mode);

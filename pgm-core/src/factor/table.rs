@@ -157,16 +157,11 @@ fn pairwise_message(
 ) {
     if mode == Mode::MaxProduct && k0 == k1 {
         // Few states: fixed sizes let the compiler unroll both loops.
-        let fixed = match k0 {
-            2 => pairwise_max_fixed::<2>(t, target, incoming, out),
-            3 => pairwise_max_fixed::<3>(t, target, incoming, out),
-            4 => pairwise_max_fixed::<4>(t, target, incoming, out),
-            5 => pairwise_max_fixed::<5>(t, target, incoming, out),
-            6 => pairwise_max_fixed::<6>(t, target, incoming, out),
-            7 => pairwise_max_fixed::<7>(t, target, incoming, out),
-            8 => pairwise_max_fixed::<8>(t, target, incoming, out),
-            _ => false,
-        };
+        let fixed = with_small_states!(
+            k0,
+            K => pairwise_max_fixed::<K>(t, target, incoming, out),
+            false,
+        );
         if fixed {
             return;
         }
