@@ -218,17 +218,13 @@ impl Matcher {
     /// let pair = simulate_pair(&SimConfig::default().check()?, 1, 0);
     /// let matcher = Matcher::default();
     /// // Segment-wise ICP's hypotheses, as `match_pair` finds them ...
-    /// let mut hypotheses = segment_motions(&pair, &matcher.params().segments.check()?)?;
+    /// let hypotheses = segment_motions(&pair, &matcher.params().segments.check()?)?;
     /// let found = matcher.match_pair_with_hypotheses(&pair, &hypotheses)?;
     /// assert_eq!(found, matcher.match_pair(&pair)?);
     /// // ... or with every moving segment started from a motion of your own (here a
     /// // prediction 0.1 m further along x).
-    /// for (i, m) in hypotheses.motion_of.iter_mut().enumerate() {
-    ///     if hypotheses.moved[hypotheses.segment_of[i]] {
-    ///         *m = Pose2::new(m.x() + 0.1, m.y(), m.theta());
-    ///     }
-    /// }
-    /// let predicted = matcher.match_pair_with_hypotheses(&pair, &hypotheses)?;
+    /// let predicted = hypotheses.map_moved(|m| Pose2::new(m.x() + 0.1, m.y(), m.theta()));
+    /// let predicted = matcher.match_pair_with_hypotheses(&pair, &predicted)?;
     /// assert_eq!(predicted.associations.len(), pair.current.len());
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
