@@ -23,7 +23,7 @@ use crate::{Error, Result};
 use pgm_core::hybrid::chain::{ChainUpdate, HybridChainParams};
 use pgm_core::param::{InvalidParameter, ParamGuard};
 use pgm_features::association_rounds::{
-    check_rounds, polish_ego, problem_with_hypotheses, rounds_settled,
+    check_rounds, last_round, polish_ego, problem_with_hypotheses,
 };
 use pgm_features::matching_features::StateSpace;
 use pgm_scan::association::{
@@ -315,18 +315,9 @@ impl Matcher {
             let result = solver.run(&mut model, &[initial])?;
             sweeps += result.sweeps;
             converged = result.converged;
-            let labels = &result.labels[0];
-            max_marginals = (0..n)
-                .map(|i| result.max_marginal(0, i)[labels[i]])
-                .collect::<Vec<f64>>();
+            max_marginals = model.tables().read_map(&result, 0, &mut chosen);
             motions = model.motions().to_vec();
-            for (i, &l) in labels.iter().enumerate() {
-                chosen[i] = model.tables().partner(i, l);
-            }
-            if rounds_settled(&chosen_under, &motions)
-                || rounds >= p.max_rounds
-                || matches!(p.state_space, StateSpace::Full)
-            {
+            if last_round(p.state_space, rounds, p.max_rounds, &chosen_under, &motions) {
                 break;
             }
             previous = Some(model);
