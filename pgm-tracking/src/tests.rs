@@ -150,7 +150,7 @@ fn an_object_detected_once_is_followed_while_it_moves() {
             on_box.iter().all(|&b| c.labels[b] == Some(object)),
             "pair {j}"
         );
-        let motion = c.motions.iter().find(|m| m.label == object).unwrap().motion;
+        let motion = c.motion_of(object).unwrap();
         assert!(
             motion.translation_error(&Pose2::new(0.06, -0.08, 0.0)) < 0.03,
             "pair {j}: {motion:?}"
@@ -203,7 +203,7 @@ fn a_confirmed_track_is_followed_back_to_the_scans_before_its_first_detection() 
             "pair {j}: the box is not reported moving"
         );
         let object = c.labels[box_beams(pair)[0]].unwrap();
-        let motion = c.motions.iter().find(|m| m.label == object).unwrap().motion;
+        let motion = c.motion_of(object).unwrap();
         assert!(
             motion.translation_error(&Pose2::new(0.06, -0.08, 0.0)) < 0.03,
             "pair {j}: {motion:?}"
