@@ -6,8 +6,9 @@
 //! 2. Each round chooses candidates under the current motions, starts every node at
 //!    its last round's partner where that is still a candidate, else at the candidate
 //!    nearest under its motion ([`AssociationTables::start_states`]), runs the chain
-//!    solver, and ends the run when no motion moved by more than [`ROUND_TOLERANCE`]
-//!    since its candidates were chosen ([`rounds_settled`]).
+//!    solver, reads its MAP partners ([`AssociationTables::read_map`]), and ends the
+//!    run when no motion moved by more than [`ROUND_TOLERANCE`] since its candidates
+//!    were chosen ([`rounds_settled`], [`last_round`]).
 //! 3. The ego-motion ends with ICP on the static returns with a partner
 //!    ([`polish_ego`]), and every node's result goes to its beam
 //!    ([`AssociationProblem::per_beam`], [`AssociationProblem::association`]).
@@ -16,6 +17,7 @@ use crate::matching_features::{
     AssociationBoosters, AssociationProblem, AssociationTables, StateSpace,
 };
 use crate::Result;
+use pgm_core::hybrid::chain::HybridChainResult;
 use pgm_core::param::InvalidParameter;
 use pgm_scan::registration::IcpStatus;
 use pgm_scan::{Association, Pose2, ScanPair, SurfacePair};
@@ -105,6 +107,20 @@ pub fn rounds_settled(before: &[Pose2], after: &[Pose2]) -> bool {
     })
 }
 
+/// Whether a run of rounds ends with its `rounds`-th round, which chose its candidates
+/// under the motions `before` and ended at `after`: the round settled
+/// ([`rounds_settled`]), `max_rounds` rounds have run, or the candidates are the full
+/// state space (another round would choose them again).
+pub fn last_round(
+    state_space: StateSpace,
+    rounds: usize,
+    max_rounds: usize,
+    before: &[Pose2],
+    after: &[Pose2],
+) -> bool {
+    rounds_settled(before, after) || rounds >= max_rounds || matches!(state_space, StateSpace::Full)
+}
+
 /// The ego-motion `ego` refined by ICP from itself (first correspondence distance
 /// [`POLISH_DISTANCE`]) on the current returns that `is_static` (a node index) keeps,
 /// against the reference scan; `ego` itself when ICP fails or finds too few
@@ -166,6 +182,24 @@ impl AssociationTables<'_> {
                 pairs.push(self.problem().surface_pair(i, j));
             }
         }
+    }
+
+    /// Reads the MAP states of the association chain `chain` of `result`: every
+    /// node's partner (a reference index, `None` for the outlier state) into `chosen`,
+    /// and every node's normalised max-marginal of its MAP state, returned.
+    pub fn read_map(
+        &self,
+        result: &HybridChainResult,
+        chain: usize,
+        chosen: &mut [Option<usize>],
+    ) -> Vec<f64> {
+        let labels = &result.labels[chain];
+        for (i, &l) in labels.iter().enumerate() {
+            chosen[i] = self.partner(i, l);
+        }
+        (0..labels.len())
+            .map(|i| result.max_marginal(chain, i)[labels[i]])
+            .collect()
     }
 
     /// The starting state of every node: its `chosen` partner of the last round (a

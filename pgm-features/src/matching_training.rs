@@ -54,14 +54,11 @@ impl TrainingOptions {
             self.candidate_gate,
             "a number of metres >= 0",
         )?;
-        if !(self.prior_variance.is_finite() && self.prior_variance > 0.0) {
-            return Err(InvalidParameter::new(
-                "prior_variance",
-                self.prior_variance,
-                "a finite variance > 0",
-            )
-            .into());
-        }
+        InvalidParameter::positive(
+            "prior_variance",
+            self.prior_variance,
+            "a finite variance > 0",
+        )?;
         if self.stumps == 0 {
             return Err(InvalidParameter::new("stumps", 0, "at least 1 stump").into());
         }
@@ -108,6 +105,16 @@ impl TrainingReport {
             ("outlier_positives", self.outlier_samples.1),
             ("weight_pairs", self.weight_pairs),
         ]
+    }
+
+    /// `weights` with this report's counts and optimisation, as
+    /// [`crate::training::ModelTrainer::train`] returns them.
+    pub fn into_trained<W>(self, weights: W) -> crate::training::Trained<W> {
+        crate::training::Trained {
+            weights,
+            counts: self.counts(),
+            learning: self.learning,
+        }
     }
 }
 

@@ -206,6 +206,15 @@ impl RigidMotionNodes {
     }
 }
 
+/// The label of a variable's state as [`ContinuousModel::update_variable`] hands it
+/// over: `None` without a state or for a state that is not a label.
+pub fn state_label(state: Option<VariableState<'_>>) -> Option<usize> {
+    match state {
+        Some(VariableState::Label(l)) => Some(l),
+        _ => None,
+    }
+}
+
 impl ContinuousModel for RigidMotionNodes {
     fn summary(&self) -> DiscreteSummary {
         DiscreteSummary::MapLabels
@@ -220,12 +229,8 @@ impl ContinuousModel for RigidMotionNodes {
         let Some((s, g)) = self.pairs.get(v.0).copied() else {
             return;
         };
-        let label = |state: Option<VariableState<'_>>| match state {
-            Some(VariableState::Label(l)) => Some(l),
-            _ => None,
-        };
         self.motions
-            .relabel(&s, &g, 1.0, label(old), label(Some(new)));
+            .relabel(&s, &g, 1.0, state_label(old), state_label(Some(new)));
     }
 
     fn solve(&mut self) -> f64 {

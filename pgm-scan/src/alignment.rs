@@ -247,22 +247,15 @@ impl RigidAlignment {
     /// equal to its [`Alignment::residual`] up to rounding. Merging decisions that
     /// compare many candidate sets use it.
     pub fn residual(&self) -> Option<f64> {
-        if self.count == 0
-            || self.sum_w.is_nan()
-            || self.sum_w <= RELATIVE_WEIGHT_EPSILON * self.max_sum_w
-            || self.sum_w <= 0.0
-        {
-            return None;
-        }
-        let w = self.sum_w;
-        let mean_s = self.sum_s / w;
-        let mean_g = self.sum_g / w;
-        let a = self.sum_dot - w * mean_s.dot(&mean_g);
-        let b = self.sum_cross - w * cross(&mean_s, &mean_g);
-        let spread_s = (self.sum_ss - w * mean_s.norm_squared()).max(0.0);
-        let spread_g = (self.sum_gg - w * mean_g.norm_squared()).max(0.0);
+        let Moments {
+            a,
+            b,
+            spread_s,
+            spread_g,
+            scale,
+            ..
+        } = self.moments()?;
         let magnitude = (a * a + b * b).sqrt();
-        let scale = (spread_s * spread_g).sqrt();
         let degenerate = magnitude.is_nan() || magnitude <= RELATIVE_ROTATION_EPSILON * scale;
         // The rotation maximises a cos θ + b sin θ: its value is √(a² + b²), or a at
         // θ = 0 when the rotation is not observable.
@@ -295,7 +288,9 @@ impl RigidAlignment {
         self.solve_with_prior(Some((theta0, precision)))
     }
 
-    fn solve_with_prior(&self, prior: Option<(f64, f64)>) -> Option<Alignment> {
+    /// The centred moments of the pairs, `None` when there is no pair or the total
+    /// weight is (numerically) zero.
+    fn moments(&self) -> Option<Moments> {
         if self.count == 0
             || self.sum_w.is_nan()
             || self.sum_w <= RELATIVE_WEIGHT_EPSILON * self.max_sum_w
@@ -306,13 +301,32 @@ impl RigidAlignment {
         let w = self.sum_w;
         let mean_s = self.sum_s / w;
         let mean_g = self.sum_g / w;
-        // Centred second moments.
-        let a = self.sum_dot - w * mean_s.dot(&mean_g);
-        let b = self.sum_cross - w * cross(&mean_s, &mean_g);
         let spread_s = (self.sum_ss - w * mean_s.norm_squared()).max(0.0);
         let spread_g = (self.sum_gg - w * mean_g.norm_squared()).max(0.0);
+        Some(Moments {
+            w,
+            mean_s,
+            mean_g,
+            a: self.sum_dot - w * mean_s.dot(&mean_g),
+            b: self.sum_cross - w * cross(&mean_s, &mean_g),
+            spread_s,
+            spread_g,
+            scale: (spread_s * spread_g).sqrt(),
+        })
+    }
+
+    fn solve_with_prior(&self, prior: Option<(f64, f64)>) -> Option<Alignment> {
+        let Moments {
+            w,
+            mean_s,
+            mean_g,
+            a,
+            b,
+            spread_s,
+            spread_g,
+            scale,
+        } = self.moments()?;
         let magnitude = a.hypot(b);
-        let scale = (spread_s * spread_g).sqrt();
         let (degenerate, theta) = match prior {
             Some((theta0, kappa)) if kappa > 0.0 => (
                 false,
@@ -339,6 +353,21 @@ impl RigidAlignment {
             degenerate,
         })
     }
+}
+
+/// The weighted moments of a [`RigidAlignment`]'s pairs about their means (the
+/// quantities of the module docs): total weight `w`, means `s̄` and `ḡ`, the
+/// centred second moments `a = Σw (s−s̄)·(g−ḡ)` and `b = Σw (s−s̄)×(g−ḡ)`, the spreads
+/// `Σw‖s−s̄‖²` and `Σw‖g−ḡ‖²`, and the geometric mean of the spreads.
+struct Moments {
+    w: f64,
+    mean_s: Vector2<f64>,
+    mean_g: Vector2<f64>,
+    a: f64,
+    b: f64,
+    spread_s: f64,
+    spread_g: f64,
+    scale: f64,
 }
 
 #[inline]

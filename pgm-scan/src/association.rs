@@ -656,6 +656,23 @@ impl SegmentMotions {
         }
         Ok(())
     }
+
+    /// These hypotheses with the motion of every return of a moved segment replaced
+    /// by `f` of it (a prediction of where the moving objects went, say); the motions
+    /// of the segments that did not move are kept.
+    ///
+    /// # Panics
+    /// If a return's segment is not among those of `moved` (hypotheses that do not
+    /// pass [`SegmentMotions::check_for`] on any pair).
+    pub fn map_moved(&self, mut f: impl FnMut(Pose2) -> Pose2) -> SegmentMotions {
+        let mut mapped = self.clone();
+        for (m, &s) in mapped.motion_of.iter_mut().zip(&self.segment_of) {
+            if self.moved[s] {
+                *m = f(*m);
+            }
+        }
+        mapped
+    }
 }
 
 /// [`SegmentMotions`] of `pair` with the parameters of segment-wise ICP. Errors name

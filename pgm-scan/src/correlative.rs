@@ -482,6 +482,18 @@ struct Node {
     score: u64,
 }
 
+impl Node {
+    /// The node at `rotation` and the cell offset `(dx, dy)`, not yet scored.
+    fn unscored(rotation: u32, dx: i32, dy: i32) -> Node {
+        Node {
+            rotation,
+            dx,
+            dy,
+            score: 0,
+        }
+    }
+}
+
 /// One search: the current returns, the lattice, and the rotated returns of every
 /// block of rotations visited so far.
 struct Search<'a> {
@@ -650,12 +662,7 @@ impl Search<'_> {
                 for (ox, oy) in [(0, 0), (half, 0), (0, half), (half, half)] {
                     let (dx, dy) = (node.dx + ox, node.dy + oy);
                     if dx <= k && dy <= k {
-                        let mut child = Node {
-                            rotation,
-                            dx,
-                            dy,
-                            score: 0,
-                        };
+                        let mut child = Node::unscored(rotation, dx, dy);
                         child.score = self.bound(&child, depth - 1);
                         children[count] = child;
                         count += 1;
@@ -850,12 +857,7 @@ impl CorrelativeGrid {
         for rotation in (0..rotations).step_by(1 << top_level) {
             for dy in (-k..=k).step_by(width as usize) {
                 for dx in (-k..=k).step_by(width as usize) {
-                    let mut node = Node {
-                        rotation,
-                        dx,
-                        dy,
-                        score: 0,
-                    };
+                    let mut node = Node::unscored(rotation, dx, dy);
                     node.score = search.bound(&node, top);
                     nodes.push(node);
                 }
@@ -1204,20 +1206,13 @@ fn floor(x: f64) -> i64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::test_scenes::{first_hit, uniform, Segment};
+    use crate::test_scenes::{first_hit, uniform, Segment, ROOM};
 
-    /// A room 8 m × 5 m with a pillar and a box, seen from `pose` by 181 beams over
-    /// 270 degrees.
+    /// The room ([`ROOM`]) with a box, seen from `pose` by 181 beams over 270
+    /// degrees.
     fn room_scan(pose: &Pose2) -> Scan {
-        let walls: [Segment; 7] = [
-            (-4.0, -2.5, 4.0, -2.5),
-            (4.0, -2.5, 4.0, 2.5),
-            (4.0, 2.5, -4.0, 2.5),
-            (-4.0, 2.5, -4.0, -2.5),
-            (1.0, 0.5, 1.5, 1.2),
-            (-2.0, -1.0, -1.2, -1.0),
-            (-1.2, -1.0, -1.2, -0.4),
-        ];
+        let corner_box: [Segment; 2] = [(-2.0, -1.0, -1.2, -1.0), (-1.2, -1.0, -1.2, -0.4)];
+        let walls = [&ROOM[..], &corner_box[..]].concat();
         let angles: Vec<f64> = (0..181).map(|k| -2.35 + 4.7 * k as f64 / 180.0).collect();
         let ranges = angles
             .iter()
@@ -1266,12 +1261,7 @@ mod tests {
                     .map(|dy| {
                         (-k..=k)
                             .map(|dx| {
-                                let leaf = Node {
-                                    rotation,
-                                    dx,
-                                    dy,
-                                    score: 0,
-                                };
+                                let leaf = Node::unscored(rotation, dx, dy);
                                 let motion = search.motion(&leaf, prior);
                                 let (sin, cos) = motion.theta().sin_cos();
                                 search
@@ -1328,12 +1318,7 @@ mod tests {
                 for rotation in (0..search.rotations).step_by(1 << level) {
                     for dy in (-k..=k).step_by(span as usize) {
                         for dx in (-k..=k).step_by(span as usize) {
-                            let node = Node {
-                                rotation,
-                                dx,
-                                dy,
-                                score: 0,
-                            };
+                            let node = Node::unscored(rotation, dx, dy);
                             let bound = search.bound(&node, depth);
                             let last = (rotation + (1 << level)).min(search.rotations);
                             let best = (rotation..last)

@@ -115,6 +115,31 @@ pub struct MotionClustering {
     pub converged: bool,
 }
 
+impl MotionClustering {
+    /// The labels above 0 (moving objects) that label a return, in increasing order,
+    /// each once.
+    pub fn moving_labels(&self) -> Vec<u32> {
+        let mut labels: Vec<u32> = self
+            .labels
+            .iter()
+            .flatten()
+            .copied()
+            .filter(|&l| l > 0)
+            .collect();
+        labels.sort_unstable();
+        labels.dedup();
+        labels
+    }
+
+    /// The estimated motion of the cluster `label`, when the method estimated one.
+    pub fn motion_of(&self, label: u32) -> Option<Pose2> {
+        self.motions
+            .iter()
+            .find(|m| m.label == label)
+            .map(|m| m.motion)
+    }
+}
+
 /// Labels the returns of the current scan of a pair by common motion (moving-object
 /// detection and motion estimation).
 pub trait MotionClusterer: Send + Sync {
@@ -255,25 +280,17 @@ impl JointEstimate {
         associations: PointAssociations,
         clustering: MotionClustering,
     ) -> JointEstimate {
-        let mut labels: Vec<u32> = clustering.labels.iter().flatten().copied().collect();
-        labels.push(0);
-        labels.sort_unstable();
-        labels.dedup();
-        let motion_of = |label: u32| {
-            clustering
-                .motions
-                .iter()
-                .find(|m| m.label == label)
-                .map(|m| m.motion)
-        };
+        let labels: Vec<u32> = std::iter::once(0)
+            .chain(clustering.moving_labels())
+            .collect();
         let ego_motion = associations
             .ego_motion
             .or(clustering.ego_motion)
-            .or_else(|| motion_of(0))
+            .or_else(|| clustering.motion_of(0))
             .unwrap_or_default();
         let motions = labels
             .iter()
-            .map(|&l| motion_of(l).unwrap_or(ego_motion))
+            .map(|&l| clustering.motion_of(l).unwrap_or(ego_motion))
             .collect();
         let clusters = clustering
             .labels

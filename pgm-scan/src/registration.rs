@@ -639,29 +639,12 @@ impl NearestTree {
         };
         if hi - lo <= LEAF_SIZE {
             for i in lo..hi {
-                let p = self.points[i];
-                offer(
-                    best,
-                    i,
-                    (p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]),
-                );
+                offer(best, i, self.squared_distance(i, q));
             }
             return;
         }
-        let mid = lo + (hi - lo) / 2;
-        let p = self.points[mid];
-        offer(
-            best,
-            mid,
-            (p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]),
-        );
-        let axis = self.axes[mid] as usize;
-        let diff = q[axis] - p[axis];
-        let (near, far) = if diff < 0.0 {
-            ((lo, mid), (mid + 1, hi))
-        } else {
-            ((mid + 1, hi), (lo, mid))
-        };
+        let (mid, diff, near, far) = self.split(lo, hi, q);
+        offer(best, mid, self.squared_distance(mid, q));
         self.search_k(near.0, near.1, q, k, bound, best);
         if diff * diff < limit(best) {
             self.search_k(far.0, far.1, q, k, bound, best);
@@ -669,32 +652,48 @@ impl NearestTree {
     }
 
     fn search(&self, lo: usize, hi: usize, q: [f64; 2], best: &mut (usize, f64)) {
-        if hi - lo <= LEAF_SIZE {
-            for k in lo..hi {
-                let p = self.points[k];
-                let d = (p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]);
-                if d < best.1 {
-                    *best = (k, d);
-                }
+        let mut offer = |k: usize| {
+            let d = self.squared_distance(k, q);
+            if d < best.1 {
+                *best = (k, d);
             }
+        };
+        if hi - lo <= LEAF_SIZE {
+            (lo..hi).for_each(&mut offer);
             return;
         }
-        let mid = lo + (hi - lo) / 2;
-        let p = self.points[mid];
-        let d = (p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]);
-        if d < best.1 {
-            *best = (mid, d);
-        }
-        let axis = self.axes[mid] as usize;
-        let diff = q[axis] - p[axis];
-        let (near, far) = if diff < 0.0 {
-            ((lo, mid), (mid + 1, hi))
-        } else {
-            ((mid + 1, hi), (lo, mid))
-        };
+        let (mid, diff, near, far) = self.split(lo, hi, q);
+        offer(mid);
         self.search(near.0, near.1, q, best);
         if diff * diff < best.1 {
             self.search(far.0, far.1, q, best);
+        }
+    }
+
+    /// The squared distance from the point at `k` (tree order) to `q`.
+    #[inline]
+    fn squared_distance(&self, k: usize, q: [f64; 2]) -> f64 {
+        let p = self.points[k];
+        (p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1])
+    }
+
+    /// The split of the subtree `lo..hi` (more than a leaf): its middle point, `q`'s
+    /// signed distance from it along the split axis, and the near and far halves
+    /// (ranges of tree order) as seen from `q`.
+    #[inline]
+    fn split(
+        &self,
+        lo: usize,
+        hi: usize,
+        q: [f64; 2],
+    ) -> (usize, f64, (usize, usize), (usize, usize)) {
+        let mid = lo + (hi - lo) / 2;
+        let axis = self.axes[mid] as usize;
+        let diff = q[axis] - self.points[mid][axis];
+        if diff < 0.0 {
+            (mid, diff, (lo, mid), (mid + 1, hi))
+        } else {
+            (mid, diff, (mid + 1, hi), (lo, mid))
         }
     }
 }
@@ -840,23 +839,16 @@ fn cell_key(ix: f64, iy: f64) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::test_scenes::{first_hit, uniform, Segment};
+    use crate::test_scenes::{first_hit, uniform, ROOM};
 
     fn room_scan(pose: &Pose2) -> Scan {
-        // A rectangular room 8 m x 5 m around the origin, with a pillar, seen from `pose`.
+        // The room ([`ROOM`]) seen from `pose`.
         let n = 361;
         let mut angles = Vec::new();
         let mut ranges = Vec::new();
-        let walls: [Segment; 5] = [
-            (-4.0, -2.5, 4.0, -2.5),
-            (4.0, -2.5, 4.0, 2.5),
-            (4.0, 2.5, -4.0, 2.5),
-            (-4.0, 2.5, -4.0, -2.5),
-            (1.0, 0.5, 1.5, 1.2),
-        ];
         for k in 0..n {
             let a = -std::f64::consts::PI + k as f64 * 2.0 * std::f64::consts::PI / n as f64;
-            let hit = first_hit((pose.x(), pose.y()), pose.theta() + a, &walls);
+            let hit = first_hit((pose.x(), pose.y()), pose.theta() + a, &ROOM);
             angles.push(a);
             ranges.push(hit.unwrap_or(0.0));
         }

@@ -492,6 +492,13 @@ mod tests {
         Scan::from_ranges(angles, ranges, 30.0)
     }
 
+    /// `n` increasing bearings evenly spaced from `first` to `first + span` (rad).
+    fn spaced(first: f64, span: f64, n: usize) -> Vec<f64> {
+        (0..n)
+            .map(|k| first + span * k as f64 / (n - 1) as f64)
+            .collect()
+    }
+
     /// A wall `y = 4` seen by 0.5° beams with ±3 cm range noise: the surface points
     /// lie closer to the wall than the measured ones, keep their bearings, and a
     /// return across a gap is left as measured.
@@ -548,9 +555,7 @@ mod tests {
     #[test]
     fn bearing_lookup_in_any_order_and_range() {
         let n = 181;
-        let inc: Vec<f64> = (0..n)
-            .map(|k| -1.5 + 3.0 * k as f64 / (n - 1) as f64)
-            .collect();
+        let inc = spaced(-1.5, 3.0, n);
         let dec: Vec<f64> = inc.iter().rev().copied().collect();
         let a = scan(inc.clone(), vec![5.0; n]);
         let b = scan(dec, vec![5.0; n]);
@@ -580,9 +585,7 @@ mod tests {
     #[test]
     fn free_space_and_visibility_agree_across_orders() {
         let n = 91;
-        let inc: Vec<f64> = (0..n)
-            .map(|k| -0.9 + 1.8 * k as f64 / (n - 1) as f64)
-            .collect();
+        let inc = spaced(-0.9, 1.8, n);
         let ranges: Vec<f64> = (0..n).map(|k| 4.0 + (k % 7) as f64 * 0.1).collect();
         let a = scan(inc.clone(), ranges.clone());
         let b = scan(

@@ -181,15 +181,7 @@ impl Tracker {
         }
         let gap = pair.current.timestamp - pair.reference.timestamp;
         let ego_pair = detection.ego_motion.or(pair.odometry).unwrap_or_default();
-        let mut labels_seen: Vec<u32> = detection
-            .labels
-            .iter()
-            .flatten()
-            .copied()
-            .filter(|&l| l > 0)
-            .collect();
-        labels_seen.sort_unstable();
-        labels_seen.dedup();
+        let labels_seen = detection.moving_labels();
         // Detected objects: continue the track they share most returns with (at least
         // half of theirs), or start one.
         let mut objects: Vec<TrackedObject> = Vec::new();
@@ -234,10 +226,8 @@ impl Tracker {
             let startable =
                 members.len() >= p.min_returns && gap >= p.min_step.max(f64::MIN_POSITIVE);
             let over_pair = detection
-                .motions
-                .iter()
-                .find(|m| m.label == label)
-                .map(|m| m.motion.inverse().compose(&ego_pair));
+                .motion_of(label)
+                .map(|m| m.inverse().compose(&ego_pair));
             let measured = if continued.is_none() && startable {
                 consecutive.and_then(|c| {
                     self.velocity_from_previous(c, &points, &over_pair.unwrap_or_default(), gap)

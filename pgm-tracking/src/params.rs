@@ -80,14 +80,7 @@ impl ParamGuard for TrackingParams {
     type Error = Error;
 
     fn check_ref(&self) -> Result<()> {
-        if !(self.min_speed >= 0.0 && self.min_speed.is_finite()) {
-            return Err(InvalidParameter::new(
-                "min_speed",
-                self.min_speed,
-                "a finite speed in m/s >= 0",
-            )
-            .into());
-        }
+        InvalidParameter::non_negative("min_speed", self.min_speed, "a finite speed in m/s >= 0")?;
         InvalidParameter::positive("gate", self.gate, "a distance in metres > 0")?;
         InvalidParameter::positive(
             "inlier_distance",
@@ -95,14 +88,7 @@ impl ParamGuard for TrackingParams {
             "a distance in metres > 0",
         )?;
         InvalidParameter::fraction("min_inlier_fraction", self.min_inlier_fraction)?;
-        if !(self.improvement > 0.0 && self.improvement <= 1.0) {
-            return Err(InvalidParameter::new(
-                "improvement",
-                self.improvement,
-                "a factor in (0, 1]",
-            )
-            .into());
-        }
+        in_unit_interval("improvement", self.improvement, "a factor in (0, 1]")?;
         if self.min_returns < 2 {
             return Err(InvalidParameter::new(
                 "min_returns",
@@ -111,23 +97,11 @@ impl ParamGuard for TrackingParams {
             )
             .into());
         }
-        InvalidParameter::positive("max_gap", self.max_gap, "a time in seconds > 0")?;
-        if !(self.min_step >= 0.0 && self.min_step < self.max_gap) {
-            return Err(InvalidParameter::new(
-                "min_step",
-                self.min_step,
-                "a time in seconds >= 0 and below max_gap",
-            )
-            .into());
-        }
+        check_scan_gaps(self.max_gap, self.min_step)?;
         if self.min_evidence == 0 {
             return Err(InvalidParameter::new("min_evidence", 0, "at least 1").into());
         }
-        if !(self.smoothing > 0.0 && self.smoothing <= 1.0) {
-            return Err(
-                InvalidParameter::new("smoothing", self.smoothing, "a weight in (0, 1]").into(),
-            );
-        }
+        in_unit_interval("smoothing", self.smoothing, "a weight in (0, 1]")?;
         self.ego.check_ref()
     }
 
@@ -135,4 +109,32 @@ impl ParamGuard for TrackingParams {
         self.check_ref()?;
         Ok(Tracker { params: self })
     }
+}
+
+/// `Ok(())` when `value` lies in `(0, 1]`, else the error naming `name`.
+fn in_unit_interval(
+    name: &'static str,
+    value: f64,
+    expected: &'static str,
+) -> std::result::Result<(), InvalidParameter> {
+    if value > 0.0 && value <= 1.0 {
+        Ok(())
+    } else {
+        Err(InvalidParameter::new(name, value, expected))
+    }
+}
+
+/// The scan-gap parameters of both trackers: `max_gap` a positive time, `min_step`
+/// at least 0 and below it (seconds).
+pub(crate) fn check_scan_gaps(max_gap: f64, min_step: f64) -> Result<()> {
+    InvalidParameter::positive("max_gap", max_gap, "a time in seconds > 0")?;
+    if !(min_step >= 0.0 && min_step < max_gap) {
+        return Err(InvalidParameter::new(
+            "min_step",
+            min_step,
+            "a time in seconds >= 0 and below max_gap",
+        )
+        .into());
+    }
+    Ok(())
 }

@@ -77,6 +77,28 @@ fn box_beams(pair: &ScanPair) -> Vec<usize> {
 /// and the background elsewhere.
 struct Scripted(HashMap<String, (Vec<usize>, Pose2)>);
 
+impl Scripted {
+    /// Reports each `(pair, beams, motion)`: those beams of that pair as one object
+    /// with that motion.
+    fn new<'a>(detections: impl IntoIterator<Item = (&'a ScanPair, Vec<usize>, Pose2)>) -> Self {
+        Scripted(
+            detections
+                .into_iter()
+                .map(|(pair, beams, motion)| (pair.name.clone(), (beams, motion)))
+                .collect(),
+        )
+    }
+
+    /// Reports the whole box ([`box_beams`]) with the given motion in each given pair.
+    fn boxes<'a>(detections: impl IntoIterator<Item = (&'a ScanPair, Pose2)>) -> Self {
+        Self::new(
+            detections
+                .into_iter()
+                .map(|(pair, motion)| (pair, box_beams(pair), motion)),
+        )
+    }
+}
+
 impl MotionClusterer for Scripted {
     fn name(&self) -> String {
         "scripted".into()
@@ -116,10 +138,7 @@ fn an_object_detected_once_is_followed_while_it_moves() {
     // Detected in the second pair only, with its true motion over the pair (maps
     // current returns back 6 cm away and 8 cm to the right).
     let second = &pairs[1];
-    let detector = Scripted(HashMap::from([(
-        second.name.clone(),
-        (box_beams(second), Pose2::new(0.06, -0.08, 0.0)),
-    )]));
+    let detector = Scripted::boxes([(second, Pose2::new(0.06, -0.08, 0.0))]);
     let tracked = Tracker::default().track(&pairs, &detector).unwrap();
     assert_eq!(tracked.counts.tracks, 1);
     assert_eq!(tracked.counts.dropped, 0);
@@ -131,7 +150,7 @@ fn an_object_detected_once_is_followed_while_it_moves() {
             on_box.iter().all(|&b| c.labels[b] == Some(object)),
             "pair {j}"
         );
-        let motion = c.motions.iter().find(|m| m.label == object).unwrap().motion;
+        let motion = c.motion_of(object).unwrap();
         assert!(
             motion.translation_error(&Pose2::new(0.06, -0.08, 0.0)) < 0.03,
             "pair {j}: {motion:?}"
@@ -149,10 +168,7 @@ fn a_confirmed_track_is_followed_back_to_the_scans_before_its_first_detection() 
     let pairs = sequence(8, 1.0);
     // First detected in the sixth pair; it moved all along.
     let sixth = &pairs[5];
-    let detector = Scripted(HashMap::from([(
-        sixth.name.clone(),
-        (box_beams(sixth), Pose2::new(0.06, -0.08, 0.0)),
-    )]));
+    let detector = Scripted::boxes([(sixth, Pose2::new(0.06, -0.08, 0.0))]);
     let moving_box = |c: &MotionClustering, pair: &ScanPair| {
         let on_box = box_beams(pair);
         let object = c.labels[on_box[0]].expect("a return");
@@ -187,7 +203,7 @@ fn a_confirmed_track_is_followed_back_to_the_scans_before_its_first_detection() 
             "pair {j}: the box is not reported moving"
         );
         let object = c.labels[box_beams(pair)[0]].unwrap();
-        let motion = c.motions.iter().find(|m| m.label == object).unwrap().motion;
+        let motion = c.motion_of(object).unwrap();
         assert!(
             motion.translation_error(&Pose2::new(0.06, -0.08, 0.0)) < 0.03,
             "pair {j}: {motion:?}"
@@ -229,10 +245,7 @@ fn the_backward_pass_stops_where_the_object_stood() {
         })
         .collect();
     let seventh = &pairs[6];
-    let detector = Scripted(HashMap::from([(
-        seventh.name.clone(),
-        (box_beams(seventh), Pose2::new(0.06, -0.08, 0.0)),
-    )]));
+    let detector = Scripted::boxes([(seventh, Pose2::new(0.06, -0.08, 0.0))]);
     let tracked = Tracker::default().track(&pairs, &detector).unwrap();
     let moving = |j: usize| {
         tracked.clusterings[j]
@@ -256,16 +269,10 @@ fn a_track_lost_at_its_first_step_is_continued_by_the_next_detection() {
     // velocity against, and the detector's motion is ten times too large, so the
     // track looks for the box in the wrong place in the next scan. The detector
     // sees it there again with its true motion.
-    let detector = Scripted(HashMap::from([
-        (
-            pairs[0].name.clone(),
-            (box_beams(&pairs[0]), Pose2::new(0.6, -0.8, 0.0)),
-        ),
-        (
-            pairs[1].name.clone(),
-            (box_beams(&pairs[1]), Pose2::new(0.06, -0.08, 0.0)),
-        ),
-    ]));
+    let detector = Scripted::boxes([
+        (&pairs[0], Pose2::new(0.6, -0.8, 0.0)),
+        (&pairs[1], Pose2::new(0.06, -0.08, 0.0)),
+    ]);
     let tracked = Tracker::default().track(&pairs, &detector).unwrap();
     assert_eq!(tracked.counts.tracks, 1, "{:?}", tracked.counts);
     let first = tracked.objects[0][0].track;
@@ -301,12 +308,12 @@ fn a_track_is_continued_across_uneven_scan_gaps() {
         .collect();
     // The box's motion over a pair of `g` seconds maps its returns back by 2 m/s.
     let over = |g: f64| Pose2::new(1.2 * g, -1.6 * g, 0.0);
-    let detector = Scripted(HashMap::from([
+    let detector = Scripted::boxes([
         // Birth without a previous scan, the detector's motion ten times too large.
-        (pairs[0].name.clone(), (box_beams(&pairs[0]), over(1.0))),
+        (&pairs[0], over(1.0)),
         // Found again after the gap with its true motion over the pair.
-        (pairs[2].name.clone(), (box_beams(&pairs[2]), over(0.3))),
-    ]));
+        (&pairs[2], over(0.3)),
+    ]);
     let tracked = Tracker::default().track(&pairs, &detector).unwrap();
     assert_eq!(tracked.counts.tracks, 1, "{:?}", tracked.counts);
     assert_eq!(tracked.counts.dropped, 0, "{:?}", tracked.counts);
@@ -322,16 +329,14 @@ fn the_backward_pass_reports_no_object_twice() {
     // (too few for a track: reported as detected).
     let third = &pairs[2];
     let sixth = &pairs[5];
-    let detector = Scripted(HashMap::from([
+    let detector = Scripted::new([
         (
-            third.name.clone(),
-            (box_beams(third)[..2].to_vec(), Pose2::new(0.06, -0.08, 0.0)),
+            third,
+            box_beams(third)[..2].to_vec(),
+            Pose2::new(0.06, -0.08, 0.0),
         ),
-        (
-            sixth.name.clone(),
-            (box_beams(sixth), Pose2::new(0.06, -0.08, 0.0)),
-        ),
-    ]));
+        (sixth, box_beams(sixth), Pose2::new(0.06, -0.08, 0.0)),
+    ]);
     let tracked = Tracker::default().track(&pairs, &detector).unwrap();
     // Followed back into the fifth and fourth pairs; in the third the box is
     // reported already: once.
@@ -357,10 +362,7 @@ fn a_detection_too_small_for_a_track_is_reported_as_detected() {
     let pairs = sequence(4, 1.0);
     let third = &pairs[2];
     let two = box_beams(third)[..2].to_vec();
-    let detector = Scripted(HashMap::from([(
-        third.name.clone(),
-        (two.clone(), Pose2::new(0.06, -0.08, 0.0)),
-    )]));
+    let detector = Scripted::new([(third, two.clone(), Pose2::new(0.06, -0.08, 0.0))]);
     let tracked = Tracker::default().track(&pairs, &detector).unwrap();
     assert_eq!(tracked.counts.tracks, 0);
     assert_eq!(tracked.clusterings[2], detector.cluster(third).unwrap());
@@ -377,10 +379,7 @@ fn a_detection_that_does_not_move_on_is_dropped() {
     // The box stands still; the detector calls it moving in one pair.
     let pairs = sequence(6, 0.0);
     let third = &pairs[2];
-    let detector = Scripted(HashMap::from([(
-        third.name.clone(),
-        (box_beams(third), Pose2::new(0.0, -0.1, 0.0)),
-    )]));
+    let detector = Scripted::boxes([(third, Pose2::new(0.0, -0.1, 0.0))]);
     let tracked = Tracker::default().track(&pairs, &detector).unwrap();
     assert_eq!(tracked.counts.dropped, 1);
     assert_eq!(tracked.counts.tracked_objects, 0);
@@ -421,18 +420,10 @@ fn independent_pairs_get_the_detector_output() {
     }
     // The box's motion over each pair, at its speed (1 m/s, 0.6 and 0.8 of it along
     // x and y) over the pair's time gap.
-    let detector = Scripted(
-        pairs
-            .iter()
-            .map(|p| {
-                let gap = p.current.timestamp - p.reference.timestamp;
-                (
-                    p.name.clone(),
-                    (box_beams(p), Pose2::new(0.6 * gap, -0.8 * gap, 0.0)),
-                )
-            })
-            .collect(),
-    );
+    let detector = Scripted::boxes(pairs.iter().map(|p| {
+        let gap = p.current.timestamp - p.reference.timestamp;
+        (p, Pose2::new(0.6 * gap, -0.8 * gap, 0.0))
+    }));
     let tracked = Tracker::default().track(&pairs, &detector).unwrap();
     assert_eq!(tracked.counts.sequences, 4);
     for (p, c) in pairs.iter().zip(&tracked.clusterings) {

@@ -31,6 +31,7 @@ use pgm_core::hybrid::{ContinuousModel, DiscreteSummary, VariableState};
 use pgm_core::param::InvalidParameter;
 use pgm_core::{FactorGraph, FactorId, Potentials, TableFactor, VariableId};
 use pgm_features::clustering_features::inverse_neighbour_distance;
+use pgm_features::motion_nodes::state_label;
 use pgm_features::ClusterMotions;
 use pgm_scan::Pose2;
 
@@ -406,11 +407,7 @@ impl ContinuousModel for ClusteringModel {
         if v.0 >= self.points.len() {
             return;
         }
-        let label = |state: Option<VariableState<'_>>| match state {
-            Some(VariableState::Label(l)) => Some(l),
-            _ => None,
-        };
-        self.relabel(v.0, label(old), label(Some(new)));
+        self.relabel(v.0, state_label(old), state_label(Some(new)));
     }
 
     fn solve(&mut self) -> f64 {

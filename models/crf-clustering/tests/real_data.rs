@@ -57,40 +57,14 @@ fn leigh_gtm1_k5() {
     let pairs = leigh_pairs(&log, &people, &options).expect("pairs");
     assert!(pairs.len() >= 80, "{} pairs", pairs.len());
     let [crf_method, kmeans_method, cbd_method, one_method] = methods();
-    let crf = score(&pairs, crf_method.as_ref());
-    let kmeans = score(&pairs, kmeans_method.as_ref());
-    let cbd = score(&pairs, cbd_method.as_ref());
-    eprintln!(
-        "leigh-gtm1 k=5: CRF V {:.3}, CBD {:.3}, K-Means {:.3}",
-        crf.v_measure_mean, cbd.v_measure_mean, kmeans.v_measure_mean
-    );
     // The labelling reproduces the independent figures: one cluster about
-    // 0.50 (46 of 92 pairs have a moving person), CBD about 0.31, K-Means about 0.10.
+    // 0.50 (46 of 92 pairs have a moving person).
     let one = score(&pairs, one_method.as_ref());
     assert!(
         (one.v_measure_mean - 0.5).abs() < 0.03,
         "one cluster {:.3}",
         one.v_measure_mean
     );
-    assert!(
-        (0.25..=0.45).contains(&cbd.v_measure_mean),
-        "CBD {:.3}",
-        cbd.v_measure_mean
-    );
-    assert!(
-        (0.03..=0.17).contains(&kmeans.v_measure_mean),
-        "K-Means {:.3}",
-        kmeans.v_measure_mean
-    );
-    // Regression floor of the current model (0.418 measured), above both baselines.
-    assert!(
-        crf.v_measure_mean >= 0.38,
-        "CRF V-measure {:.3}",
-        crf.v_measure_mean
-    );
-    assert!(crf.v_measure_mean > cbd.v_measure_mean);
-    assert!(crf.v_measure_mean > kmeans.v_measure_mean + 0.2);
-
     // Without odometry (the labels still come from it): the CRF picks the largest
     // cluster as background, ICP gives the ego-motion of the associations and CBD.
     let blind: Vec<ScanPair> = pairs
@@ -101,19 +75,35 @@ fn leigh_gtm1_k5() {
             p
         })
         .collect();
-    let crf = score(&blind, crf_method.as_ref());
-    let cbd = score(&blind, cbd_method.as_ref());
-    let kmeans = score(&blind, kmeans_method.as_ref());
-    eprintln!(
-        "leigh-gtm1 k=5 without odometry: CRF V {:.3}, CBD {:.3}, K-Means {:.3}",
-        crf.v_measure_mean, cbd.v_measure_mean, kmeans.v_measure_mean
-    );
-    // 0.405 measured.
-    assert!(
-        crf.v_measure_mean >= 0.38,
-        "CRF V-measure without odometry {:.3}",
-        crf.v_measure_mean
-    );
-    assert!(crf.v_measure_mean > cbd.v_measure_mean);
-    assert!(crf.v_measure_mean > kmeans.v_measure_mean + 0.2);
+    // The regression floor of the current model holds with odometry (0.418 measured)
+    // and without (0.405), above both baselines.
+    for (condition, pairs) in [("", &pairs), (" without odometry", &blind)] {
+        let crf = score(pairs, crf_method.as_ref());
+        let cbd = score(pairs, cbd_method.as_ref());
+        let kmeans = score(pairs, kmeans_method.as_ref());
+        eprintln!(
+            "leigh-gtm1 k=5{condition}: CRF V {:.3}, CBD {:.3}, K-Means {:.3}",
+            crf.v_measure_mean, cbd.v_measure_mean, kmeans.v_measure_mean
+        );
+        if condition.is_empty() {
+            // The figures with odometry: CBD about 0.31, K-Means about 0.10.
+            assert!(
+                (0.25..=0.45).contains(&cbd.v_measure_mean),
+                "CBD {:.3}",
+                cbd.v_measure_mean
+            );
+            assert!(
+                (0.03..=0.17).contains(&kmeans.v_measure_mean),
+                "K-Means {:.3}",
+                kmeans.v_measure_mean
+            );
+        }
+        assert!(
+            crf.v_measure_mean >= 0.38,
+            "CRF V-measure{condition} {:.3}",
+            crf.v_measure_mean
+        );
+        assert!(crf.v_measure_mean > cbd.v_measure_mean);
+        assert!(crf.v_measure_mean > kmeans.v_measure_mean + 0.2);
+    }
 }

@@ -162,12 +162,7 @@ fn training_without_a_moving_object_is_refused() {
 #[test]
 fn rotation_prior_changes_only_the_object_motions_and_helps_small_objects() {
     use pgm_datasets::sim::Preset;
-    let config = SimConfig {
-        preset: Preset::Pedestrians,
-        ..SimConfig::default()
-    }
-    .check()
-    .unwrap();
+    let config = SimConfig::for_preset(Preset::Pedestrians).check().unwrap();
     let pairs = simulate_pairs(&config, 1, 8);
     let with = Clusterer::default();
     assert_eq!(with.params().object_rotation_sigma, Some(0.05));

@@ -152,10 +152,6 @@ impl ModelTrainer for MatchingTrainer {
         observer: &mut dyn LearningObserver,
     ) -> Result<Trained<MatchingWeights>> {
         let (weights, report) = train(pairs, &self.options, observer)?;
-        Ok(Trained {
-            weights,
-            counts: report.counts(),
-            learning: report.learning,
-        })
+        Ok(report.into_trained(weights))
     }
 }

@@ -23,7 +23,7 @@ use crate::{Error, Result};
 use pgm_core::hybrid::chain::{ChainUpdate, HybridChainParams};
 use pgm_core::param::{InvalidParameter, ParamGuard};
 use pgm_features::association_rounds::{
-    check_rounds, polish_ego, problem_with_hypotheses, rounds_settled,
+    check_rounds, last_round, polish_ego, problem_with_hypotheses,
 };
 use pgm_features::matching_features::StateSpace;
 use pgm_scan::association::{
@@ -218,17 +218,13 @@ impl Matcher {
     /// let pair = simulate_pair(&SimConfig::default().check()?, 1, 0);
     /// let matcher = Matcher::default();
     /// // Segment-wise ICP's hypotheses, as `match_pair` finds them ...
-    /// let mut hypotheses = segment_motions(&pair, &matcher.params().segments.check()?)?;
+    /// let hypotheses = segment_motions(&pair, &matcher.params().segments.check()?)?;
     /// let found = matcher.match_pair_with_hypotheses(&pair, &hypotheses)?;
     /// assert_eq!(found, matcher.match_pair(&pair)?);
     /// // ... or with every moving segment started from a motion of your own (here a
     /// // prediction 0.1 m further along x).
-    /// for (i, m) in hypotheses.motion_of.iter_mut().enumerate() {
-    ///     if hypotheses.moved[hypotheses.segment_of[i]] {
-    ///         *m = Pose2::new(m.x() + 0.1, m.y(), m.theta());
-    ///     }
-    /// }
-    /// let predicted = matcher.match_pair_with_hypotheses(&pair, &hypotheses)?;
+    /// let predicted = hypotheses.map_moved(|m| Pose2::new(m.x() + 0.1, m.y(), m.theta()));
+    /// let predicted = matcher.match_pair_with_hypotheses(&pair, &predicted)?;
     /// assert_eq!(predicted.associations.len(), pair.current.len());
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
@@ -319,18 +315,9 @@ impl Matcher {
             let result = solver.run(&mut model, &[initial])?;
             sweeps += result.sweeps;
             converged = result.converged;
-            let labels = &result.labels[0];
-            max_marginals = (0..n)
-                .map(|i| result.max_marginal(0, i)[labels[i]])
-                .collect::<Vec<f64>>();
+            max_marginals = model.tables().read_map(&result, 0, &mut chosen);
             motions = model.motions().to_vec();
-            for (i, &l) in labels.iter().enumerate() {
-                chosen[i] = model.tables().partner(i, l);
-            }
-            if rounds_settled(&chosen_under, &motions)
-                || rounds >= p.max_rounds
-                || matches!(p.state_space, StateSpace::Full)
-            {
+            if last_round(p.state_space, rounds, p.max_rounds, &chosen_under, &motions) {
                 break;
             }
             previous = Some(model);

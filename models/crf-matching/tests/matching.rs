@@ -251,12 +251,7 @@ fn given_hypotheses_are_the_ones_used_and_bad_ones_are_refused() {
     use pgm_datasets::sim::Preset;
     use pgm_scan::association::segment_motions;
     use pgm_scan::Pose2;
-    let config = SimConfig {
-        preset: Preset::Overtaking,
-        ..SimConfig::default()
-    }
-    .check()
-    .unwrap();
+    let config = SimConfig::for_preset(Preset::Overtaking).check().unwrap();
     let pairs = simulate_pairs(&config, 7, 3);
     let matcher = Matcher::default();
     let segments = matcher.params().segments.check().unwrap();
@@ -276,12 +271,7 @@ fn given_hypotheses_are_the_ones_used_and_bad_ones_are_refused() {
         let found = matcher.match_pair(pair).unwrap();
         assert_eq!(matcher.match_pair_with_hypotheses(pair, &h).unwrap(), found);
         // Every moving segment's motion shifted by 1 m: other associations.
-        let mut shifted = h.clone();
-        for (i, m) in shifted.motion_of.iter_mut().enumerate() {
-            if h.moved[h.segment_of[i]] {
-                *m = Pose2::new(m.x() + 1.0, m.y(), m.theta());
-            }
-        }
+        let shifted = h.map_moved(|m| Pose2::new(m.x() + 1.0, m.y(), m.theta()));
         let moved = matcher.match_pair_with_hypotheses(pair, &shifted).unwrap();
         assert_ne!(moved.associations, found.associations, "{}", pair.name);
         // Nothing moving: the matching of one motion group.

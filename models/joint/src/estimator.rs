@@ -37,7 +37,7 @@ use crate::{Error, Result};
 use pgm_core::hybrid::chain::{ChainUpdate, Convergence, HybridChainParams};
 use pgm_core::param::{InvalidParameter, ParamGuard};
 use pgm_features::association_rounds::{
-    check_rounds, polish_ego, problem_with_hypotheses, rounds_settled,
+    check_rounds, last_round, polish_ego, problem_with_hypotheses,
 };
 use pgm_features::joint_clustering_features::MAX_MOTION_CLUSTERS;
 use pgm_features::matching_features::StateSpace;
@@ -403,19 +403,12 @@ impl Joint {
             let result = solver.run(&mut model, &[start_association, clusters.clone()])?;
             sweeps += result.sweeps;
             converged = result.converged;
-            let labels = &result.labels[ASSOCIATION_CHAIN];
-            confidence = (0..n)
-                .map(|i| result.max_marginal(ASSOCIATION_CHAIN, i)[labels[i]])
-                .collect::<Vec<f64>>();
-            for (i, &l) in labels.iter().enumerate() {
-                chosen[i] = model.tables().partner(i, l);
-            }
+            confidence = model
+                .tables()
+                .read_map(&result, ASSOCIATION_CHAIN, &mut chosen);
             clusters.clone_from(&result.labels[CLUSTERING_CHAIN]);
             motions = model.motions().to_vec();
-            if rounds_settled(&chosen_under, &motions)
-                || rounds >= p.max_rounds
-                || matches!(p.state_space, StateSpace::Full)
-            {
+            if last_round(p.state_space, rounds, p.max_rounds, &chosen_under, &motions) {
                 if let Some(sigma) = p.object_rotation_sigma {
                     motions = model.object_motions_with_prior(sigma);
                 }

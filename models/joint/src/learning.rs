@@ -225,10 +225,6 @@ impl ModelTrainer for JointTrainer {
     ) -> Result<Trained<JointWeights>> {
         let (weights, report) =
             train_with(pairs, &self.options, self.association.as_ref(), observer)?;
-        Ok(Trained {
-            weights,
-            counts: report.counts(),
-            learning: report.learning,
-        })
+        Ok(report.into_trained(weights))
     }
 }

@@ -168,12 +168,7 @@ fn piecewise_training_keeps_the_association_part() {
 fn rotation_prior_changes_only_the_object_motions_and_helps_small_objects() {
     use pgm_datasets::sim::Preset;
     use pgm_eval::evaluate_joint;
-    let config = SimConfig {
-        preset: Preset::Pedestrians,
-        ..SimConfig::default()
-    }
-    .check()
-    .unwrap();
+    let config = SimConfig::for_preset(Preset::Pedestrians).check().unwrap();
     let pairs = simulate_pairs(&config, 7, 8);
     let with = Joint::default();
     assert_eq!(with.params().object_rotation_sigma, Some(0.05));
@@ -220,12 +215,7 @@ fn given_hypotheses_are_the_ones_used_and_bad_ones_are_refused() {
     use pgm_datasets::sim::Preset;
     use pgm_scan::association::segment_motions;
     use pgm_scan::Pose2;
-    let config = SimConfig {
-        preset: Preset::Overtaking,
-        ..SimConfig::default()
-    }
-    .check()
-    .unwrap();
+    let config = SimConfig::for_preset(Preset::Overtaking).check().unwrap();
     let pairs = simulate_pairs(&config, 7, 3);
     let joint = Joint::default();
     let segments = joint.params().segments.check().unwrap();
@@ -233,12 +223,7 @@ fn given_hypotheses_are_the_ones_used_and_bad_ones_are_refused() {
         let h = segment_motions(pair, &segments).unwrap();
         let found = joint.estimate(pair).unwrap();
         assert_eq!(joint.estimate_with_hypotheses(pair, &h).unwrap(), found);
-        let mut shifted = h.clone();
-        for (i, m) in shifted.motion_of.iter_mut().enumerate() {
-            if h.moved[h.segment_of[i]] {
-                *m = Pose2::new(m.x() + 1.0, m.y(), m.theta());
-            }
-        }
+        let shifted = h.map_moved(|m| Pose2::new(m.x() + 1.0, m.y(), m.theta()));
         let moved = joint.estimate_with_hypotheses(pair, &shifted).unwrap();
         assert_ne!(moved.associations, found.associations, "{}", pair.name);
         let mut empty = h.clone();

@@ -5,6 +5,16 @@
 /// A segment of a wall or of an obstacle's outline, `(x1, y1, x2, y2)` in metres.
 pub type Segment = (f64, f64, f64, f64);
 
+/// A room 8 m × 5 m around the origin, four walls, with a pillar's face.
+#[allow(dead_code)] // not every test target looks into the room
+pub const ROOM: [Segment; 5] = [
+    (-4.0, -2.5, 4.0, -2.5),
+    (4.0, -2.5, 4.0, 2.5),
+    (4.0, 2.5, -4.0, 2.5),
+    (-4.0, 2.5, -4.0, -2.5),
+    (1.0, 0.5, 1.5, 1.2),
+];
+
 /// The distance along the ray from `(x, y)` in direction `heading` (rad) to the
 /// nearest segment it crosses, `None` when it crosses none.
 pub fn first_hit((x, y): (f64, f64), heading: f64, segments: &[Segment]) -> Option<f64> {

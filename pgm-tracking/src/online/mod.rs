@@ -231,16 +231,7 @@ impl ParamGuard for OnlineParams {
             return Err(InvalidParameter::new("confirm", 0, "at least 1").into());
         }
         InvalidParameter::positive("confirm_time", self.confirm_time, "a time in seconds > 0")?;
-        InvalidParameter::positive("max_gap", self.max_gap, "a time in seconds > 0")?;
-        if !(self.min_step >= 0.0 && self.min_step < self.max_gap) {
-            return Err(InvalidParameter::new(
-                "min_step",
-                self.min_step,
-                "a time in seconds >= 0 and below max_gap",
-            )
-            .into());
-        }
-        Ok(())
+        crate::params::check_scan_gaps(self.max_gap, self.min_step)
     }
 
     fn check(self) -> Result<OnlineParams> {

@@ -154,6 +154,17 @@ fn run(
     (reports, truth)
 }
 
+/// [`run`] for `n` scans of a static sensor (with odometry) while a walker crosses
+/// 3 m ahead at 1 m/s.
+fn crossing(n: usize) -> (Vec<ScanReport>, Vec<Point2<f64>>) {
+    run(
+        n,
+        |_| Pose2::identity(),
+        |t| (Point2::new(3.0, -2.0 + t), PI / 2.0),
+        true,
+    )
+}
+
 /// Every object id appears once per scan.
 fn ids_unique(reports: &[ScanReport]) {
     for r in reports {
@@ -182,12 +193,7 @@ fn followed(reports: &[ScanReport], truth: &[Point2<f64>]) -> Vec<Option<(u64, f
 #[test]
 fn a_walker_is_confirmed_and_followed_on_one_track() {
     // Static sensor; a walker crosses 3 m ahead at 1 m/s.
-    let (reports, truth) = run(
-        40,
-        |_| Pose2::identity(),
-        |t| (Point2::new(3.0, -2.0 + t), PI / 2.0),
-        true,
-    );
+    let (reports, truth) = crossing(40);
     ids_unique(&reports);
     let f = followed(&reports, &truth);
     let first = f
@@ -300,12 +306,7 @@ fn ego_motion_without_odometry_follows_the_world_not_the_person_ahead() {
 
 #[test]
 fn smoothing_reports_a_confirmed_track_from_its_birth() {
-    let (reports, _) = run(
-        30,
-        |_| Pose2::identity(),
-        |t| (Point2::new(3.0, -2.0 + t), PI / 2.0),
-        true,
-    );
+    let (reports, _) = crossing(30);
     let smoothed = smooth(reports.clone(), 0.5);
     assert!(smoothed
         .iter()
