@@ -591,14 +591,7 @@ impl<'a> PairPicture<'a> {
             ] {
                 draw_sensor(&mut chart, &frame, &pose, glyph, colour)?;
             }
-            chart
-                .draw_series(
-                    reference_points
-                        .iter()
-                        .filter(|p| inside(p))
-                        .map(|p| Circle::new(screen(p), 3, REFERENCE_COLOUR.filled())),
-                )
-                .map_err(drawing)?;
+            draw_dots(&mut chart, &frame, &reference_points, 3, REFERENCE_COLOUR)?;
             // Current returns: the background (or the whole scan without labels)
             // as dots, returns in no cluster as crosses, then the moving clusters.
             let in_view = |(p, _): &(&Point2<f64>, &usize)| inside(p);
@@ -606,16 +599,12 @@ impl<'a> PairPicture<'a> {
                 None => !partnerless(k),
                 Some(_) => label_of(k) == Some(0),
             };
-            chart
-                .draw_series(
-                    aligned
-                        .iter()
-                        .zip(&current_beams)
-                        .filter(in_view)
-                        .filter(|(_, &k)| plain(k))
-                        .map(|(p, _)| Circle::new(screen(p), 2, BACKGROUND_COLOUR.filled())),
-                )
-                .map_err(drawing)?;
+            let background = aligned
+                .iter()
+                .zip(&current_beams)
+                .filter(|(_, &k)| plain(k))
+                .map(|(p, _)| p);
+            draw_dots(&mut chart, &frame, background, 2, BACKGROUND_COLOUR)?;
             chart
                 .draw_series(
                     aligned
@@ -630,15 +619,8 @@ impl<'a> PairPicture<'a> {
                 .map_err(drawing)?;
             for (&label, members) in &clusters {
                 let colour = cluster_colour(numbers[&label]);
-                chart
-                    .draw_series(
-                        members
-                            .iter()
-                            .map(|&i| &aligned[i])
-                            .filter(|p| inside(p))
-                            .map(|p| Circle::new(screen(p), 3, colour.filled())),
-                    )
-                    .map_err(drawing)?;
+                let points = members.iter().map(|&i| &aligned[i]);
+                draw_dots(&mut chart, &frame, points, 3, colour)?;
             }
 
             for (&label, members) in &clusters {
@@ -878,19 +860,11 @@ impl TrackPicture<'_> {
             let mut chart =
                 sensor_chart(&root, &self.title, &frame, &layout, ", first scan's frame")?;
             let screen = |p: &Point2<f64>| frame.screen(p);
-            let inside = |p: &Point2<f64>| frame.inside(p);
             if let Some(last) = self.scans.last() {
                 let glyph = SENSOR_GLYPH_FRACTION * frame.horizontal();
                 draw_sensor(&mut chart, &frame, &last.pose, glyph, CURRENT_SENSOR_COLOUR)?;
             }
-            chart
-                .draw_series(
-                    returns
-                        .iter()
-                        .filter(|p| inside(p))
-                        .map(|p| Circle::new(screen(p), 1, REFERENCE_COLOUR.filled())),
-                )
-                .map_err(drawing)?;
+            draw_dots(&mut chart, &frame, &returns, 1, REFERENCE_COLOUR)?;
             chart
                 .draw_series(std::iter::once(PathElement::new(
                     path.iter().map(screen).collect::<Vec<_>>(),
@@ -1128,6 +1102,25 @@ fn draw_sensor(
             corners.to_vec(),
             colour.filled(),
         )))
+        .map_err(drawing)?;
+    Ok(())
+}
+
+/// Filled dots `radius` pixels across at those of `points` inside the frame.
+fn draw_dots<'p>(
+    chart: &mut Chart<'_, '_>,
+    frame: &Frame,
+    points: impl IntoIterator<Item = &'p Point2<f64>>,
+    radius: u32,
+    colour: RGBColor,
+) -> Result<(), PlotError> {
+    chart
+        .draw_series(
+            points
+                .into_iter()
+                .filter(|p| frame.inside(p))
+                .map(|p| Circle::new(frame.screen(p), radius, colour.filled())),
+        )
         .map_err(drawing)?;
     Ok(())
 }
