@@ -67,6 +67,28 @@ fn strs(args: &[String]) -> Vec<&str> {
     args.iter().map(String::as_str).collect()
 }
 
+/// `pgm eval matching --method icp` on a bag of the shared cases (scans `/scan`, ego
+/// pose `/truth`, k = 3), JSON: the command of the cases' READMEs.
+fn icp_matching(bag: &str) -> Vec<String> {
+    [
+        "eval",
+        "matching",
+        "--method",
+        "icp",
+        "--bag",
+        bag,
+        "--scan-topic",
+        "/scan",
+        "--ego-pose-topic",
+        "/truth",
+        "--k",
+        "3",
+        "--json",
+    ]
+    .map(String::from)
+    .to_vec()
+}
+
 /// Every bag-reading command refuses `bag` with exit 2 and every needle.
 fn refused_everywhere(bag: &str, topics: Topics, out: &str, needles: &[&str]) {
     for args in bag_commands(bag, topics, out) {
@@ -168,31 +190,12 @@ fn mcap_bad_crc_exits_2_in_every_command_and_the_plain_file_reads() {
         .map(String::from)
         .to_vec()
     };
-    let matching = |bag: &str| -> Vec<String> {
-        [
-            "eval",
-            "matching",
-            "--method",
-            "icp",
-            "--bag",
-            bag,
-            "--scan-topic",
-            "/scan",
-            "--ego-pose-topic",
-            "/truth",
-            "--k",
-            "3",
-            "--json",
-        ]
-        .map(String::from)
-        .to_vec()
-    };
     refused(&strs(&cluster(bad)), &needles);
-    refused(&strs(&matching(bad)), &needles);
+    refused(&strs(&icp_matching(bad)), &needles);
     // The plain file as today: two clusters (the object and the rest), nine pairs.
     let v = ok_json(&strs(&cluster(plain)));
     assert_eq!(v["clusters"].as_array().unwrap().len(), 2, "{v}");
-    let v = ok_json(&strs(&matching(plain)));
+    let v = ok_json(&strs(&icp_matching(plain)));
     assert_eq!(v["pairs"], 9);
     assert_eq!(v["not_converged"], 0);
     let dir = temp_dir("bad-crc");
@@ -206,7 +209,7 @@ fn mcap_bad_crc_exits_2_in_every_command_and_the_plain_file_reads() {
         damaged[records.start + records.len() / 2] ^= 0x04;
         let copy = write_bytes(&dir, "flipped.mcap", &damaged);
         refused(
-            &strs(&matching(&copy)),
+            &strs(&icp_matching(&copy)),
             &["flipped.mcap", &format!("chunk at byte {at}"), "damaged"],
         );
     }
@@ -389,23 +392,7 @@ fn minus_inf_bag_reads_as_plain_but_for_those_beams() {
     }
     assert_eq!(patched, 12 * 3, "beams 10-12 of 12 scans");
     let plus = write_bytes(&dir, "plus_inf.bag", &bytes);
-    let matching = |bag: &str| {
-        without_names(ok_json(&[
-            "eval",
-            "matching",
-            "--method",
-            "icp",
-            "--bag",
-            bag,
-            "--scan-topic",
-            "/scan",
-            "--ego-pose-topic",
-            "/truth",
-            "--k",
-            "3",
-            "--json",
-        ]))
-    };
+    let matching = |bag: &str| without_names(ok_json(&strs(&icp_matching(bag))));
     let m = matching(minus.to_str().unwrap());
     let p = matching(plain.to_str().unwrap());
     // -Inf is exactly a beam without a return, as +Inf is.

@@ -741,16 +741,11 @@ fn an_index_listing_a_pair_twice_is_refused() {
         bad["pairs"] = serde_json::Value::Array(entries);
         std::fs::write(&index_path, bad.to_string()).unwrap();
         let err = refused(
-            &[
-                "eval",
+            &eval(
                 "clustering",
-                "--method",
                 "crf",
-                "--pairs",
-                &ds,
-                "--associations",
-                "icp",
-            ],
+                &["--pairs", &ds, "--associations", "icp"],
+            ),
             &["index.json", field, "listed once"],
         );
         assert!(err.contains("pairs[0]"), "case {k}: {err}");

@@ -193,6 +193,17 @@ pub fn eval<'a>(kind: &'a str, method: &'a str, rest: &[&'a str]) -> Vec<&'a str
     [&["eval", kind, "--method", method][..], rest].concat()
 }
 
+/// The topics of the leigh-gtm1 bag in `../shared/data` as arguments: laser scans,
+/// wheel odometry and the annotated people.
+pub const LEIGH_BAG_TOPICS: [&str; 6] = [
+    "--scan-topic",
+    "/scan",
+    "--odom-topic",
+    "/odom",
+    "--people-topic",
+    "/ground_truth_people_tracks",
+];
+
 /// The shipped weight file of `model` (crf-clustering, crf-matching, joint).
 pub fn shipped(model: &str) -> String {
     format!(
