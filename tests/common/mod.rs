@@ -2,9 +2,11 @@
 //! `tests/cli_*.rs`): run the binary with a time limit, assert success or a clean
 //! refusal (status 2 and a message naming the value), temporary directories, small
 //! input files, simulated pairs written by `pgm sim`, and JSON output. The inputs the
-//! tests build (CARMEN lines, reordered pairs) are in [`logs`] and [`pairs`].
+//! tests build (CARMEN lines, reordered pairs) are in [`logs`] and [`pairs`], those
+//! they share with the benches (real pairs, bad priors, long scans) in [`fixtures`].
 #![allow(dead_code)] // each test crate uses its own subset
 
+pub mod fixtures;
 pub mod logs;
 pub mod pairs;
 
