@@ -415,26 +415,18 @@ impl<'a> PairPicture<'a> {
                             .collect();
                         if let Some(truth) = self.pair.truth.as_ref() {
                             if let Some(t) = self.truth_labels() {
-                                moving.extend(
-                                    current_beams
-                                        .iter()
-                                        .zip(&aligned)
-                                        .filter(|(&k, _)| t[k].is_some_and(|l| l != 0))
-                                        .map(|(_, p)| *p),
-                                );
+                                moving.extend(labelled_moving(&current_beams, &aligned, t));
                             }
                             if let Some(t) = truth
                                 .reference_labels
                                 .as_deref()
                                 .filter(|t| t.len() == self.pair.reference.len())
                             {
-                                moving.extend(
-                                    reference_beams
-                                        .iter()
-                                        .zip(&reference_points)
-                                        .filter(|(&k, _)| t[k].is_some_and(|l| l != 0))
-                                        .map(|(_, p)| *p),
-                                );
+                                moving.extend(labelled_moving(
+                                    &reference_beams,
+                                    &reference_points,
+                                    t,
+                                ));
                             }
                         }
                         self.moving_region(&moving).unwrap_or_else(scene)
@@ -1104,6 +1096,20 @@ fn draw_sensor(
         )))
         .map_err(drawing)?;
     Ok(())
+}
+
+/// The points (of beams `beams`) that `labels`, per beam, puts in a moving cluster
+/// (a label other than 0).
+fn labelled_moving<'a>(
+    beams: &'a [usize],
+    points: &'a [Point2<f64>],
+    labels: &'a [Option<u32>],
+) -> impl Iterator<Item = Point2<f64>> + 'a {
+    beams
+        .iter()
+        .zip(points)
+        .filter(|(&k, _)| labels[k].is_some_and(|l| l != 0))
+        .map(|(_, p)| *p)
 }
 
 /// Filled dots `radius` pixels across at those of `points` inside the frame.
