@@ -955,24 +955,25 @@ impl Frame {
         p.x >= x0 && p.x <= x1 && p.y >= y0 && p.y <= y1
     }
 
+    /// The region's extents (m) across and up the screen.
+    fn extents(&self) -> (f64, f64) {
+        let [x0, x1, y0, y1] = self.region;
+        let (forward, sideways) = (x1 - x0, y1 - y0);
+        if self.forward_right {
+            (forward, sideways)
+        } else {
+            (sideways, forward)
+        }
+    }
+
     /// The region's extent across the screen (m).
     fn horizontal(&self) -> f64 {
-        let [x0, x1, y0, y1] = self.region;
-        if self.forward_right {
-            x1 - x0
-        } else {
-            y1 - y0
-        }
+        self.extents().0
     }
 
     /// The region's extent up the screen (m).
     fn vertical(&self) -> f64 {
-        let [x0, x1, y0, y1] = self.region;
-        if self.forward_right {
-            y1 - y0
-        } else {
-            x1 - x0
-        }
+        self.extents().1
     }
 }
 
