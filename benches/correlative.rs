@@ -17,41 +17,23 @@
 //!
 //! Run: `cargo bench --bench correlative`.
 
+#[path = "../tests/common/fixtures.rs"]
+mod fixtures;
+
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use pgm_datasets::builders::{relation_pairs, RelationPairOptions};
+use fixtures::{mit_csail_near_pairs, perturb};
 use pgm_datasets::sim::{simulate_pair, SimConfig};
-use pgm_datasets::{carmen, relations, testdata, ScanPair};
+use pgm_datasets::ScanPair;
 use pgm_scan::correlative::{CorrelativeIcpMatcher, CorrelativeMatcher};
 use pgm_scan::registration::IcpMatcher;
 use pgm_scan::{ParamGuard, Pose2};
-use rand::{Rng, SeedableRng};
+use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use std::hint::black_box;
 use std::time::Duration;
 
-/// `prior` moved by up to 1 m and 30 degrees (uniform in a disc and an interval).
-fn perturb(prior: Pose2, rng: &mut ChaCha8Rng) -> Pose2 {
-    let r = rng.random::<f64>().sqrt();
-    let a = std::f64::consts::TAU * rng.random::<f64>();
-    let t = 30f64.to_radians() * (2.0 * rng.random::<f64>() - 1.0);
-    Pose2::new(
-        prior.x() + r * a.cos(),
-        prior.y() + r * a.sin(),
-        prior.theta() + t,
-    )
-}
-
 fn near_pairs(n: usize) -> Option<Vec<ScanPair>> {
-    let dir = testdata::shared_data_dir()?.join("mit-csail");
-    let log = carmen::read_carmen(dir.join("mit-csail.clf")).ok()?;
-    let rels = relations::read_relations(dir.join("mit-csail.relations")).ok()?;
-    let built = relation_pairs(&log, &rels, &RelationPairOptions::default());
-    let near: Vec<ScanPair> = built
-        .pairs
-        .into_iter()
-        .filter(|p| p.time_gap().abs() < 1.5)
-        .take(n)
-        .collect();
+    let near: Vec<ScanPair> = mit_csail_near_pairs()?.into_iter().take(n).collect();
     (near.len() == n).then_some(near)
 }
 

@@ -10,25 +10,19 @@
 //! case carmen-long100000 writes them; N = 10 000, 30 000, 100 000 shows that the cost
 //! grows near N log N (the case took more than 30 s at 100 000 beams before issue 16).
 
+#[path = "../tests/common/fixtures.rs"]
+mod fixtures;
+
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use pgm_datasets::builders::{relation_pairs, RelationPairOptions};
-use pgm_datasets::{carmen, relations, testdata, ScanPair};
+use fixtures::{long_ranges, mit_csail_near_pairs};
+use pgm_datasets::ScanPair;
 use pgm_scan::registration::{Icp, IcpParams};
 use std::hint::black_box;
 
 const BATCH: usize = 100;
 
 fn near_pairs() -> Option<Vec<ScanPair>> {
-    let dir = testdata::shared_data_dir()?.join("mit-csail");
-    let log = carmen::read_carmen(dir.join("mit-csail.clf")).ok()?;
-    let rels = relations::read_relations(dir.join("mit-csail.relations")).ok()?;
-    let built = relation_pairs(&log, &rels, &RelationPairOptions::default());
-    let near: Vec<ScanPair> = built
-        .pairs
-        .into_iter()
-        .filter(|p| p.time_gap().abs() < 1.5)
-        .take(BATCH)
-        .collect();
+    let near: Vec<ScanPair> = mit_csail_near_pairs()?.into_iter().take(BATCH).collect();
     (near.len() == BATCH).then_some(near)
 }
 
@@ -98,15 +92,7 @@ fn bench_icp(c: &mut Criterion) {
 /// Two `n`-beam scans as carmen-long100000 writes them: the same pseudo-random ranges
 /// in 5-6 m over 180°, read from poses 0.1 m apart.
 fn long_pair(n: usize) -> (pgm_scan::Scan, pgm_scan::Scan) {
-    let mut state = 0x2545_f491_4f6c_dd1du64;
-    let ranges: Vec<f64> = (0..n)
-        .map(|_| {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            5.0 + (state % 1000) as f64 / 1000.0
-        })
-        .collect();
+    let ranges = long_ranges(n);
     let angles: Vec<f64> = (0..n)
         .map(|k| -std::f64::consts::FRAC_PI_2 + std::f64::consts::PI * k as f64 / (n - 1) as f64)
         .collect();

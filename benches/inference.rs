@@ -9,7 +9,8 @@
 //! Run: `cargo bench --bench inference`. Grid figures are for 10 iterations from
 //! uniform messages (divide by 10 for one iteration).
 
-use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
+use criterion::measurement::WallTime;
+use criterion::{criterion_group, criterion_main, BatchSize, BenchmarkGroup, Criterion};
 use pgm_core::{
     BeliefPropagation, BpParams, FactorGraph, Flooding, Messages, Mode, ParamGuard, PottsFactor,
     Residual, Schedule, Sequential, ShiftedIdentityFactor, TableFactor, TrwsParams, VariableId,
@@ -86,6 +87,38 @@ fn pool(threads: usize) -> rayon::ThreadPool {
         .unwrap()
 }
 
+/// Max-product belief propagation of exactly `n` iterations (tolerance 0).
+fn max_product(n: usize) -> BeliefPropagation {
+    BpParams::new(Mode::MaxProduct)
+        .tolerance(0.0)
+        .max_iterations(n)
+        .check_unwrap()
+}
+
+/// Makes a run's schedule (a fresh one for every batch).
+type MakeSchedule = Box<dyn Fn() -> Box<dyn Schedule>>;
+
+/// Benchmarks `bp` on `graph` from uniform messages for each run: its name, the pool
+/// it runs in and its schedule.
+fn bench_runs(
+    group: &mut BenchmarkGroup<'_, WallTime>,
+    bp: &BeliefPropagation,
+    graph: &FactorGraph,
+    runs: Vec<(&str, &rayon::ThreadPool, MakeSchedule)>,
+) {
+    for (name, pool, make) in runs {
+        group.bench_function(name, |b| {
+            b.iter_batched(
+                || (make(), Messages::uniform(graph, Mode::MaxProduct)),
+                |(mut schedule, start)| {
+                    pool.install(|| iterations(bp, graph, schedule.as_mut(), start))
+                },
+                BatchSize::LargeInput,
+            )
+        });
+    }
+}
+
 fn iterations(
     bp: &BeliefPropagation,
     graph: &FactorGraph,
@@ -100,10 +133,7 @@ fn iterations(
 fn grid(c: &mut Criterion) {
     for (label, dense) in [("potts_factors", false), ("dense_tables", true)] {
         let graph = potts_grid(100, 5, 1, dense);
-        let bp = BpParams::new(Mode::MaxProduct)
-            .tolerance(0.0)
-            .max_iterations(10)
-            .check_unwrap();
+        let bp = max_product(10);
         let one = pool(1);
         let two = pool(2);
         let mut group = c.benchmark_group(format!(
@@ -112,7 +142,6 @@ fn grid(c: &mut Criterion) {
         group
             .sample_size(20)
             .measurement_time(Duration::from_secs(8));
-        type MakeSchedule = Box<dyn Fn() -> Box<dyn Schedule>>;
         let runs: Vec<(&str, &rayon::ThreadPool, MakeSchedule)> = vec![
             ("flooding_1_thread", &one, Box::new(|| Box::new(Flooding))),
             ("flooding_2_threads", &two, Box::new(|| Box::new(Flooding))),
@@ -127,17 +156,7 @@ fn grid(c: &mut Criterion) {
                 Box::new(|| Box::new(Residual::default())),
             ),
         ];
-        for (name, pool, make) in runs {
-            group.bench_function(name, |b| {
-                b.iter_batched(
-                    || (make(), Messages::uniform(&graph, Mode::MaxProduct)),
-                    |(mut schedule, start)| {
-                        pool.install(|| iterations(&bp, &graph, schedule.as_mut(), start))
-                    },
-                    BatchSize::LargeInput,
-                )
-            });
-        }
+        bench_runs(&mut group, &bp, &graph, runs);
         // TRW-S: ten iterations (forward and backward pass each), bound and decoding
         // included, tolerance 0 so that all ten run.
         let trws = TrwsParams::default()
@@ -157,10 +176,7 @@ fn grid(c: &mut Criterion) {
 }
 
 fn chains(c: &mut Criterion) {
-    let bp = BpParams::new(Mode::MaxProduct)
-        .tolerance(0.0)
-        .max_iterations(1)
-        .check_unwrap();
+    let bp = max_product(1);
     let one = pool(1);
     let two = pool(2);
     let mut group = c.benchmark_group("chain_361x362_max_product_one_sweep");
@@ -168,35 +184,39 @@ fn chains(c: &mut Criterion) {
         .sample_size(10)
         .measurement_time(Duration::from_secs(10));
     let shifted = chain(361, 362, false, 2);
-    group.bench_function("shifted_identity_sequential_1_thread", |b| {
-        b.iter_batched(
-            || Messages::uniform(&shifted, Mode::MaxProduct),
-            |start| one.install(|| iterations(&bp, &shifted, &mut Sequential::default(), start)),
-            BatchSize::LargeInput,
-        )
-    });
+    bench_runs(
+        &mut group,
+        &bp,
+        &shifted,
+        vec![(
+            "shifted_identity_sequential_1_thread",
+            &one,
+            Box::new(|| Box::new(Sequential::default())),
+        )],
+    );
     let dense = chain(361, 362, true, 2);
-    group.bench_function("dense_sequential_1_thread", |b| {
-        b.iter_batched(
-            || Messages::uniform(&dense, Mode::MaxProduct),
-            |start| one.install(|| iterations(&bp, &dense, &mut Sequential::default(), start)),
-            BatchSize::LargeInput,
-        )
-    });
-    group.bench_function("dense_flooding_1_thread", |b| {
-        b.iter_batched(
-            || Messages::uniform(&dense, Mode::MaxProduct),
-            |start| one.install(|| iterations(&bp, &dense, &mut Flooding, start)),
-            BatchSize::LargeInput,
-        )
-    });
-    group.bench_function("dense_flooding_2_threads", |b| {
-        b.iter_batched(
-            || Messages::uniform(&dense, Mode::MaxProduct),
-            |start| two.install(|| iterations(&bp, &dense, &mut Flooding, start)),
-            BatchSize::LargeInput,
-        )
-    });
+    bench_runs(
+        &mut group,
+        &bp,
+        &dense,
+        vec![
+            (
+                "dense_sequential_1_thread",
+                &one,
+                Box::new(|| Box::new(Sequential::default())),
+            ),
+            (
+                "dense_flooding_1_thread",
+                &one,
+                Box::new(|| Box::new(Flooding)),
+            ),
+            (
+                "dense_flooding_2_threads",
+                &two,
+                Box::new(|| Box::new(Flooding)),
+            ),
+        ],
+    );
     group.finish();
 }
 

@@ -415,26 +415,18 @@ impl<'a> PairPicture<'a> {
                             .collect();
                         if let Some(truth) = self.pair.truth.as_ref() {
                             if let Some(t) = self.truth_labels() {
-                                moving.extend(
-                                    current_beams
-                                        .iter()
-                                        .zip(&aligned)
-                                        .filter(|(&k, _)| t[k].is_some_and(|l| l != 0))
-                                        .map(|(_, p)| *p),
-                                );
+                                moving.extend(labelled_moving(&current_beams, &aligned, t));
                             }
                             if let Some(t) = truth
                                 .reference_labels
                                 .as_deref()
                                 .filter(|t| t.len() == self.pair.reference.len())
                             {
-                                moving.extend(
-                                    reference_beams
-                                        .iter()
-                                        .zip(&reference_points)
-                                        .filter(|(&k, _)| t[k].is_some_and(|l| l != 0))
-                                        .map(|(_, p)| *p),
-                                );
+                                moving.extend(labelled_moving(
+                                    &reference_beams,
+                                    &reference_points,
+                                    t,
+                                ));
                             }
                         }
                         self.moving_region(&moving).unwrap_or_else(scene)
@@ -591,14 +583,7 @@ impl<'a> PairPicture<'a> {
             ] {
                 draw_sensor(&mut chart, &frame, &pose, glyph, colour)?;
             }
-            chart
-                .draw_series(
-                    reference_points
-                        .iter()
-                        .filter(|p| inside(p))
-                        .map(|p| Circle::new(screen(p), 3, REFERENCE_COLOUR.filled())),
-                )
-                .map_err(drawing)?;
+            draw_dots(&mut chart, &frame, &reference_points, 3, REFERENCE_COLOUR)?;
             // Current returns: the background (or the whole scan without labels)
             // as dots, returns in no cluster as crosses, then the moving clusters.
             let in_view = |(p, _): &(&Point2<f64>, &usize)| inside(p);
@@ -606,16 +591,12 @@ impl<'a> PairPicture<'a> {
                 None => !partnerless(k),
                 Some(_) => label_of(k) == Some(0),
             };
-            chart
-                .draw_series(
-                    aligned
-                        .iter()
-                        .zip(&current_beams)
-                        .filter(in_view)
-                        .filter(|(_, &k)| plain(k))
-                        .map(|(p, _)| Circle::new(screen(p), 2, BACKGROUND_COLOUR.filled())),
-                )
-                .map_err(drawing)?;
+            let background = aligned
+                .iter()
+                .zip(&current_beams)
+                .filter(|(_, &k)| plain(k))
+                .map(|(p, _)| p);
+            draw_dots(&mut chart, &frame, background, 2, BACKGROUND_COLOUR)?;
             chart
                 .draw_series(
                     aligned
@@ -630,15 +611,8 @@ impl<'a> PairPicture<'a> {
                 .map_err(drawing)?;
             for (&label, members) in &clusters {
                 let colour = cluster_colour(numbers[&label]);
-                chart
-                    .draw_series(
-                        members
-                            .iter()
-                            .map(|&i| &aligned[i])
-                            .filter(|p| inside(p))
-                            .map(|p| Circle::new(screen(p), 3, colour.filled())),
-                    )
-                    .map_err(drawing)?;
+                let points = members.iter().map(|&i| &aligned[i]);
+                draw_dots(&mut chart, &frame, points, 3, colour)?;
             }
 
             for (&label, members) in &clusters {
@@ -878,19 +852,11 @@ impl TrackPicture<'_> {
             let mut chart =
                 sensor_chart(&root, &self.title, &frame, &layout, ", first scan's frame")?;
             let screen = |p: &Point2<f64>| frame.screen(p);
-            let inside = |p: &Point2<f64>| frame.inside(p);
             if let Some(last) = self.scans.last() {
                 let glyph = SENSOR_GLYPH_FRACTION * frame.horizontal();
                 draw_sensor(&mut chart, &frame, &last.pose, glyph, CURRENT_SENSOR_COLOUR)?;
             }
-            chart
-                .draw_series(
-                    returns
-                        .iter()
-                        .filter(|p| inside(p))
-                        .map(|p| Circle::new(screen(p), 1, REFERENCE_COLOUR.filled())),
-                )
-                .map_err(drawing)?;
+            draw_dots(&mut chart, &frame, &returns, 1, REFERENCE_COLOUR)?;
             chart
                 .draw_series(std::iter::once(PathElement::new(
                     path.iter().map(screen).collect::<Vec<_>>(),
@@ -989,24 +955,25 @@ impl Frame {
         p.x >= x0 && p.x <= x1 && p.y >= y0 && p.y <= y1
     }
 
+    /// The region's extents (m) across and up the screen.
+    fn extents(&self) -> (f64, f64) {
+        let [x0, x1, y0, y1] = self.region;
+        let (forward, sideways) = (x1 - x0, y1 - y0);
+        if self.forward_right {
+            (forward, sideways)
+        } else {
+            (sideways, forward)
+        }
+    }
+
     /// The region's extent across the screen (m).
     fn horizontal(&self) -> f64 {
-        let [x0, x1, y0, y1] = self.region;
-        if self.forward_right {
-            x1 - x0
-        } else {
-            y1 - y0
-        }
+        self.extents().0
     }
 
     /// The region's extent up the screen (m).
     fn vertical(&self) -> f64 {
-        let [x0, x1, y0, y1] = self.region;
-        if self.forward_right {
-            y1 - y0
-        } else {
-            x1 - x0
-        }
+        self.extents().1
     }
 }
 
@@ -1128,6 +1095,39 @@ fn draw_sensor(
             corners.to_vec(),
             colour.filled(),
         )))
+        .map_err(drawing)?;
+    Ok(())
+}
+
+/// The points (of beams `beams`) that `labels`, per beam, puts in a moving cluster
+/// (a label other than 0).
+fn labelled_moving<'a>(
+    beams: &'a [usize],
+    points: &'a [Point2<f64>],
+    labels: &'a [Option<u32>],
+) -> impl Iterator<Item = Point2<f64>> + 'a {
+    beams
+        .iter()
+        .zip(points)
+        .filter(|(&k, _)| labels[k].is_some_and(|l| l != 0))
+        .map(|(_, p)| *p)
+}
+
+/// Filled dots `radius` pixels across at those of `points` inside the frame.
+fn draw_dots<'p>(
+    chart: &mut Chart<'_, '_>,
+    frame: &Frame,
+    points: impl IntoIterator<Item = &'p Point2<f64>>,
+    radius: u32,
+    colour: RGBColor,
+) -> Result<(), PlotError> {
+    chart
+        .draw_series(
+            points
+                .into_iter()
+                .filter(|p| frame.inside(p))
+                .map(|p| Circle::new(frame.screen(p), radius, colour.filled())),
+        )
         .map_err(drawing)?;
     Ok(())
 }

@@ -5,12 +5,13 @@
 //! when it is missing, a failure when `CI=true`). Plain ICP from the same priors is
 //! printed beside it and must do clearly worse on the simulated pairs.
 
+mod common;
+
+use common::fixtures::{mit_csail_near_pairs, perturb};
 use pgm::methods::{scan_matcher, MethodOptions};
-use pgm_datasets::builders::{relation_pairs, RelationPairOptions};
 use pgm_datasets::sim::{simulate_pairs, SimConfig};
-use pgm_datasets::{carmen, relations, testdata, ParamGuard, ScanPair};
-use pgm_scan::Pose2;
-use rand::{Rng, SeedableRng};
+use pgm_datasets::{ParamGuard, ScanPair};
+use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
@@ -20,16 +21,8 @@ fn perturbed(pairs: &[ScanPair], seed: u64) -> Vec<ScanPair> {
     pairs
         .iter()
         .map(|p| {
-            let r = rng.random::<f64>().sqrt();
-            let a = std::f64::consts::TAU * rng.random::<f64>();
-            let t = 30f64.to_radians() * (2.0 * rng.random::<f64>() - 1.0);
-            let prior = p.odometry.unwrap_or_default();
             let mut q = p.clone();
-            q.odometry = Some(Pose2::new(
-                prior.x() + r * a.cos(),
-                prior.y() + r * a.sin(),
-                prior.theta() + t,
-            ));
+            q.odometry = Some(perturb(p.odometry.unwrap_or_default(), &mut rng));
             q
         })
         .collect()
@@ -61,18 +54,10 @@ fn crf_matching_recovers_from_bad_priors_on_simulated_pairs() {
 
 #[test]
 fn crf_matching_recovers_from_bad_priors_on_mit_csail() {
-    let Some(data) = testdata::shared_data_dir() else {
+    let Some(near) = mit_csail_near_pairs() else {
         return;
     };
-    let dir = data.join("mit-csail");
-    let log = carmen::read_carmen(dir.join("mit-csail.clf")).expect("log");
-    let rels = relations::read_relations(dir.join("mit-csail.relations")).expect("relations");
-    let near: Vec<ScanPair> = relation_pairs(&log, &rels, &RelationPairOptions::default())
-        .pairs
-        .into_iter()
-        .filter(|p| p.time_gap().abs() < 1.5)
-        .step_by(4)
-        .collect();
+    let near: Vec<ScanPair> = near.into_iter().step_by(4).collect();
     assert!(near.len() > 250, "{} pairs", near.len());
     let bad = perturbed(&near, 5);
     let crf = success(&bad, "crf-matching");

@@ -273,16 +273,7 @@ fn leigh_bag_and_text_export_give_the_same_data_set() {
         s("people_gt.txt"),
         s("odom_at_scan.txt"),
     );
-    let bag_args = [
-        "--bag",
-        bag.as_str(),
-        "--scan-topic",
-        "/scan",
-        "--odom-topic",
-        "/odom",
-        "--people-topic",
-        "/ground_truth_people_tracks",
-    ];
+    let bag_args = [&["--bag", bag.as_str()][..], &LEIGH_BAG_TOPICS].concat();
     let text_args = [
         "--scans",
         scans.as_str(),

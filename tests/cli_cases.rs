@@ -19,7 +19,7 @@ use pgm_datasets::bag::synthetic::{
     drive, mcap_bag, ros1_bag, Msg, Record, ANGLE_INCREMENT, ANGLE_MIN, BEAMS,
 };
 use pgm_datasets::testdata::shared_case_file;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// The topics of a bag: scans, odometry, ego pose, object pose.
 type Topics<'a> = [&'a str; 4];
@@ -67,6 +67,28 @@ fn strs(args: &[String]) -> Vec<&str> {
     args.iter().map(String::as_str).collect()
 }
 
+/// `pgm eval matching --method icp` on a bag of the shared cases (scans `/scan`, ego
+/// pose `/truth`, k = 3), JSON: the command of the cases' READMEs.
+fn icp_matching(bag: &str) -> Vec<String> {
+    [
+        "eval",
+        "matching",
+        "--method",
+        "icp",
+        "--bag",
+        bag,
+        "--scan-topic",
+        "/scan",
+        "--ego-pose-topic",
+        "/truth",
+        "--k",
+        "3",
+        "--json",
+    ]
+    .map(String::from)
+    .to_vec()
+}
+
 /// Every bag-reading command refuses `bag` with exit 2 and every needle.
 fn refused_everywhere(bag: &str, topics: Topics, out: &str, needles: &[&str]) {
     for args in bag_commands(bag, topics, out) {
@@ -98,6 +120,16 @@ fn same_results(a: &str, b: &str, topics: Topics, out: &str, keep: &[&str]) {
         let q = q.replace(b, "BAG").replace(&stem(b), "NAME");
         assert_eq!(p, q, "{x:?} and {y:?}");
     }
+}
+
+/// The files `names` of the case `case` of `../shared/cases`; `None` (the test is
+/// skipped) when one of them is missing.
+fn case_files<const N: usize>(case: &str, names: [&str; N]) -> Option<[PathBuf; N]> {
+    let files: Vec<PathBuf> = names
+        .map(|name| shared_case_file(&format!("{case}/{name}")))
+        .into_iter()
+        .collect::<Option<_>>()?;
+    files.try_into().ok()
 }
 
 /// Every command's first word.
@@ -137,10 +169,7 @@ fn mcap_chunks(bytes: &[u8]) -> Vec<(usize, std::ops::Range<usize>)> {
 
 #[test]
 fn mcap_bad_crc_exits_2_in_every_command_and_the_plain_file_reads() {
-    let (Some(plain), Some(bad)) = (
-        shared_case_file("mcap-bad-crc/plain.mcap"),
-        shared_case_file("mcap-bad-crc/badcrc.mcap"),
-    ) else {
+    let Some([plain, bad]) = case_files("mcap-bad-crc", ["plain.mcap", "badcrc.mcap"]) else {
         return;
     };
     let (plain, bad) = (plain.to_str().unwrap(), bad.to_str().unwrap());
@@ -168,31 +197,12 @@ fn mcap_bad_crc_exits_2_in_every_command_and_the_plain_file_reads() {
         .map(String::from)
         .to_vec()
     };
-    let matching = |bag: &str| -> Vec<String> {
-        [
-            "eval",
-            "matching",
-            "--method",
-            "icp",
-            "--bag",
-            bag,
-            "--scan-topic",
-            "/scan",
-            "--ego-pose-topic",
-            "/truth",
-            "--k",
-            "3",
-            "--json",
-        ]
-        .map(String::from)
-        .to_vec()
-    };
     refused(&strs(&cluster(bad)), &needles);
-    refused(&strs(&matching(bad)), &needles);
+    refused(&strs(&icp_matching(bad)), &needles);
     // The plain file as today: two clusters (the object and the rest), nine pairs.
     let v = ok_json(&strs(&cluster(plain)));
     assert_eq!(v["clusters"].as_array().unwrap().len(), 2, "{v}");
-    let v = ok_json(&strs(&matching(plain)));
+    let v = ok_json(&strs(&icp_matching(plain)));
     assert_eq!(v["pairs"], 9);
     assert_eq!(v["not_converged"], 0);
     let dir = temp_dir("bad-crc");
@@ -206,7 +216,7 @@ fn mcap_bad_crc_exits_2_in_every_command_and_the_plain_file_reads() {
         damaged[records.start + records.len() / 2] ^= 0x04;
         let copy = write_bytes(&dir, "flipped.mcap", &damaged);
         refused(
-            &strs(&matching(&copy)),
+            &strs(&icp_matching(&copy)),
             &["flipped.mcap", &format!("chunk at byte {at}"), "damaged"],
         );
     }
@@ -244,10 +254,9 @@ fn a_damaged_chunk_of_a_bag_written_here_exits_2_in_every_command() {
 
 #[test]
 fn scan_angle_range_half_increment_exits_2_and_the_fencepost_reads_as_consistent() {
-    let (Some(consistent), Some(fencepost), Some(half)) = (
-        shared_case_file("scan-angle-range/consistent.bag"),
-        shared_case_file("scan-angle-range/fencepost.bag"),
-        shared_case_file("scan-angle-range/half_increment.bag"),
+    let Some([consistent, fencepost, half]) = case_files(
+        "scan-angle-range",
+        ["consistent.bag", "fencepost.bag", "half_increment.bag"],
     ) else {
         return;
     };
@@ -303,6 +312,15 @@ fn scan_angle_range_half_increment_exits_2_and_the_fencepost_reads_as_consistent
     );
 }
 
+/// The records `a` and `b` written in each bag format: the file extension, `a`'s bytes
+/// and `b`'s.
+fn in_both_formats(a: &[Record], b: &[Record]) -> [(&'static str, Vec<u8>, Vec<u8>); 2] {
+    [
+        ("bag", ros1_bag(a), ros1_bag(b)),
+        ("mcap", mcap_bag(a, false, None), mcap_bag(b, false, None)),
+    ]
+}
+
 /// The drive with scan `k` (from 0) stating `angles(k)` (`angle_min`, `angle_max`,
 /// `angle_increment`).
 fn drive_with_angles(n: usize, angles: impl Fn(usize) -> [f32; 3]) -> Vec<Record> {
@@ -337,14 +355,7 @@ fn angle_max_of_bags_written_here_one_increment_off_reads_more_exits_2() {
             [ANGLE_MIN, end, ANGLE_INCREMENT]
         }
     });
-    for (name, off_bytes, bad_bytes) in [
-        ("bag", ros1_bag(&off), ros1_bag(&bad)),
-        (
-            "mcap",
-            mcap_bag(&off, false, None),
-            mcap_bag(&bad, false, None),
-        ),
-    ] {
+    for (name, off_bytes, bad_bytes) in in_both_formats(&off, &bad) {
         let fencepost = write_bytes(&dir, &format!("fencepost.{name}"), &off_bytes);
         same_results(&consistent, &fencepost, DRIVE_TOPICS, &out, &ALL);
         let file = format!("bad.{name}");
@@ -370,10 +381,7 @@ fn angle_max_of_bags_written_here_one_increment_off_reads_more_exits_2() {
 
 #[test]
 fn minus_inf_bag_reads_as_plain_but_for_those_beams() {
-    let (Some(plain), Some(minus)) = (
-        shared_case_file("scan-minus-inf/plain.bag"),
-        shared_case_file("scan-minus-inf/minus_inf.bag"),
-    ) else {
+    let Some([plain, minus]) = case_files("scan-minus-inf", ["plain.bag", "minus_inf.bag"]) else {
         return;
     };
     // The same bag with +Inf where minus_inf.bag has -Inf (a ROS 1 bag has no CRC).
@@ -389,23 +397,7 @@ fn minus_inf_bag_reads_as_plain_but_for_those_beams() {
     }
     assert_eq!(patched, 12 * 3, "beams 10-12 of 12 scans");
     let plus = write_bytes(&dir, "plus_inf.bag", &bytes);
-    let matching = |bag: &str| {
-        without_names(ok_json(&[
-            "eval",
-            "matching",
-            "--method",
-            "icp",
-            "--bag",
-            bag,
-            "--scan-topic",
-            "/scan",
-            "--ego-pose-topic",
-            "/truth",
-            "--k",
-            "3",
-            "--json",
-        ]))
-    };
+    let matching = |bag: &str| without_names(ok_json(&strs(&icp_matching(bag))));
     let m = matching(minus.to_str().unwrap());
     let p = matching(plain.to_str().unwrap());
     // -Inf is exactly a beam without a return, as +Inf is.
@@ -448,14 +440,7 @@ fn minus_inf_in_bags_and_text_logs_written_here_is_a_beam_without_a_return() {
         records
     };
     let (minus, plus) = (with(f32::NEG_INFINITY), with(f32::INFINITY));
-    for (name, m, p) in [
-        ("bag", ros1_bag(&minus), ros1_bag(&plus)),
-        (
-            "mcap",
-            mcap_bag(&minus, false, None),
-            mcap_bag(&plus, false, None),
-        ),
-    ] {
+    for (name, m, p) in in_both_formats(&minus, &plus) {
         let m = write_bytes(&dir, &format!("minus.{name}"), &m);
         let p = write_bytes(&dir, &format!("plus.{name}"), &p);
         same_results(&m, &p, DRIVE_TOPICS, &out, &ALL);

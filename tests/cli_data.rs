@@ -7,6 +7,7 @@
 
 mod common;
 
+use common::fixtures::long_ranges;
 use common::logs::{flaser_line, room_ranges, sparse_log};
 use common::pairs::{reversed, turned};
 use common::*;
@@ -360,15 +361,7 @@ fn long_scans_run() {
     // more than 30 s); the time lives in the README, not in an assertion.
     let dir = temp_dir("long");
     let n = 100_000;
-    let mut state = 0x2545_f491_4f6c_dd1du64;
-    let ranges: Vec<f64> = (0..n)
-        .map(|_| {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            5.0 + (state % 1000) as f64 / 1000.0
-        })
-        .collect();
+    let ranges = long_ranges(n);
     let text = format!(
         "{}\n{}\n",
         flaser_line(&ranges, (0.0, 0.0, 0.0), 1.0),
@@ -741,16 +734,11 @@ fn an_index_listing_a_pair_twice_is_refused() {
         bad["pairs"] = serde_json::Value::Array(entries);
         std::fs::write(&index_path, bad.to_string()).unwrap();
         let err = refused(
-            &[
-                "eval",
+            &eval(
                 "clustering",
-                "--method",
                 "crf",
-                "--pairs",
-                &ds,
-                "--associations",
-                "icp",
-            ],
+                &["--pairs", &ds, "--associations", "icp"],
+            ),
             &["index.json", field, "listed once"],
         );
         assert!(err.contains("pairs[0]"), "case {k}: {err}");

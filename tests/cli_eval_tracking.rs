@@ -193,12 +193,9 @@ fn leigh_bag() -> Option<String> {
     Some(bag.to_str().unwrap().to_string())
 }
 
-#[test]
-fn leigh_gtm1_bag_has_the_benchmarks_annotations_and_people_are_matched() {
-    let Some(bag) = leigh_bag() else {
-        return;
-    };
-    let report = ok_json(&[
+/// `pgm eval tracking --method crf --associations crf-matching --bag BAG REST… --json`.
+fn crf_tracking(bag: &str, rest: &[&str]) -> serde_json::Value {
+    let head = [
         "eval",
         "tracking",
         "--method",
@@ -206,16 +203,20 @@ fn leigh_gtm1_bag_has_the_benchmarks_annotations_and_people_are_matched() {
         "--associations",
         "crf-matching",
         "--bag",
+        bag,
+    ];
+    ok_json(&[&head[..], rest, &["--json"]].concat())
+}
+
+#[test]
+fn leigh_gtm1_bag_has_the_benchmarks_annotations_and_people_are_matched() {
+    let Some(bag) = leigh_bag() else {
+        return;
+    };
+    let report = crf_tracking(
         &bag,
-        "--scan-topic",
-        "/scan",
-        "--odom-topic",
-        "/odom",
-        "--people-topic",
-        "/ground_truth_people_tracks",
-        "--window=-80,12",
-        "--json",
-    ]);
+        &[&LEIGH_BAG_TOPICS[..], &["--window=-80,12"]].concat(),
+    );
     let b = &report["benchmark"];
     // TRACKING.md: 133 annotations inside the window; the data README's track rule:
     // 52 of them of people who walk.
@@ -234,31 +235,25 @@ fn datmo_overtake_ego_car_is_matched_while_it_moves() {
         return;
     };
     let bag = dir.join("datmo/overtake_ego.bag");
-    let report = ok_json(&[
-        "eval",
-        "tracking",
-        "--method",
-        "crf",
-        "--associations",
-        "crf-matching",
-        "--bag",
+    let report = crf_tracking(
         bag.to_str().unwrap(),
-        "--scan-topic",
-        "/scan",
-        "--laser-mount=-0.164,0.027,0.005",
-        "--ego-pose-topic",
-        "/ego_pose",
-        "--object-pose-topic",
-        "/red_pose",
-        "--object-footprint",
-        "0.43,0.187,0.057,0.028",
-        "--pose-delay",
-        "0.025",
-        "--moving-only",
-        "--min-returns",
-        "5",
-        "--json",
-    ]);
+        &[
+            "--scan-topic",
+            "/scan",
+            "--laser-mount=-0.164,0.027,0.005",
+            "--ego-pose-topic",
+            "/ego_pose",
+            "--object-pose-topic",
+            "/red_pose",
+            "--object-footprint",
+            "0.43,0.187,0.057,0.028",
+            "--pose-delay",
+            "0.025",
+            "--moving-only",
+            "--min-returns",
+            "5",
+        ],
+    );
     let b = &report["benchmark"];
     // 76 scans where the car moves with at least 5 returns; measured 2026-12-02: 56
     // matched, no ID switch, no false positive, MOTP 0.067 m.

@@ -186,49 +186,20 @@ fn unused_options_are_checked_in_every_evaluation() {
 fn a_negative_scan_distance_is_refused_naming_its_value() {
     let dir = temp_dir("negative-k");
     let (ds, _) = simulated(&dir, "ds", 5, 1);
-    let cases: Vec<Refusal> = vec![
-        (
-            vec!["track", "--method", "crf", "--pairs", &ds, "--k", "-3"],
-            vec!["'-3'", "--k", "not negative"],
-        ),
-        (
-            vec![
-                "eval", "tracking", "--method", "crf", "--pairs", &ds, "--k", "-3",
-            ],
-            vec!["'-3'", "--k"],
-        ),
-        (
-            vec![
-                "eval",
-                "ego-motion",
-                "--method",
-                "crf",
-                "--pairs",
-                &ds,
-                "--k",
-                "-3",
-            ],
-            vec!["'-3'", "--k"],
-        ),
-        (
-            vec![
-                "eval", "matching", "--method", "icp", "--pairs", &ds, "--k", "-3",
-            ],
-            vec!["'-3'", "--k"],
-        ),
-        (
-            vec![
-                "eval",
-                "clustering",
-                "--method",
-                "crf",
-                "--pairs",
-                &ds,
-                "--k",
-                "-3",
-            ],
-            vec!["'-3'", "--k"],
-        ),
+    let negative = ["--pairs", &ds, "--k", "-3"];
+    let mut cases: Vec<Refusal> = vec![(
+        vec!["track", "--method", "crf", "--pairs", &ds, "--k", "-3"],
+        vec!["'-3'", "--k", "not negative"],
+    )];
+    for (kind, method) in [
+        ("tracking", "crf"),
+        ("ego-motion", "crf"),
+        ("matching", "icp"),
+        ("clustering", "crf"),
+    ] {
+        cases.push((eval(kind, method, &negative), vec!["'-3'", "--k"]));
+    }
+    cases.extend([
         (
             vec![
                 "data", "summary", "--scans", "a", "--people", "b", "--k", "1,-3",
@@ -243,6 +214,6 @@ fn a_negative_scan_distance_is_refused_naming_its_value() {
             vec!["track", "--method", "crf", "--pairs", &ds, "--k", "1.5"],
             vec!["'1.5'", "whole number"],
         ),
-    ];
+    ]);
     refused_all(&cases);
 }

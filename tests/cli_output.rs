@@ -202,15 +202,18 @@ fn ctrl_c_and_sigterm_remove_what_the_write_had_started() {
     assert!(caught, "never caught pgm sim writing");
     // A replacement: stopped while its new pair files appear, the old data set is
     // whole and alone (no new pair file, no journal, no temporary file).
-    ok(&[
-        "sim",
-        "--pairs",
-        "30",
-        "--seed",
-        "1",
-        "--out",
-        ds.to_str().unwrap(),
-    ]);
+    let write_old = || {
+        ok(&[
+            "sim",
+            "--pairs",
+            "30",
+            "--seed",
+            "1",
+            "--out",
+            ds.to_str().unwrap(),
+        ])
+    };
+    write_old();
     let old = entries(&ds);
     let old_index = std::fs::read(ds.join("index.json")).unwrap();
     let new_files = |d: &Path| {
@@ -233,15 +236,7 @@ fn ctrl_c_and_sigterm_remove_what_the_write_had_started() {
             }
             None => {
                 let _ = std::fs::remove_dir_all(&ds);
-                ok(&[
-                    "sim",
-                    "--pairs",
-                    "30",
-                    "--seed",
-                    "1",
-                    "--out",
-                    ds.to_str().unwrap(),
-                ]);
+                write_old();
             }
         }
     }

@@ -230,13 +230,10 @@ fn every_pair_figure_has_a_legend() {
     plotted.has("pgm plot", &["reference scan", "true object", "sensor at"]);
     assert_eq!(plotted.clusters(), truth.clusters());
 
-    let cluster = path(&dir, "cluster.svg");
-    ok(&[
-        "cluster", "--pairs", &data, "--pair", "1", "--svg", &cluster,
-    ]);
-    Figure::read(Path::new(&cluster))
-        .has(
-            "pgm cluster",
+    // The one-pair commands: each picture's legend, and the sensors under the returns.
+    let one_pair: [(&str, &[&str]); 3] = [
+        (
+            "cluster",
             &[
                 "reference scan",
                 "current scan: static background",
@@ -244,14 +241,9 @@ fn every_pair_figure_has_a_legend() {
                 "box around a moving cluster",
                 "sensor at the current scan",
             ],
-        )
-        .sensor_under_returns("pgm cluster");
-
-    let matched = path(&dir, "match.svg");
-    ok(&["match", "--pairs", &data, "--pair", "1", "--svg", &matched]);
-    Figure::read(Path::new(&matched))
-        .has(
-            "pgm match",
+        ),
+        (
+            "match",
             &[
                 "reference scan",
                 "current scan",
@@ -259,14 +251,9 @@ fn every_pair_figure_has_a_legend() {
                 "sensor at the reference scan",
                 "sensor at the current scan",
             ],
-        )
-        .sensor_under_returns("pgm match");
-
-    let joint = path(&dir, "joint.svg");
-    ok(&["joint", "--pairs", &data, "--pair", "1", "--svg", &joint]);
-    Figure::read(Path::new(&joint))
-        .has(
-            "pgm joint",
+        ),
+        (
+            "joint",
             &[
                 "reference scan",
                 "current scan: static background",
@@ -274,8 +261,16 @@ fn every_pair_figure_has_a_legend() {
                 "association",
                 "sensor at the current scan",
             ],
-        )
-        .sensor_under_returns("pgm joint");
+        ),
+    ];
+    for (command, legend) in one_pair {
+        let svg = path(&dir, &format!("{command}.svg"));
+        ok(&[command, "--pairs", &data, "--pair", "1", "--svg", &svg]);
+        let name = format!("pgm {command}");
+        Figure::read(Path::new(&svg))
+            .has(&name, legend)
+            .sensor_under_returns(&name);
+    }
 }
 
 #[test]

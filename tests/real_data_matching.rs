@@ -10,9 +10,12 @@
 //! identity (the log has no independent odometry): ≤ 0.025 m and ≤ 0.006 rad.
 //! CRF-Matching (issue 14): medians no worse than ICP's on both sets.
 
-use pgm_datasets::builders::{consecutive_pairs, relation_pairs, RelationPairOptions};
+mod common;
+
+use common::fixtures::mit_csail_near_pairs;
+use pgm_datasets::builders::consecutive_pairs;
 use pgm_datasets::metrics::{motion_error, summarize_errors, ErrorSummary, MotionError};
-use pgm_datasets::{carmen, relations, testdata, ScanPair};
+use pgm_datasets::{carmen, testdata, ScanPair};
 use pgm_eval::evaluate_matching;
 use pgm_scan::registration::IcpMatcher;
 
@@ -49,18 +52,9 @@ fn odometry_errors(pairs: &[ScanPair]) -> ErrorSummary {
 
 #[test]
 fn mit_csail_near_pairs_meet_the_targets() {
-    let Some(data) = testdata::shared_data_dir() else {
+    let Some(near) = mit_csail_near_pairs() else {
         return;
     };
-    let dir = data.join("mit-csail");
-    let log = carmen::read_carmen(dir.join("mit-csail.clf")).expect("log");
-    let rels = relations::read_relations(dir.join("mit-csail.relations")).expect("relations");
-    let built = relation_pairs(&log, &rels, &RelationPairOptions::default());
-    let near: Vec<ScanPair> = built
-        .pairs
-        .into_iter()
-        .filter(|p| p.time_gap().abs() < 1.5)
-        .collect();
     assert!(near.len() > 1000, "{} near pairs", near.len());
     let odometry = odometry_errors(&near);
     eprintln!("mit-csail near, odometry: {odometry:?}");

@@ -13,7 +13,7 @@
 //! `--svg FILE` draws the result like Fig. 4/5 of the paper: points coloured by
 //! cluster, motion arrows and boxes around moving objects.
 
-use super::{CliError, CliResult};
+use super::{to_json, CliError, CliResult};
 use clap::builder::{PossibleValue, PossibleValuesParser};
 use clap::{Args, ValueEnum};
 use pgm::methods::{association_source, default_association, MethodOptions, ASSOCIATION_SOURCES};
@@ -332,7 +332,7 @@ pub fn run(args: ClusterArgs) -> CliResult {
         associations: source.name(),
         clustering: &clustering,
     };
-    let json = serde_json::to_string(&output).map_err(CliError::from_display)?;
+    let json = to_json(&output)?;
     // The picture is staged beside its destination before the result is printed and
     // renamed into place after: a command that fails writes nothing.
     let staged = match &args.svg {

@@ -25,7 +25,7 @@
 //! Pairs are written in the format of `datasets/FORMAT.md`
 //! ([`pgm_datasets::format`]). Notes (skipped lines, unmatched relations) go to stderr.
 
-use super::{CliError, CliResult};
+use super::{or_dash, print_json, CliError, CliResult};
 use clap::{Args, Subcommand};
 use pgm_datasets::bag::pairs::BagPairOptions;
 use pgm_datasets::bag::pairs::{laser_mount, prepared_scans, to_leigh};
@@ -692,10 +692,7 @@ fn run_summary(args: SummaryArgs) -> CliResult {
         }
     }
     if args.json {
-        println!(
-            "{}",
-            serde_json::to_string(&rows).map_err(CliError::from_display)?
-        );
+        print_json(&rows)?;
         return Ok(ExitCode::SUCCESS);
     }
     println!(
@@ -719,15 +716,13 @@ fn run_summary(args: SummaryArgs) -> CliResult {
     );
     for r in rows {
         let s = r.summary;
-        let mean =
-            |x: Option<f64>, digits: usize| x.map_or("-".into(), |x| format!("{x:.digits$}"));
         println!(
             "{:<12}  {:>3}  {:>5}  {:>12}  {:>20}  {:>24}  {:>13}",
             r.rule.to_string(),
             s.k,
             s.pairs,
-            mean(s.returns_per_scan, 1),
-            mean(s.moving_returns_per_pair, 2),
+            or_dash(s.returns_per_scan, 1),
+            or_dash(s.moving_returns_per_pair, 2),
             s.pairs_with_moving_person,
             s.moving_people
         );

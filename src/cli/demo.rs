@@ -19,7 +19,7 @@
 
 use super::cluster::draw;
 use super::joint::draw_joint;
-use super::{CliError, CliResult};
+use super::{or_dash, CliError, CliResult};
 use clap::Args;
 use pgm::methods::{
     association_source, clusterer, joint_estimator, MethodOptions, JOINT_PAPER_KMEANS_K,
@@ -71,7 +71,7 @@ const JOINT_ROWS: [(&str, Source); 6] = [
 
 /// `x` scaled with `digits` decimals, or `-`.
 fn cell(x: Option<f64>, scale: f64, digits: usize) -> String {
-    x.map_or("-".into(), |x| format!("{:.digits$}", scale * x))
+    or_dash(x.map(|x| scale * x), digits)
 }
 
 /// The rows of the demo: label, method, association source.
@@ -127,10 +127,8 @@ pub fn run(args: DemoArgs) -> CliResult {
                 "",
                 f.found,
                 f.total,
-                f.centroid_error_median
-                    .map_or("-".into(), |x| format!("{x:.3}")),
-                f.rotation_error_median
-                    .map_or("-".into(), |x| format!("{x:.4}"))
+                or_dash(f.centroid_error_median, 3),
+                or_dash(f.rotation_error_median, 4)
             );
         }
     }

@@ -17,7 +17,7 @@
 //! cannot run is counted in `not_converged` and in a note on stderr.
 
 use super::data::{load_pairs, pair_source, LeighArgs, SourceArgs};
-use super::{CliError, CliResult};
+use super::{print_json, CliError, CliResult};
 use clap::builder::{PossibleValue, PossibleValuesParser};
 use clap::{Args, Subcommand};
 use pgm::methods::{scan_matcher, MethodOptions, SCAN_MATCHERS};
@@ -213,10 +213,7 @@ fn run_matching(args: MatchingArgs) -> CliResult {
             data: format!("{source}; every pair scored"),
             report: &report,
         };
-        println!(
-            "{}",
-            serde_json::to_string(&json).map_err(CliError::from_display)?
-        );
+        print_json(&json)?;
         return Ok(ExitCode::SUCCESS);
     }
     println!(

@@ -39,7 +39,7 @@
 use super::cluster::{association_names, CrfArgs};
 use super::data::{load_pairs, LogPairsArgs};
 use super::track::TrackingFields;
-use super::{CliError, CliResult};
+use super::{or_dash, print_json, CliError, CliResult};
 use clap::builder::{PossibleValue, PossibleValuesParser};
 use clap::Args;
 use pgm::methods::{
@@ -283,10 +283,6 @@ impl From<&DetectionSummary> for DetectionFields {
     }
 }
 
-fn show(x: Option<f64>, digits: usize) -> String {
-    x.map_or("-".into(), |x| format!("{x:.digits$}"))
-}
-
 /// Runs `pgm eval clustering`.
 pub fn run(args: ClusteringEvalArgs) -> CliResult {
     let source = args.logs.pair_source(args.pairs.as_deref())?;
@@ -397,10 +393,7 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
             rotation_error_median: found.rotation_error_median,
             tracking: tracking_fields,
         };
-        println!(
-            "{}",
-            serde_json::to_string(&json).map_err(CliError::from_display)?
-        );
+        print_json(&json)?;
         return Ok(ExitCode::SUCCESS);
     }
     println!(
@@ -448,7 +441,7 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
     println!(
         "V-measure, {} pairs with a mover: {}",
         d.mover_pairs,
-        show(d.v_measure_mover_pairs, 3)
+        or_dash(d.v_measure_mover_pairs, 3)
     );
     // Two object counts with different rules (module docs of
     // pgm_eval): the detection metrics count the true movers with at
@@ -461,7 +454,7 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
         d.objects_detected,
         d.objects_counted,
         d.min_object_returns,
-        show(d.object_recall, 3),
+        or_dash(d.object_recall, 3),
         d.false_alarms_per_pair,
         report
             .outcomes
@@ -469,14 +462,14 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
             .filter(|o| !o.has_mover && o.reported_moving)
             .count(),
         d.pairs_without_mover,
-        show(d.false_alarm_pair_share, 3)
+        or_dash(d.false_alarm_pair_share, 3)
     );
     println!(
         "moving points: precision {}, recall {}; motion error of the detected objects (median) {} m, {} rad",
-        show(d.moving_precision, 3),
-        show(d.moving_recall, 3),
-        show(d.object_translation_error_median, 3),
-        show(d.object_rotation_error_median, 4)
+        or_dash(d.moving_precision, 3),
+        or_dash(d.moving_recall, 3),
+        or_dash(d.object_translation_error_median, 3),
+        or_dash(d.object_rotation_error_median, 4)
     );
     if args.method.estimates_motions() {
         println!(
@@ -484,12 +477,8 @@ pub fn run(args: ClusteringEvalArgs) -> CliResult {
              {} of {} found; median error {} m at the centroid, {} rad",
             found.found,
             found.total,
-            found
-                .centroid_error_median
-                .map_or("-".into(), |x| format!("{x:.3}")),
-            found
-                .rotation_error_median
-                .map_or("-".into(), |x| format!("{x:.4}"))
+            or_dash(found.centroid_error_median, 3),
+            or_dash(found.rotation_error_median, 4)
         );
     }
     Ok(ExitCode::SUCCESS)

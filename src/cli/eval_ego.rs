@@ -17,8 +17,8 @@
 
 use super::data::{load_pairs, pair_source, LeighArgs, SourceArgs};
 use super::eval_clustering::MethodArgs;
-use super::online::{track_truth_source, OnlineArgs};
-use super::{CliError, CliResult};
+use super::online::{sequence_count, track_truth_source, OnlineArgs};
+use super::{print_json, CliError, CliResult};
 use clap::Args;
 use pgm::methods::{scan_matcher, MethodOptions};
 use pgm_scan::{Pose2, ScanPair};
@@ -229,11 +229,7 @@ pub fn run(args: EgoEvalArgs) -> CliResult {
             "{truth_source}: no ground-truth pair has both scans in one tracked sequence"
         )));
     }
-    let sequences = reports
-        .iter()
-        .map(|r| r.report.sequence)
-        .collect::<std::collections::BTreeSet<_>>()
-        .len();
+    let sequences = sequence_count(&reports);
     let output = Output {
         data: truth_source.to_string(),
         tracker: run.tracker,
@@ -246,10 +242,7 @@ pub fn run(args: EgoEvalArgs) -> CliResult {
         per_pair,
     };
     if args.json {
-        println!(
-            "{}",
-            serde_json::to_string(&output).map_err(CliError::from_display)?
-        );
+        print_json(&output)?;
     } else {
         println!("data: {}", output.data);
         println!(

@@ -30,7 +30,7 @@
 use super::data::{pair_source, LeighArgs, SourceArgs};
 use super::eval_clustering::MethodArgs;
 use super::online::{track_truth_source, OnlineArgs};
-use super::{check_not_an_input, check_output_file, CliError, CliResult};
+use super::{check_not_an_input, check_output_file, to_json, CliError, CliResult};
 use clap::Args;
 use pgm_datasets::clear_mot::{
     pool, BearingWindow, ClearMot, ClearMotOptions, Protocol, Summary, DEFAULT_THRESHOLD_M,
@@ -433,7 +433,7 @@ pub fn run(args: TrackingEvalArgs) -> CliResult {
         objects: per_object,
         scans: scan_scores,
     };
-    let json = serde_json::to_string(&output).map_err(CliError::from_display)?;
+    let json = to_json(&output)?;
     if let Some(path) = &args.out {
         pgm_datasets::format::write_atomically(path, format!("{json}\n").as_bytes())
             .map_err(CliError::from_display)?;

@@ -32,7 +32,7 @@
 use super::cluster::OnePairArgs;
 use super::data::{load_pairs, LogPairsArgs};
 use super::matching::{parse_state_space, state_space_name, MatchingOptionArgs, MotionFit};
-use super::{CliError, CliResult};
+use super::{print_json, to_json, CliError, CliResult};
 use clap::builder::{PossibleValue, PossibleValuesParser};
 use clap::Args;
 use pgm::methods::{
@@ -238,7 +238,7 @@ pub fn run_joint(args: JointArgs) -> CliResult {
             .collect(),
         outliers: count(JointCluster::Outlier),
     };
-    let json = serde_json::to_string(&output).map_err(CliError::from_display)?;
+    let json = to_json(&output)?;
     if let Some(path) = &args.svg {
         let estimate = JointEstimate {
             associations: result.associations.clone(),
@@ -423,10 +423,7 @@ pub fn run_eval_joint(args: JointEvalArgs) -> CliResult {
             summary: &report.summary,
             outcomes: args.per_pair.then_some(report.outcomes.as_slice()),
         };
-        println!(
-            "{}",
-            serde_json::to_string(&json).map_err(CliError::from_display)?
-        );
+        print_json(&json)?;
         return Ok(ExitCode::SUCCESS);
     }
     print_report(&report, &data, &sets, &weights);

@@ -18,7 +18,7 @@
 
 use super::cluster::{association_names, OnePairArgs};
 use super::data::{load_pairs, pair_source, LeighArgs, SourceArgs};
-use super::{CliError, CliResult};
+use super::{print_json, to_json, CliError, CliResult};
 use clap::Args;
 use pgm::methods::{association_source, MethodOptions};
 use pgm::plot::PairPicture;
@@ -152,13 +152,12 @@ pub fn run_match(args: MatchArgs) -> CliResult {
         .check()
         .map_err(CliError::from_display)?;
     let matching = matcher.match_pair(&pair).map_err(CliError::from_display)?;
-    let json = serde_json::to_string(&MatchOutput {
+    let json = to_json(&MatchOutput {
         pair: &pair.name,
         candidates: state_space_name(args.matching.candidates),
         motion_fit: args.matching.motion_fit.name(),
         matching: &matching,
-    })
-    .map_err(CliError::from_display)?;
+    })?;
     // Staged before the result is printed, renamed into place after: a command that
     // fails writes nothing.
     let staged = match &args.svg {
@@ -276,10 +275,7 @@ pub fn run_eval_association(args: AssociationEvalArgs) -> CliResult {
             motion_fit: args.matching.motion_fit.name(),
             summary: report,
         };
-        println!(
-            "{}",
-            serde_json::to_string(&json).map_err(CliError::from_display)?
-        );
+        print_json(&json)?;
         return Ok(ExitCode::SUCCESS);
     }
     println!(

@@ -39,6 +39,22 @@ impl CliError {
     }
 }
 
+/// `x` with `digits` decimals, or `-` where there is no value (a table cell).
+pub fn or_dash(x: Option<f64>, digits: usize) -> String {
+    x.map_or("-".into(), |x| format!("{x:.digits$}"))
+}
+
+/// `value` as one line of JSON, the form of every machine-readable result.
+pub fn to_json(value: &impl serde::Serialize) -> Result<String, CliError> {
+    serde_json::to_string(value).map_err(CliError::from_display)
+}
+
+/// Prints `value` on stdout as one line of JSON (what `--json` asks for).
+pub fn print_json(value: &impl serde::Serialize) -> Result<(), CliError> {
+    println!("{}", to_json(value)?);
+    Ok(())
+}
+
 /// Checks before a long run that a file can be written at `path`: its directory
 /// exists and `path` is not a directory, so that a run does not print its results and
 /// then fail on the output file; and that writing it (beside it, then renamed into

@@ -106,6 +106,15 @@ pub struct NamedReport {
     pub report: ScanReport,
 }
 
+/// How many distinct sequences the tracker reported scans of.
+pub fn sequence_count(reports: &[NamedReport]) -> usize {
+    reports
+        .iter()
+        .map(|r| r.report.sequence)
+        .collect::<std::collections::BTreeSet<_>>()
+        .len()
+}
+
 /// Runs the tracker over `scans`, in order; smoothed when asked.
 ///
 /// # Errors

@@ -24,8 +24,10 @@ use super::data::{
     SourceArgs,
 };
 use super::eval_clustering::MethodArgs;
-use super::online::{mode_name, scan_sequence, track_scans, NamedReport, OnlineArgs};
-use super::{check_not_an_input, check_output_file, resolved_output, CliError, CliResult};
+use super::online::{
+    mode_name, scan_sequence, sequence_count, track_scans, NamedReport, OnlineArgs,
+};
+use super::{check_not_an_input, check_output_file, resolved_output, to_json, CliError, CliResult};
 use clap::Args;
 use nalgebra::Point2;
 use pgm::plot::{ObjectState, TrackPicture, TrackedScan};
@@ -351,11 +353,7 @@ pub fn run(args: TrackArgs) -> CliResult {
         .flat_map(|r| r.report.objects.iter().filter(shown).map(|o| o.track))
         .collect::<std::collections::BTreeSet<_>>()
         .len();
-    let sequences = reports
-        .iter()
-        .map(|r| r.report.sequence)
-        .collect::<std::collections::BTreeSet<_>>()
-        .len();
+    let sequences = sequence_count(&reports);
     let output = Output {
         mode: mode_name(args.online.smooth),
         method: &args.method.method,
@@ -372,7 +370,7 @@ pub fn run(args: TrackArgs) -> CliResult {
         },
         scans: reports,
     };
-    let json = serde_json::to_string(&output).map_err(CliError::from_display)?;
+    let json = to_json(&output)?;
     match &args.out {
         Some(path) => pgm_datasets::format::write_atomically(path, format!("{json}\n").as_bytes())
             .map_err(CliError::from_display)?,

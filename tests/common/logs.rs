@@ -31,23 +31,24 @@ pub fn room_ranges(
         .map(|k| {
             let a = pose.2 + start + k as f64 * step;
             let (s, c) = a.sin_cos();
-            let tx = if c > 1e-12 {
-                (x1 - pose.0) / c
-            } else if c < -1e-12 {
-                (x0 - pose.0) / c
-            } else {
-                f64::INFINITY
-            };
-            let ty = if s > 1e-12 {
-                (y1 - pose.1) / s
-            } else if s < -1e-12 {
-                (y0 - pose.1) / s
-            } else {
-                f64::INFINITY
-            };
+            let tx = to_wall(pose.0, c, x0, x1);
+            let ty = to_wall(pose.1, s, y0, y1);
             tx.min(ty)
         })
         .collect()
+}
+
+/// Along one axis: how far a ray from `from` with direction component `d` goes
+/// before it meets the wall `lo` (going down) or `hi` (going up); infinite for a ray
+/// across the axis.
+fn to_wall(from: f64, d: f64, lo: f64, hi: f64) -> f64 {
+    if d > 1e-12 {
+        (hi - from) / d
+    } else if d < -1e-12 {
+        (lo - from) / d
+    } else {
+        f64::INFINITY
+    }
 }
 
 /// A CARMEN log `dir/room.clf` of two 181-beam FLASER scans (one a degree, the first

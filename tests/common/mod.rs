@@ -2,9 +2,11 @@
 //! `tests/cli_*.rs`): run the binary with a time limit, assert success or a clean
 //! refusal (status 2 and a message naming the value), temporary directories, small
 //! input files, simulated pairs written by `pgm sim`, and JSON output. The inputs the
-//! tests build (CARMEN lines, reordered pairs) are in [`logs`] and [`pairs`].
+//! tests build (CARMEN lines, reordered pairs) are in [`logs`] and [`pairs`], those
+//! they share with the benches (real pairs, bad priors, long scans) in [`fixtures`].
 #![allow(dead_code)] // each test crate uses its own subset
 
+pub mod fixtures;
 pub mod logs;
 pub mod pairs;
 
@@ -192,6 +194,17 @@ pub fn one_pair<'a>(
 pub fn eval<'a>(kind: &'a str, method: &'a str, rest: &[&'a str]) -> Vec<&'a str> {
     [&["eval", kind, "--method", method][..], rest].concat()
 }
+
+/// The topics of the leigh-gtm1 bag in `../shared/data` as arguments: laser scans,
+/// wheel odometry and the annotated people.
+pub const LEIGH_BAG_TOPICS: [&str; 6] = [
+    "--scan-topic",
+    "/scan",
+    "--odom-topic",
+    "/odom",
+    "--people-topic",
+    "/ground_truth_people_tracks",
+];
 
 /// The shipped weight file of `model` (crf-clustering, crf-matching, joint).
 pub fn shipped(model: &str) -> String {

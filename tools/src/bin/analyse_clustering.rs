@@ -119,18 +119,13 @@ fn main() {
         let ov = clustering_v_measure(labels, &oracle, 1.0)
             .unwrap()
             .v_measure;
-        let predicted: usize = {
-            let mut s: Vec<u32> = out
-                .labels
-                .iter()
-                .flatten()
-                .copied()
-                .filter(|&l| l > 0)
-                .collect();
-            s.sort();
-            s.dedup();
-            s.len()
-        };
+        let predicted = out
+            .labels
+            .iter()
+            .flatten()
+            .filter(|&&l| l > 0)
+            .collect::<std::collections::BTreeSet<_>>()
+            .len();
         sum += out.score.v_measure;
         oracle_sum += ov;
         let mut confusion: std::collections::BTreeMap<(u32, u32), usize> = Default::default();
