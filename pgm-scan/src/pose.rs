@@ -81,8 +81,11 @@ impl Pose2 {
         }
     }
 
-    /// Wraps an [`Isometry2`].
-    pub fn from_isometry(iso: Isometry2<f64>) -> Self {
+    /// Wraps an [`Isometry2`], renormalising its rotation to unit length (an
+    /// isometry built with `UnitComplex::new_unchecked` or accumulated elsewhere may
+    /// have drifted).
+    pub fn from_isometry(mut iso: Isometry2<f64>) -> Self {
+        iso.rotation.renormalize();
         Self { iso }
     }
 
@@ -111,11 +114,11 @@ impl Pose2 {
         self.iso.translation.vector
     }
 
-    /// Composition `self ∘ other` (apply `other` first).
+    /// Composition `self ∘ other` (apply `other` first). The rotation is
+    /// renormalised, so that a long chain of compositions (odometry integrated over a
+    /// log, a track's motion over a sequence) stays a rotation.
     pub fn compose(&self, other: &Pose2) -> Pose2 {
-        Pose2 {
-            iso: self.iso * other.iso,
-        }
+        Pose2::from_isometry(self.iso * other.iso)
     }
 
     /// The inverse motion.
@@ -166,6 +169,30 @@ pub fn wrap_angle(a: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_long_chain_of_compositions_stays_a_rotation() {
+        let step = Pose2::new(0.01, -0.002, 0.0123);
+        let mut pose = Pose2::identity();
+        for _ in 0..1_000_000 {
+            pose = pose.compose(&step);
+        }
+        let norm = pose.isometry().rotation.complex().norm();
+        assert!((norm - 1.0).abs() < 1e-14, "|rotation| = {norm}");
+        let expected = (0.0123f64 * 1e6).sin().atan2((0.0123f64 * 1e6).cos());
+        assert!(
+            (pose.theta() - expected).abs() < 1e-6,
+            "{} vs {expected}",
+            pose.theta()
+        );
+        let stretched = Isometry2::from_parts(
+            nalgebra::Translation2::new(1.0, 2.0),
+            nalgebra::UnitComplex::new_unchecked(nalgebra::Complex::new(3.0, 4.0)),
+        );
+        let p = Pose2::from_isometry(stretched);
+        assert!((p.isometry().rotation.complex().norm() - 1.0).abs() < 1e-15);
+        assert!((p.theta() - 4f64.atan2(3.0)).abs() < 1e-15);
+    }
 
     #[test]
     fn compose_then_inverse_is_identity() {
