@@ -233,19 +233,8 @@ fn parse_scan_lines(path: &Path, text: &str) -> Result<LeighScans> {
         if n == 0 {
             return Err(f.error("n", f.tokens[9], "a laser scan needs at least one beam"));
         }
-        if n > 1 && increment == 0.0 {
-            return Err(f.error(
-                "angle_increment",
-                f.tokens[6],
-                format!("{n} beams 0 rad apart would all lie on one ray"),
-            ));
-        }
-        if increment.abs() * (n - 1) as f64 > limits::MAX_SPAN {
-            return Err(f.error(
-                "angle_increment",
-                f.tokens[6],
-                format!("{n} beams {increment} rad apart span more than a full turn"),
-            ));
+        if let Err(problem) = crate::beams::check_increment(n, increment) {
+            return Err(f.error("angle_increment", f.tokens[6], problem));
         }
         f.expect_len(head + n, &format!("SCAN declares n = {n} ranges"), |i| {
             if i < head {
@@ -254,33 +243,13 @@ fn parse_scan_lines(path: &Path, text: &str) -> Result<LeighScans> {
                 format!("range[{}]", i - head)
             }
         })?;
-        let mut ranges = Vec::with_capacity(n);
-        let mut valid = Vec::with_capacity(n);
-        for k in 0..n {
-            let name = format!("range[{k}]");
-            let r = f.number(head + k, &name, head + n)?;
-            // REP 117: -inf (too close), inf and nan are beams without a return.
-            if r < 0.0 && !crate::beams::is_special_range(r) {
-                return Err(f.error(&name, f.tokens[head + k], "negative range"));
-            }
-            if r.is_finite() && r > limits::MAX_RANGE {
-                return Err(f.error(
-                    &name,
-                    f.tokens[head + k],
-                    format!(
-                        "a range above {:e} m means nothing here (nan, inf, -inf or 0 mean no return)",
-                        limits::MAX_RANGE
-                    ),
-                ));
-            }
-            if crate::beams::is_special_range(r) {
-                ranges.push(0.0);
-                valid.push(false);
-            } else {
-                ranges.push(r);
-                valid.push(r > range_min && r < range_max);
-            }
-        }
+        // REP 117: -inf (too close), inf and nan are beams without a return.
+        let (ranges, valid) = f.ranges(
+            head..head + n,
+            head + n,
+            [range_min, range_max],
+            "nan, inf, -inf or 0 mean no return",
+        )?;
         if let Some(last) = out.scans.last() {
             if index <= last.index {
                 return Err(f.error(
@@ -297,7 +266,7 @@ fn parse_scan_lines(path: &Path, text: &str) -> Result<LeighScans> {
             index,
             scan: Scan {
                 timestamp,
-                angles: (0..n).map(|k| angle_min + k as f64 * increment).collect(),
+                angles: crate::beams::beam_angles(angle_min, increment, n),
                 ranges,
                 valid,
                 max_range: range_max,

@@ -421,6 +421,20 @@ struct Candidate {
     footprint: Footprint,
 }
 
+impl Candidate {
+    /// `object` with the footprint `circles` (body frame) along its trajectory.
+    fn new(object: MovingObject, circles: Vec<(Point2<f64>, f64)>) -> Self {
+        let trajectory = object.trajectory;
+        Candidate {
+            object,
+            footprint: Footprint {
+                trajectory,
+                circles,
+            },
+        }
+    }
+}
+
 /// The ego vehicle's drive at `ego_speed` over a random distance within
 /// `pair_distance` (m), near y = 0 and heading along x, on a curve of random curvature
 /// within ±`max_curvature` (1/m): its trajectory and the time it takes.
@@ -750,25 +764,19 @@ impl<'a, R: Rng> Builder<'a, R> {
     fn car(&mut self, trajectory: Trajectory) -> Candidate {
         let length = uniform(self.rng, 4.2, 4.9);
         let width = uniform(self.rng, 1.7, 1.95);
-        Candidate {
-            object: MovingObject::car(length, width, trajectory),
-            footprint: Footprint {
-                trajectory,
-                circles: car_circles(length, width),
-            },
-        }
+        Candidate::new(
+            MovingObject::car(length, width, trajectory),
+            car_circles(length, width),
+        )
     }
 
     fn pedestrian(&mut self, trajectory: Trajectory) -> Candidate {
         let stride = uniform(self.rng, 0.0, 0.35);
         let leg = uniform(self.rng, 0.06, 0.08);
-        Candidate {
-            object: MovingObject::pedestrian(stride, leg, trajectory),
-            footprint: Footprint {
-                trajectory,
-                circles: vec![(Point2::origin(), 0.35)],
-            },
-        }
+        Candidate::new(
+            MovingObject::pedestrian(stride, leg, trajectory),
+            vec![(Point2::origin(), 0.35)],
+        )
     }
 
     /// A car ahead in the ego lane, 8-35 m away, at 0.5-1.3 times the ego speed.
