@@ -152,19 +152,30 @@ impl<'a> Reader<'a> {
         Ok(u32::from_le_bytes(self.fixed::<4>(path)?))
     }
 
+    fn i32(&mut self, path: &Path) -> Result<i32, DecodeError> {
+        Ok(i32::from_le_bytes(self.fixed::<4>(path)?))
+    }
+
     fn length(&mut self, path: &Path, min_element: usize) -> Result<usize, DecodeError> {
         let n = self.u32(path)? as usize;
         let needed = n.saturating_mul(min_element.max(1));
-        if needed > self.left() {
-            return Err(self.error(
-                path,
-                format!(
-                    "length {n} needs at least {needed} more bytes, {} left in the message",
-                    self.left()
-                ),
-            ));
-        }
+        self.need(path, needed, |left| {
+            format!("length {n} needs at least {needed} more bytes, {left} left in the message")
+        })?;
         Ok(n)
+    }
+
+    /// Fails unless `needed` more bytes are left; `problem(left)` says what needs them.
+    fn need(
+        &self,
+        path: &Path,
+        needed: usize,
+        problem: impl FnOnce(usize) -> String,
+    ) -> Result<(), DecodeError> {
+        if needed > self.left() {
+            return Err(self.error(path, problem(self.left())));
+        }
+        Ok(())
     }
 
     fn string(&mut self, path: &Path) -> Result<String, DecodeError> {
@@ -213,22 +224,15 @@ impl<'a> Reader<'a> {
             Primitive::WString => {
                 return Err(self.error(path, "wstring fields are not supported"));
             }
-            Primitive::Time => {
-                let sec = u32::from_le_bytes(self.fixed::<4>(path)?);
-                let nanosec = u32::from_le_bytes(self.fixed::<4>(path)?);
-                Value::Time {
-                    sec: i64::from(sec),
-                    nanosec: i64::from(nanosec),
-                }
-            }
-            Primitive::Duration => {
-                let sec = i32::from_le_bytes(self.fixed::<4>(path)?);
-                let nanosec = i32::from_le_bytes(self.fixed::<4>(path)?);
-                Value::Time {
-                    sec: i64::from(sec),
-                    nanosec: i64::from(nanosec),
-                }
-            }
+            // Seconds, then nanoseconds (fields are read in the order written).
+            Primitive::Time => Value::Time {
+                sec: i64::from(self.u32(path)?),
+                nanosec: i64::from(self.u32(path)?),
+            },
+            Primitive::Duration => Value::Time {
+                sec: i64::from(self.i32(path)?),
+                nanosec: i64::from(self.i32(path)?),
+            },
         })
     }
 }
@@ -356,15 +360,9 @@ impl Decoder {
                 Arity::Single => self.element(reader, &f.ty, path)?,
                 Arity::Fixed(n) => {
                     let needed = n.saturating_mul(self.min_size(&f.ty));
-                    if needed > reader.left() {
-                        return Err(reader.error(
-                            path,
-                            format!(
-                                "fixed array of {n} needs at least {needed} bytes, {} left",
-                                reader.left()
-                            ),
-                        ));
-                    }
+                    reader.need(path, needed, |left| {
+                        format!("fixed array of {n} needs at least {needed} bytes, {left} left")
+                    })?;
                     self.array(reader, &f.ty, n, path)?
                 }
                 Arity::Sequence => {
