@@ -702,13 +702,7 @@ const ROBOTLASER1_TAIL: [&str; 14] = [
 
 fn parse_robotlaser1(fields: &Fields<'_>) -> Result<(Scan, f64)> {
     let head = 9;
-    let start_angle = fields.bounded(
-        2,
-        "start_angle",
-        head,
-        2.0 * limits::MAX_SPAN,
-        "an angle (rad)",
-    )?;
+    let start_angle = fields.angle(2, "start_angle", head)?;
     let fov = fields.finite(3, "fov", head)?;
     let resolution = fields.finite(4, "angular_res", head)?;
     let max_range = fields.finite(5, "max_range", head)?;

@@ -159,11 +159,33 @@ impl<'a> Fields<'a> {
         Ok(n)
     }
 
+    /// The field parsed as a `T`; one that does not parse is an error saying
+    /// `problem`.
+    pub fn parsed<T: std::str::FromStr>(
+        &self,
+        index: usize,
+        field: &str,
+        expected: usize,
+        problem: &str,
+    ) -> Result<T> {
+        let raw = self.raw(index, field, expected)?;
+        raw.parse().map_err(|_| self.error(field, raw, problem))
+    }
+
     /// Any number that parses, `nan` and `inf` included.
     pub fn number(&self, index: usize, field: &str, expected: usize) -> Result<f64> {
-        let raw = self.raw(index, field, expected)?;
-        raw.parse()
-            .map_err(|_| self.error(field, raw, "not a number"))
+        self.parsed(index, field, expected, "not a number")
+    }
+
+    /// An angle (rad), finite and within two full turns.
+    pub fn angle(&self, index: usize, field: &str, expected: usize) -> Result<f64> {
+        self.bounded(
+            index,
+            field,
+            expected,
+            2.0 * limits::MAX_SPAN,
+            "an angle (rad)",
+        )
     }
 
     /// The ranges at `indices` (named `range[k]`, `k` from 0) and their validity per
@@ -204,9 +226,7 @@ impl<'a> Fields<'a> {
 
     /// A non-negative integer.
     pub fn count(&self, index: usize, field: &str, expected: usize) -> Result<usize> {
-        let raw = self.raw(index, field, expected)?;
-        raw.parse()
-            .map_err(|_| self.error(field, raw, "not a non-negative integer"))
+        self.parsed(index, field, expected, "not a non-negative integer")
     }
 
     /// Fails unless the line has exactly `expected` fields; `name_of` names the field
