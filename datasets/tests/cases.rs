@@ -410,26 +410,6 @@ fn a_damaged_zip_entry_is_refused_by_its_crc() {
 // ---------------------------------------------------------------------------------
 // Scan angle range
 
-/// The drive with every scan stating `angles(k)` (`angle_min`, `angle_max`,
-/// `angle_increment`) instead of the consistent ones, `k` counting scans from 0.
-fn drive_with_angles(n: usize, angles: impl Fn(usize) -> [f32; 3]) -> Vec<Record> {
-    let mut k = 0;
-    drive(n)
-        .into_iter()
-        .map(|mut r| {
-            if let Msg::Scan { stamp_ns, ranges } = &r.msg {
-                r.msg = Msg::ScanAngles {
-                    stamp_ns: *stamp_ns,
-                    angles: angles(k),
-                    ranges: ranges.clone(),
-                };
-                k += 1;
-            }
-            r
-        })
-        .collect()
-}
-
 #[test]
 fn scan_angle_range_cases_fencepost_reads_as_consistent_half_increment_is_refused() {
     let Some([consistent, fencepost, half]) = shared_case_files([

@@ -455,6 +455,26 @@ pub fn drive(n: usize) -> Vec<Record> {
     out
 }
 
+/// The [`drive`] with every scan stating `angles(k)` (`angle_min`, `angle_max`,
+/// `angle_increment`) instead of the consistent ones, `k` counting scans from 0.
+pub fn drive_with_angles(n: usize, angles: impl Fn(usize) -> [f32; 3]) -> Vec<Record> {
+    let mut k = 0;
+    drive(n)
+        .into_iter()
+        .map(|mut r| {
+            if let Msg::Scan { stamp_ns, ranges } = &r.msg {
+                r.msg = Msg::ScanAngles {
+                    stamp_ns: *stamp_ns,
+                    angles: angles(k),
+                    ranges: ranges.clone(),
+                };
+                k += 1;
+            }
+            r
+        })
+        .collect()
+}
+
 fn ros1_field(name: &str, value: &[u8]) -> Vec<u8> {
     let mut f = Vec::new();
     f.extend(((name.len() + 1 + value.len()) as u32).to_le_bytes());
