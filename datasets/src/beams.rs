@@ -20,6 +20,38 @@ pub fn is_special_range(r: f64) -> bool {
     !r.is_finite()
 }
 
+/// Checks `n` beams `increment` rad apart: several beams 0 rad apart would all lie on
+/// one ray, and together they must not span more than
+/// [`MAX_SPAN`](crate::error::limits::MAX_SPAN). `Err` with the problem.
+pub fn check_increment(n: usize, increment: f64) -> Result<(), String> {
+    if n > 1 && increment == 0.0 {
+        return Err(format!("{n} beams 0 rad apart would all lie on one ray"));
+    }
+    if increment.abs() * n.saturating_sub(1) as f64 > crate::error::limits::MAX_SPAN {
+        return Err(format!(
+            "{n} beams {increment} rad apart span more than a full turn"
+        ));
+    }
+    Ok(())
+}
+
+/// The angles of `n` beams, beam `k` at `first + k · increment` (the increment wins
+/// over a declared end, see the module docs).
+pub fn beam_angles(first: f64, increment: f64, n: usize) -> Vec<f64> {
+    (0..n).map(|k| first + k as f64 * increment).collect()
+}
+
+/// What a reader stores for a reading `r` that is not a finite negative: a special
+/// range is range 0 and invalid; any other is itself, valid when
+/// `range_min < r < range_max`. Returns (range, valid).
+pub fn stored_beam(r: f64, range_min: f64, range_max: f64) -> (f64, bool) {
+    if is_special_range(r) {
+        (0.0, false)
+    } else {
+        (r, r > range_min && r < range_max)
+    }
+}
+
 /// How far beyond one increment a declared span may be off for rounding: the three
 /// angles are `float32` in a bag and may be printed with 6 decimals in a text log, so
 /// `1e-6` rad for the end angles plus, per beam, `1e-6` rad and a relative `1e-5` of

@@ -422,27 +422,38 @@ pub enum LabelRule {
     Displacement,
 }
 
-impl std::fmt::Display for LabelRule {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            LabelRule::Track => "track",
-            LabelRule::Displacement => "displacement",
-        })
-    }
+/// Implements `Display` (the name) and `FromStr` (from the name) for a fieldless enum
+/// given each variant's name; another string is the error
+/// `unknown <what> "<string>": expected <expected>`.
+macro_rules! named_variants {
+    ($ty:ident, $what:literal, $expected:literal, { $($variant:ident => $name:literal),+ $(,)? }) => {
+        impl std::fmt::Display for $ty {
+            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str(match self {
+                    $($ty::$variant => $name,)+
+                })
+            }
+        }
+
+        impl std::str::FromStr for $ty {
+            type Err = String;
+            fn from_str(s: &str) -> std::result::Result<Self, String> {
+                match s {
+                    $($name => Ok($ty::$variant),)+
+                    other => Err(format!(
+                        concat!("unknown ", $what, " {:?}: expected ", $expected),
+                        other
+                    )),
+                }
+            }
+        }
+    };
 }
 
-impl std::str::FromStr for LabelRule {
-    type Err = String;
-    fn from_str(s: &str) -> std::result::Result<Self, String> {
-        match s {
-            "track" => Ok(LabelRule::Track),
-            "displacement" => Ok(LabelRule::Displacement),
-            other => Err(format!(
-                "unknown labelling rule {other:?}: expected track or displacement"
-            )),
-        }
-    }
-}
+named_variants!(LabelRule, "labelling rule", "track or displacement", {
+    Track => "track",
+    Displacement => "displacement",
+});
 
 impl Default for LeighPairOptions {
     fn default() -> Self {
@@ -472,27 +483,10 @@ pub enum Unannotated {
     Static,
 }
 
-impl std::fmt::Display for Unannotated {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            Unannotated::Moving => "moving",
-            Unannotated::Static => "static",
-        })
-    }
-}
-
-impl std::str::FromStr for Unannotated {
-    type Err = String;
-    fn from_str(s: &str) -> std::result::Result<Self, String> {
-        match s {
-            "moving" => Ok(Unannotated::Moving),
-            "static" => Ok(Unannotated::Static),
-            other => Err(format!(
-                "unknown policy for unannotated people {other:?}: expected moving or static"
-            )),
-        }
-    }
-}
+named_variants!(Unannotated, "policy for unannotated people", "moving or static", {
+    Moving => "moving",
+    Static => "static",
+});
 
 /// The bearings `[min, max]` (rad, laser frame) covered by the annotated centres,
 /// each widened by the angle `person_radius` subtends at its range.
@@ -626,34 +620,36 @@ pub fn leigh_pairs(
         let (Some(ref_scan), Some(cur_scan)) = (scans.get(i), scans.get(j)) else {
             continue;
         };
-        pairs.push(leigh_pair(
-            ref_scan,
-            cur_scan,
+        let input = PairInput {
+            reference: ref_scan,
+            current: cur_scan,
             people_i,
             people_j,
             options,
             sector,
-            tracks.as_ref(),
-        )?);
+        };
+        pairs.push(leigh_pair(&input, tracks.as_ref())?);
     }
     Ok(pairs)
 }
 
-fn leigh_pair(
-    reference: &IndexedScan,
-    current: &IndexedScan,
-    people_i: &BTreeMap<u32, Point2<f64>>,
-    people_j: &BTreeMap<u32, Point2<f64>>,
-    options: &LeighPairOptions,
+/// One pair to label: its two scans, the people annotated in each (person → centre),
+/// the options and the annotated sector.
+struct PairInput<'a> {
+    reference: &'a IndexedScan,
+    current: &'a IndexedScan,
+    people_i: &'a BTreeMap<u32, Point2<f64>>,
+    people_j: &'a BTreeMap<u32, Point2<f64>>,
+    options: &'a LeighPairOptions,
     sector: Option<[f64; 2]>,
-    tracks: Option<&Tracks>,
-) -> Result<ScanPair> {
-    let prior = odometry_prior(&reference.scan, &current.scan);
+}
+
+fn leigh_pair(input: &PairInput<'_>, tracks: Option<&Tracks>) -> Result<ScanPair> {
     if let Some(tracks) = tracks {
-        return track_pair(
-            reference, current, people_i, people_j, options, sector, tracks,
-        );
+        return track_pair(input, tracks);
     }
+    let (reference, current, options) = (input.reference, input.current, input.options);
+    let prior = odometry_prior(&reference.scan, &current.scan);
     if prior.is_none() && options.moving_threshold > 0.0 && options.rule == LabelRule::Displacement
     {
         return Err(Error::Mismatch {
@@ -665,13 +661,9 @@ fn leigh_pair(
             ),
         });
     }
-    let mut centres_i = Vec::new();
-    let mut centres_j = Vec::new();
-    let mut motions = Vec::new();
-    let mut objects = Vec::new();
-    let mut next_label = 1;
-    for (&person, &c_j) in people_j {
-        let c_i = people_i.get(&person).copied();
+    let mut labels = PairLabels::default();
+    for (&person, &c_j) in input.people_j {
+        let c_i = input.people_i.get(&person).copied();
         let displacement = match (c_i, prior) {
             (Some(c_i), Some(prior)) => {
                 let carried = prior.inverse().transform_point(&c_i);
@@ -688,85 +680,112 @@ fn leigh_pair(
                 (None, _) => options.unannotated == Unannotated::Moving,
                 (Some(_), d) => d.is_some_and(|d| d >= options.moving_threshold),
             };
-        objects.push(ObjectCentre {
-            id: u64::from(person),
-            x: c_j.x,
-            y: c_j.y,
-            moving: (!every_person).then_some(moving),
-            returns: Some(returns_near(&current.scan, &c_j, options.person_radius)),
-        });
+        labels.object(
+            person,
+            c_j,
+            (!every_person).then_some(moving),
+            &current.scan,
+            options,
+        );
         if !moving {
             continue;
         }
-        let label = next_label;
-        next_label += 1;
-        centres_j.push((label, c_j));
-        if let Some(c_i) = c_i {
-            centres_i.push((label, c_i));
-            if let Some(prior) = prior {
-                // m(c_j) = c_i with the rotation of the prior: T = c_i − R c_j.
-                let rotated = prior.transform_point(&c_j) - prior.translation();
-                let t = c_i - rotated;
-                motions.push(ClusterMotion {
-                    label,
-                    motion: Pose2::new(t.x, t.y, prior.theta()),
-                    kind: format!("person {person}"),
-                });
-            }
+        let label = labels.mover(c_i, c_j);
+        if let (Some(c_i), Some(prior)) = (c_i, prior) {
+            // m(c_j) = c_i with the rotation of the prior: T = c_i − R c_j.
+            let rotated = prior.transform_point(&c_j) - prior.translation();
+            labels.motion(label, person, c_i - rotated, &prior);
         }
     }
-    Ok(labelled_pair(
-        reference,
-        current,
-        prior,
-        [&centres_i, &centres_j],
-        motions,
-        objects,
-        options,
-        sector,
-    ))
+    Ok(labels.into_pair(input, prior))
 }
 
-/// The pair of `reference` and `current` with the odometry `prior`, every return of
-/// both scans labelled by the nearest person centre of its scan within the person
-/// radius (`centres[0]` the reference's, `centres[1]` the current's; 0 elsewhere,
-/// unlabelled outside the annotated `sector`), the people's `motions` and the current
-/// scan's tracking truth `objects`.
-#[allow(clippy::too_many_arguments)]
-fn labelled_pair(
-    reference: &IndexedScan,
-    current: &IndexedScan,
-    prior: Option<Pose2>,
-    centres: [&[(u32, Point2<f64>)]; 2],
+/// The ground truth of one leigh-gtm1 pair as it is gathered person by person: the
+/// current scan's tracking truth `objects`, the centres of the moving people in each
+/// scan under the labels they are given (1, 2, … in order) and their motions.
+#[derive(Default)]
+struct PairLabels {
+    centres_i: Vec<(u32, Point2<f64>)>,
+    centres_j: Vec<(u32, Point2<f64>)>,
     motions: Vec<ClusterMotion>,
     objects: Vec<ObjectCentre>,
-    options: &LeighPairOptions,
-    sector: Option<[f64; 2]>,
-) -> ScanPair {
-    let truth = GroundTruth {
-        ego_motion: None,
-        labels: Some(label_returns(
-            &current.scan,
-            centres[1],
-            options.person_radius,
-            sector,
-        )),
-        reference_labels: Some(label_returns(
-            &reference.scan,
-            centres[0],
-            options.person_radius,
-            sector,
-        )),
-        associations: None,
-        motions,
-        objects: Some(objects),
-    };
-    ScanPair {
-        name: format!("{}:{}-{}", options.name, reference.index, current.index),
-        reference: reference.scan.clone(),
-        current: current.scan.clone(),
-        odometry: prior,
-        truth: Some(truth),
+    next_label: u32,
+}
+
+impl PairLabels {
+    /// Records `person`, annotated at `c_j` in the `current` scan, as a tracking-truth
+    /// object (`moving` as decided, if it was).
+    fn object(
+        &mut self,
+        person: u32,
+        c_j: Point2<f64>,
+        moving: Option<bool>,
+        current: &Scan,
+        options: &LeighPairOptions,
+    ) {
+        self.objects.push(ObjectCentre {
+            id: u64::from(person),
+            x: c_j.x,
+            y: c_j.y,
+            moving,
+            returns: Some(returns_near(current, &c_j, options.person_radius)),
+        });
+    }
+
+    /// Gives a moving person, at `c_j` in the current scan (and `c_i` in the
+    /// reference scan if annotated there), the next label and returns it.
+    fn mover(&mut self, c_i: Option<Point2<f64>>, c_j: Point2<f64>) -> u32 {
+        self.next_label += 1;
+        let label = self.next_label;
+        self.centres_j.push((label, c_j));
+        if let Some(c_i) = c_i {
+            self.centres_i.push((label, c_i));
+        }
+        label
+    }
+
+    /// Records the motion of the cluster `label` (`person`): the translation `t` with
+    /// the rotation of the odometry `prior`.
+    fn motion(&mut self, label: u32, person: u32, t: nalgebra::Vector2<f64>, prior: &Pose2) {
+        self.motions.push(ClusterMotion {
+            label,
+            motion: Pose2::new(t.x, t.y, prior.theta()),
+            kind: format!("person {person}"),
+        });
+    }
+
+    /// The pair of the two scans of `input` with the odometry `prior`, every return of
+    /// both scans labelled by the nearest moving person's centre of its scan within the
+    /// person radius (0 elsewhere, unlabelled outside the annotated sector), with the
+    /// people's motions and the current scan's tracking truth objects.
+    fn into_pair(self, input: &PairInput<'_>, prior: Option<Pose2>) -> ScanPair {
+        let (reference, current, options) = (input.reference, input.current, input.options);
+        let sector = input.sector;
+        let truth = GroundTruth {
+            ego_motion: None,
+            labels: Some(label_returns(
+                &current.scan,
+                &self.centres_j,
+                options.person_radius,
+                sector,
+            )),
+            reference_labels: Some(label_returns(
+                &reference.scan,
+                &self.centres_i,
+                options.person_radius,
+                sector,
+            )),
+            associations: None,
+            motions: self.motions,
+            objects: Some(self.objects),
+        };
+        ScanPair {
+            name: format!("{}:{}-{}", options.name, reference.index, current.index),
+            reference: reference.scan.clone(),
+            current: current.scan.clone(),
+            odometry: prior,
+            truth: Some(truth),
+        }
     }
 }
 
@@ -848,16 +867,8 @@ pub fn track_fit(
     })
 }
 
-#[allow(clippy::too_many_arguments)]
-fn track_pair(
-    reference: &IndexedScan,
-    current: &IndexedScan,
-    people_i: &BTreeMap<u32, Point2<f64>>,
-    people_j: &BTreeMap<u32, Point2<f64>>,
-    options: &LeighPairOptions,
-    sector: Option<[f64; 2]>,
-    tracks: &Tracks,
-) -> Result<ScanPair> {
+fn track_pair(input: &PairInput<'_>, tracks: &Tracks) -> Result<ScanPair> {
+    let (reference, current, options) = (input.reference, input.current, input.options);
     let (i, j) = (reference.index, current.index);
     let (Some(w_i), Some(prior)) = (
         reference.scan.laser_odometry(),
@@ -872,53 +883,30 @@ fn track_pair(
     };
     let lo = i.saturating_sub(tracks.window);
     let hi = j.saturating_add(tracks.window);
-    let mut centres_i = Vec::new();
-    let mut centres_j = Vec::new();
-    let mut motions = Vec::new();
-    let mut objects = Vec::new();
-    let mut next_label = 1;
-    for (&person, &c_j) in people_j {
+    let mut labels = PairLabels::default();
+    for (&person, &c_j) in input.people_j {
         let fit = track_fit(&tracks.world, person, lo, hi, tracks.period);
-        objects.push(ObjectCentre {
-            id: u64::from(person),
-            x: c_j.x,
-            y: c_j.y,
-            moving: fit.map(|f| f.speed >= options.walking_speed),
-            returns: Some(returns_near(&current.scan, &c_j, options.person_radius)),
-        });
+        labels.object(
+            person,
+            c_j,
+            fit.map(|f| f.speed >= options.walking_speed),
+            &current.scan,
+            options,
+        );
         let Some(fit) = fit else {
             continue;
         };
         if fit.speed < options.walking_speed {
             continue;
         }
-        let label = next_label;
-        next_label += 1;
-        centres_j.push((label, c_j));
-        if let Some(&c_i) = people_i.get(&person) {
-            centres_i.push((label, c_i));
-        }
+        let label = labels.mover(input.people_i.get(&person).copied(), c_j);
         // The person moved d = v (j − i) in the odometry frame; a current point p was at
         // W_j p − d at scan i: the motion is the prior followed by −R_i⁻¹ d.
         let d = fit.per_scan * (j - i) as f64;
         let back = w_i.inverse().transform_point(&Point2::from(-d)) - w_i.inverse().translation();
-        let t = prior.translation() + back.coords;
-        motions.push(ClusterMotion {
-            label,
-            motion: Pose2::new(t.x, t.y, prior.theta()),
-            kind: format!("person {person}"),
-        });
+        labels.motion(label, person, prior.translation() + back.coords, &prior);
     }
-    Ok(labelled_pair(
-        reference,
-        current,
-        Some(prior),
-        [&centres_i, &centres_j],
-        motions,
-        objects,
-        options,
-        sector,
-    ))
+    Ok(labels.into_pair(input, Some(prior)))
 }
 
 /// One annotated person's whole track in the odometry frame

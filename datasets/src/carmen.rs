@@ -558,36 +558,34 @@ fn parse_ranges(
     max_range: f64,
     expected: usize,
 ) -> Result<(Vec<f64>, Vec<bool>)> {
-    let mut ranges = Vec::with_capacity(n);
-    let mut valid = Vec::with_capacity(n);
-    for k in 0..n {
-        let name = format!("range[{k}]");
-        let r = fields.number(first + k, &name, expected)?;
-        // REP 117's special values, -inf ("too close") too, are beams without a
-        // return (crate::beams), as in every reader.
-        if r < 0.0 && !crate::beams::is_special_range(r) {
-            return Err(fields.error(&name, fields.tokens[first + k], "negative range"));
-        }
-        if crate::beams::is_special_range(r) {
-            ranges.push(0.0);
-            valid.push(false);
-            continue;
-        }
-        if r > limits::MAX_RANGE {
-            return Err(fields.error(
-                &name,
-                fields.tokens[first + k],
-                format!(
-                    "a range above {:e} m means nothing here (write nan, inf or the maximum \
-                     range for no return)",
-                    limits::MAX_RANGE
-                ),
-            ));
-        }
-        ranges.push(r);
-        valid.push(r > 0.0 && r < max_range);
+    fields.ranges(
+        first..first + n,
+        expected,
+        [0.0, max_range],
+        "write nan, inf or the maximum range for no return",
+    )
+}
+
+/// A scan with beams at `angles` and (`ranges`, `valid`) taken at `timestamp` by the
+/// laser at pose `laser` of a robot at odometry pose `robot` (both in the odometry
+/// frame).
+fn robot_scan(
+    timestamp: f64,
+    angles: Vec<f64>,
+    (ranges, valid): (Vec<f64>, Vec<bool>),
+    max_range: f64,
+    robot: Pose2,
+    laser: Pose2,
+) -> Scan {
+    Scan {
+        timestamp,
+        angles,
+        ranges,
+        valid,
+        max_range,
+        odometry: Some(robot),
+        laser_offset: robot.between(&laser),
     }
-    Ok((ranges, valid))
 }
 
 fn parse_pose(
@@ -642,7 +640,7 @@ fn parse_flaser(
             FLASER_TAIL[i - 2 - n].to_string()
         }
     })?;
-    let (ranges, valid) = parse_ranges(fields, 2, n, options.flaser_max_range, expected)?;
+    let beams = parse_ranges(fields, 2, n, options.flaser_max_range, expected)?;
     let t = 2 + n;
     let laser = parse_pose(fields, t, ["x", "y", "theta"], expected)?;
     let odometry = parse_pose(fields, t + 3, ["odom_x", "odom_y", "odom_theta"], expected)?;
@@ -673,18 +671,15 @@ fn parse_flaser(
             format!("{problem} (geometry from {origin})"),
         )
     })?;
-    let angles = (0..n)
-        .map(|k| geometry.start + k as f64 * geometry.increment)
-        .collect();
-    let scan = Scan {
+    let angles = crate::beams::beam_angles(geometry.start, geometry.increment, n);
+    let scan = robot_scan(
         timestamp,
         angles,
-        ranges,
-        valid,
-        max_range: options.flaser_max_range,
-        odometry: Some(odometry),
-        laser_offset: odometry.between(&laser),
-    };
+        beams,
+        options.flaser_max_range,
+        odometry,
+        laser,
+    );
     Ok((scan, record_time))
 }
 
@@ -707,13 +702,7 @@ const ROBOTLASER1_TAIL: [&str; 14] = [
 
 fn parse_robotlaser1(fields: &Fields<'_>) -> Result<(Scan, f64)> {
     let head = 9;
-    let start_angle = fields.bounded(
-        2,
-        "start_angle",
-        head,
-        2.0 * limits::MAX_SPAN,
-        "an angle (rad)",
-    )?;
+    let start_angle = fields.angle(2, "start_angle", head)?;
     let fov = fields.finite(3, "fov", head)?;
     let resolution = fields.finite(4, "angular_res", head)?;
     let max_range = fields.finite(5, "max_range", head)?;
@@ -740,19 +729,8 @@ fn parse_robotlaser1(fields: &Fields<'_>) -> Result<(Scan, f64)> {
             }
         },
     )?;
-    if n > 1 && resolution == 0.0 {
-        return Err(fields.error(
-            "angular_res",
-            fields.tokens[4],
-            format!("{n} beams 0 rad apart would all lie on one ray"),
-        ));
-    }
-    if resolution.abs() * (n - 1) as f64 > limits::MAX_SPAN {
-        return Err(fields.error(
-            "angular_res",
-            fields.tokens[4],
-            format!("{n} beams {resolution} rad apart span more than a full turn"),
-        ));
+    if let Err(problem) = crate::beams::check_increment(n, resolution) {
+        return Err(fields.error("angular_res", fields.tokens[4], problem));
     }
     // The field of view must agree with the beams to within one increment (CARMEN's
     // lasers that drop the last beam state one more); within that the resolution
@@ -770,7 +748,7 @@ fn parse_robotlaser1(fields: &Fields<'_>) -> Result<(Scan, f64)> {
             ),
         ));
     }
-    let (ranges, valid) = parse_ranges(fields, 9, n, max_range, expected)?;
+    let beams = parse_ranges(fields, 9, n, max_range, expected)?;
     for k in 0..n_rem {
         fields.finite(10 + n + k, &format!("remission[{k}]"), expected)?;
     }
@@ -787,18 +765,8 @@ fn parse_robotlaser1(fields: &Fields<'_>) -> Result<(Scan, f64)> {
     }
     let timestamp = fields.timestamp(t + 11, "ipc_timestamp", expected)?;
     let record_time = fields.timestamp(t + 13, "logger_timestamp", expected)?;
-    let angles = (0..n)
-        .map(|k| start_angle + k as f64 * resolution)
-        .collect();
-    let scan = Scan {
-        timestamp,
-        angles,
-        ranges,
-        valid,
-        max_range,
-        odometry: Some(robot),
-        laser_offset: robot.between(&laser),
-    };
+    let angles = crate::beams::beam_angles(start_angle, resolution, n);
+    let scan = robot_scan(timestamp, angles, beams, max_range, robot, laser);
     Ok((scan, record_time))
 }
 

@@ -440,6 +440,14 @@ pub fn pool<'a>(parts: impl IntoIterator<Item = &'a Summary>) -> Summary {
     Summary::from(parts.into_iter().map(|s| s.counts).sum::<Counts>())
 }
 
+/// The `ids` that are not `matched`, sorted.
+fn unmatched(ids: impl Iterator<Item = u64>, matched: impl Iterator<Item = u64>) -> Vec<u64> {
+    let matched: HashSet<u64> = matched.collect();
+    let mut out: Vec<u64> = ids.filter(|id| !matched.contains(id)).collect();
+    out.sort_unstable();
+    out
+}
+
 /// One matched pair of a frame.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Match {
@@ -674,20 +682,10 @@ impl ClearMot {
             }
         }
 
-        let matched_tracks: HashSet<u64> = matches.iter().map(|mt| mt.track).collect();
-        let matched_persons: HashSet<u64> = matches.iter().map(|mt| mt.person).collect();
-        let mut unmatched_tracks: Vec<u64> = est
-            .iter()
-            .map(|e| e.0)
-            .filter(|t| !matched_tracks.contains(t))
-            .collect();
-        unmatched_tracks.sort_unstable();
-        let mut unmatched_persons: Vec<u64> = tru
-            .iter()
-            .map(|t| t.0)
-            .filter(|p| !matched_persons.contains(p))
-            .collect();
-        unmatched_persons.sort_unstable();
+        let unmatched_tracks =
+            unmatched(est.iter().map(|e| e.0), matches.iter().map(|mt| mt.track));
+        let unmatched_persons =
+            unmatched(tru.iter().map(|t| t.0), matches.iter().map(|mt| mt.person));
 
         let counts = Counts {
             frames: 1,

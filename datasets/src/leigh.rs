@@ -103,6 +103,27 @@ fn lines(text: &str) -> impl Iterator<Item = (usize, &str)> {
     })
 }
 
+/// The fields of the lines of `text` whose first field is `names[0]`, each of
+/// exactly the fields `names` (`context` says so in the error); other lines are
+/// passed over.
+fn records<'a>(
+    path: &'a Path,
+    text: &'a str,
+    names: &'a [&str],
+    context: &'a str,
+) -> impl Iterator<Item = Result<Fields<'a>>> {
+    lines(text).filter_map(move |(line, line_text)| {
+        let f = Fields::new(path, line, line_text);
+        if f.tokens[0] != names[0] {
+            return None;
+        }
+        Some(
+            f.expect_len(names.len(), context, |i| names[i].to_string())
+                .map(|()| f),
+        )
+    })
+}
+
 const SCAN_HEAD: [&str; 10] = [
     "SCAN",
     "idx",
@@ -202,13 +223,7 @@ fn parse_scan_lines(path: &Path, text: &str) -> Result<LeighScans> {
         let timestamp = f.timestamp(2, "stamp_header_s", head)?;
         let record_time = f.timestamp(3, "stamp_bag_s", head)?;
         f.raw(4, "frame", head)?;
-        let angle_min = f.bounded(
-            5,
-            "angle_min",
-            head,
-            2.0 * limits::MAX_SPAN,
-            "an angle (rad)",
-        )?;
+        let angle_min = f.angle(5, "angle_min", head)?;
         let increment = f.finite(6, "angle_increment", head)?;
         let range_min = f.finite(7, "range_min", head)?;
         if range_min < 0.0 {
@@ -233,19 +248,8 @@ fn parse_scan_lines(path: &Path, text: &str) -> Result<LeighScans> {
         if n == 0 {
             return Err(f.error("n", f.tokens[9], "a laser scan needs at least one beam"));
         }
-        if n > 1 && increment == 0.0 {
-            return Err(f.error(
-                "angle_increment",
-                f.tokens[6],
-                format!("{n} beams 0 rad apart would all lie on one ray"),
-            ));
-        }
-        if increment.abs() * (n - 1) as f64 > limits::MAX_SPAN {
-            return Err(f.error(
-                "angle_increment",
-                f.tokens[6],
-                format!("{n} beams {increment} rad apart span more than a full turn"),
-            ));
+        if let Err(problem) = crate::beams::check_increment(n, increment) {
+            return Err(f.error("angle_increment", f.tokens[6], problem));
         }
         f.expect_len(head + n, &format!("SCAN declares n = {n} ranges"), |i| {
             if i < head {
@@ -254,33 +258,13 @@ fn parse_scan_lines(path: &Path, text: &str) -> Result<LeighScans> {
                 format!("range[{}]", i - head)
             }
         })?;
-        let mut ranges = Vec::with_capacity(n);
-        let mut valid = Vec::with_capacity(n);
-        for k in 0..n {
-            let name = format!("range[{k}]");
-            let r = f.number(head + k, &name, head + n)?;
-            // REP 117: -inf (too close), inf and nan are beams without a return.
-            if r < 0.0 && !crate::beams::is_special_range(r) {
-                return Err(f.error(&name, f.tokens[head + k], "negative range"));
-            }
-            if r.is_finite() && r > limits::MAX_RANGE {
-                return Err(f.error(
-                    &name,
-                    f.tokens[head + k],
-                    format!(
-                        "a range above {:e} m means nothing here (nan, inf, -inf or 0 mean no return)",
-                        limits::MAX_RANGE
-                    ),
-                ));
-            }
-            if crate::beams::is_special_range(r) {
-                ranges.push(0.0);
-                valid.push(false);
-            } else {
-                ranges.push(r);
-                valid.push(r > range_min && r < range_max);
-            }
-        }
+        // REP 117: -inf (too close), inf and nan are beams without a return.
+        let (ranges, valid) = f.ranges(
+            head..head + n,
+            head + n,
+            [range_min, range_max],
+            "nan, inf, -inf or 0 mean no return",
+        )?;
         if let Some(last) = out.scans.last() {
             if index <= last.index {
                 return Err(f.error(
@@ -297,7 +281,7 @@ fn parse_scan_lines(path: &Path, text: &str) -> Result<LeighScans> {
             index,
             scan: Scan {
                 timestamp,
-                angles: (0..n).map(|k| angle_min + k as f64 * increment).collect(),
+                angles: crate::beams::beam_angles(angle_min, increment, n),
                 ranges,
                 valid,
                 max_range: range_max,
@@ -322,12 +306,8 @@ pub fn read_odometry(path: impl AsRef<Path>) -> Result<BTreeMap<usize, Pose2>> {
 pub fn parse_odometry(path: &Path, text: &str) -> Result<BTreeMap<usize, Pose2>> {
     const NAMES: [&str; 6] = ["ODOM", "idx", "stamp", "x", "y", "theta"];
     let mut out = BTreeMap::new();
-    for (line, line_text) in lines(text) {
-        let f = Fields::new(path, line, line_text);
-        if f.tokens[0] != "ODOM" {
-            continue;
-        }
-        f.expect_len(NAMES.len(), "ODOM has 5 fields", |i| NAMES[i].to_string())?;
+    for f in records(path, text, &NAMES, "ODOM has 5 fields") {
+        let f = f?;
         let index = f.count(1, "idx", 6)?;
         f.timestamp(2, "stamp", 6)?;
         let pose = Pose2::new(
@@ -354,17 +334,11 @@ pub fn parse_people(path: &Path, text: &str) -> Result<Vec<PersonAnnotation>> {
     const NAMES: [&str; 5] = ["PERSON", "scan_idx", "person_id", "x", "y"];
     let mut out: Vec<PersonAnnotation> = Vec::new();
     let mut seen: BTreeMap<(usize, u32), usize> = BTreeMap::new();
-    for (line, line_text) in lines(text) {
-        let f = Fields::new(path, line, line_text);
-        if f.tokens[0] != "PERSON" {
-            continue;
-        }
-        f.expect_len(NAMES.len(), "PERSON has 4 fields", |i| NAMES[i].to_string())?;
+    for f in records(path, text, &NAMES, "PERSON has 4 fields") {
+        let f = f?;
+        let line = f.line;
         let scan = f.count(1, "scan_idx", 5)?;
-        let raw = f.tokens[2];
-        let person: u32 = raw
-            .parse()
-            .map_err(|_| f.error("person_id", raw, "not a non-negative integer"))?;
+        let person: u32 = f.parsed(2, "person_id", 5, "not a non-negative integer")?;
         // A centre in the laser frame, so within a laser's reach.
         let coordinate = |index, field| {
             f.bounded(
@@ -379,7 +353,7 @@ pub fn parse_people(path: &Path, text: &str) -> Result<Vec<PersonAnnotation>> {
         if let Some(first) = seen.insert((scan, person), line) {
             return Err(f.error(
                 "person_id",
-                raw,
+                f.tokens[2],
                 format!("person annotated twice in scan {scan} (first on line {first})"),
             ));
         }

@@ -77,6 +77,21 @@ fn check_lengths(what: &str, truth: usize, predicted: usize) -> Result<()> {
     Ok(())
 }
 
+/// The entries that have a ground truth, as (truth, prediction) sequences, after
+/// [`check_lengths`] (`what` names the metric).
+fn with_truth<T: Copy, P: Copy>(
+    what: &str,
+    truth: &[Option<T>],
+    predicted: &[P],
+) -> Result<(Vec<T>, Vec<P>)> {
+    check_lengths(what, truth.len(), predicted.len())?;
+    Ok(truth
+        .iter()
+        .zip(predicted)
+        .filter_map(|(t, p)| t.map(|t| (t, *p)))
+        .unzip())
+}
+
 /// Entropy (natural log) of a distribution given by counts summing to `n`.
 fn entropy<'a>(counts: impl Iterator<Item = &'a usize>, n: f64) -> f64 {
     let mut h = 0.0;
@@ -195,12 +210,7 @@ pub fn clustering_v_measure(
     predicted: &[Option<u32>],
     beta: f64,
 ) -> Result<VMeasure> {
-    check_lengths("clustering V-measure", truth.len(), predicted.len())?;
-    let (t, p): (Vec<u32>, Vec<Option<u32>>) = truth
-        .iter()
-        .zip(predicted)
-        .filter_map(|(t, p)| t.map(|t| (t, *p)))
-        .unzip();
+    let (t, p) = with_truth("clustering V-measure", truth, predicted)?;
     if t.is_empty() {
         return Err(Error::NothingToScore {
             what: format!("none of the {} beams has a ground-truth label", truth.len()),
@@ -475,16 +485,8 @@ pub fn association_accuracy(
     truth: &[Option<Association>],
     predicted: &[Option<Association>],
 ) -> Result<Option<f64>> {
-    check_lengths("association accuracy", truth.len(), predicted.len())?;
-    let mut scored = 0usize;
-    let mut hits = 0usize;
-    for (t, p) in truth.iter().zip(predicted) {
-        if let Some(t) = t {
-            scored += 1;
-            hits += usize::from(p.as_ref() == Some(t));
-        }
-    }
-    Ok((scored > 0).then(|| hits as f64 / scored as f64))
+    // Within 0 beams: the same beam, or both outlier.
+    association_accuracy_within(truth, predicted, 0)
 }
 
 /// Fraction of the beams with a ground-truth association whose predicted association
@@ -518,12 +520,7 @@ pub fn association_edit_distance(
     truth: &[Option<Association>],
     predicted: &[Option<Association>],
 ) -> Result<usize> {
-    check_lengths("association edit distance", truth.len(), predicted.len())?;
-    let (t, p): (Vec<Association>, Vec<Option<Association>>) = truth
-        .iter()
-        .zip(predicted)
-        .filter_map(|(t, p)| t.map(|t| (t, *p)))
-        .unzip();
+    let (t, p) = with_truth("association edit distance", truth, predicted)?;
     let t: Vec<Option<Association>> = t.into_iter().map(Some).collect();
     Ok(edit_distance(&t, &p))
 }

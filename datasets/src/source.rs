@@ -222,7 +222,54 @@ pub fn read_leigh(
     Ok((log, annotations))
 }
 
+/// Reads a CARMEN log with `options`, noting its skipped lines and the reader's notes
+/// in `notes`; a log without a laser scan is an error.
+fn read_carmen_log(
+    path: &Path,
+    options: carmen::CarmenOptions,
+    notes: &mut Vec<String>,
+) -> Result<carmen::CarmenLog> {
+    let log = carmen::read_carmen_with(path, options)?;
+    notes.extend(skipped_note(path, &log.skipped));
+    notes.extend(log.notes.iter().cloned());
+    if log.scans.is_empty() {
+        return Err(no_scans(path, "FLASER / ROBOTLASER1", &log.skipped));
+    }
+    Ok(log)
+}
+
 impl PairSource {
+    /// The scans and annotations of a [`PairSource::Leigh`] ([`read_leigh`]); another
+    /// source has none (an error).
+    fn leigh_log(
+        &self,
+        notes: &mut Vec<String>,
+    ) -> Result<(leigh::LeighScans, Vec<leigh::PersonAnnotation>)> {
+        match self {
+            PairSource::Leigh {
+                scans,
+                people,
+                odometry,
+                clock,
+                ..
+            } => read_leigh(scans, people, odometry.as_deref(), *clock, notes),
+            other => Err(crate::Error::Mismatch {
+                what: format!("{other}: not a leigh-gtm1 source"),
+            }),
+        }
+    }
+
+    /// The log of a [`PairSource::Bag`] ([`read_bag`]); another source has none (an
+    /// error).
+    fn bag_log(&self) -> Result<crate::bag::BagLog> {
+        match self {
+            PairSource::Bag { path, topics, .. } => read_bag(path, topics),
+            other => Err(crate::Error::Mismatch {
+                what: format!("{other}: not a bag source"),
+            }),
+        }
+    }
+
     /// Reads the source and builds its pairs.
     ///
     /// # Errors
@@ -236,12 +283,7 @@ impl PairSource {
                 relations,
                 options,
             } => {
-                let carmen_log = carmen::read_carmen_with(log, *options)?;
-                notes.extend(skipped_note(log, &carmen_log.skipped));
-                notes.extend(carmen_log.notes.iter().cloned());
-                if carmen_log.scans.is_empty() {
-                    return Err(no_scans(log, "FLASER / ROBOTLASER1", &carmen_log.skipped));
-                }
+                let carmen_log = read_carmen_log(log, *options, &mut notes)?;
                 let relations::Deduplicated {
                     relations: rels,
                     repeated,
@@ -273,12 +315,7 @@ impl PairSource {
                 (SourceKind::Relations, built.pairs)
             }
             PairSource::ConsecutiveLog { log: path, options } => {
-                let log = carmen::read_carmen_with(path, *options)?;
-                notes.extend(skipped_note(path, &log.skipped));
-                notes.extend(log.notes.iter().cloned());
-                if log.scans.is_empty() {
-                    return Err(no_scans(path, "FLASER / ROBOTLASER1", &log.skipped));
-                }
+                let log = read_carmen_log(path, *options, &mut notes)?;
                 let built = consecutive_pairs(&log, &file_stem(path));
                 if built.without_ground_truth {
                     notes.push(format!(
@@ -305,15 +342,8 @@ impl PairSource {
                 }
                 (SourceKind::ConsecutiveLog, built.pairs)
             }
-            PairSource::Leigh {
-                scans,
-                people,
-                odometry,
-                options,
-                clock,
-            } => {
-                let (log, annotations) =
-                    read_leigh(scans, people, odometry.as_deref(), *clock, &mut notes)?;
+            PairSource::Leigh { scans, options, .. } => {
+                let (log, annotations) = self.leigh_log(&mut notes)?;
                 let pairs = leigh_pairs(&log, &annotations, options).map_err(|e| {
                     crate::Error::Mismatch {
                         what: format!("{}: {e}", scans.display()),
@@ -321,13 +351,8 @@ impl PairSource {
                 })?;
                 (SourceKind::Leigh, pairs)
             }
-            PairSource::Bag {
-                path,
-                topics,
-                options,
-            } => {
-                let log = read_bag(path, topics)?;
-                let built = bag_pairs(&log, options)?;
+            PairSource::Bag { options, .. } => {
+                let built = bag_pairs(&self.bag_log()?, options)?;
                 notes.extend(built.notes);
                 (SourceKind::Bag, built.pairs)
             }
@@ -365,16 +390,9 @@ impl PairSource {
                     ),
                 })
             }
-            PairSource::Leigh {
-                scans,
-                people,
-                odometry,
-                options,
-                clock,
-            } => {
+            PairSource::Leigh { options, .. } => {
                 let mut notes = Vec::new();
-                let (log, annotations) =
-                    read_leigh(scans, people, odometry.as_deref(), *clock, &mut notes)?;
+                let (log, annotations) = self.leigh_log(&mut notes)?;
                 let objects = leigh_objects(&log, &annotations, options, &mut notes);
                 Ok(TrackingTruth {
                     scans: objects
@@ -385,14 +403,7 @@ impl PairSource {
                     notes,
                 })
             }
-            PairSource::Bag {
-                path,
-                topics,
-                options,
-            } => {
-                let log = read_bag(path, topics)?;
-                bag_objects(&log, options)
-            }
+            PairSource::Bag { options, .. } => bag_objects(&self.bag_log()?, options),
         }
     }
 }

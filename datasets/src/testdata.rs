@@ -29,14 +29,11 @@ pub fn default_shared_data_dir() -> PathBuf {
 ///
 /// When the folder is missing and the environment variable `CI` is `true`.
 pub fn shared_data_dir() -> Option<PathBuf> {
-    let dir = std::env::var_os(SHARED_DATA_ENV)
-        .map(PathBuf::from)
-        .unwrap_or_else(default_shared_data_dir);
+    let dir = env_or(SHARED_DATA_ENV, default_shared_data_dir);
     if dir.is_dir() {
         return Some(dir);
     }
-    let under_ci = std::env::var("CI").is_ok_and(|v| v == "true");
-    if under_ci {
+    if under_ci() {
         panic!(
             "shared real data not found at {} (set {SHARED_DATA_ENV}); CI=true, so this is an error",
             dir.display()
@@ -57,17 +54,7 @@ pub fn shared_data_file(relative: &str) -> Option<PathBuf> {
     if path.is_file() {
         return Some(path);
     }
-    if std::env::var("CI").is_ok_and(|v| v == "true") {
-        panic!(
-            "shared data file {} is missing; CI=true, so this is an error",
-            path.display()
-        );
-    }
-    eprintln!(
-        "note: shared data file {} is missing; skipping",
-        path.display()
-    );
-    None
+    missing("shared data file", &path)
 }
 
 /// Environment variable that overrides the location of the shared cases folder.
@@ -76,16 +63,26 @@ pub const SHARED_CASES_ENV: &str = "PGM_SHARED_CASES";
 /// The default location of the cases: `cases` beside the shared data folder
 /// (`../shared/cases`, or beside `PGM_SHARED_DATA` when only that is set).
 pub fn default_shared_cases_dir() -> PathBuf {
-    let data = std::env::var_os(SHARED_DATA_ENV)
-        .map(PathBuf::from)
-        .unwrap_or_else(default_shared_data_dir);
+    let data = env_or(SHARED_DATA_ENV, default_shared_data_dir);
     data.parent()
         .map_or_else(|| PathBuf::from("cases"), |p| p.join("cases"))
 }
 
+/// The path the environment variable `var` holds, or else `default()`.
+fn env_or(var: &str, default: fn() -> PathBuf) -> PathBuf {
+    std::env::var_os(var)
+        .map(PathBuf::from)
+        .unwrap_or_else(default)
+}
+
+/// Whether the tests run under CI (`CI=true`).
+fn under_ci() -> bool {
+    std::env::var("CI").is_ok_and(|v| v == "true")
+}
+
 /// Skipped with a note, or a panic under `CI=true`: `what` is missing at `path`.
 fn missing<T>(what: &str, path: &std::path::Path) -> Option<T> {
-    if std::env::var("CI").is_ok_and(|v| v == "true") {
+    if under_ci() {
         panic!(
             "{what} {} is missing; CI=true, so this is an error",
             path.display()
@@ -102,9 +99,7 @@ fn missing<T>(what: &str, path: &std::path::Path) -> Option<T> {
 ///
 /// When the folder is missing and the environment variable `CI` is `true`.
 pub fn shared_cases_dir() -> Option<PathBuf> {
-    let dir = std::env::var_os(SHARED_CASES_ENV)
-        .map(PathBuf::from)
-        .unwrap_or_else(default_shared_cases_dir);
+    let dir = env_or(SHARED_CASES_ENV, default_shared_cases_dir);
     if dir.is_dir() {
         return Some(dir);
     }
@@ -127,4 +122,19 @@ pub fn shared_case_file(relative: &str) -> Option<PathBuf> {
         return Some(path);
     }
     missing("shared case file", &path)
+}
+
+/// Several files of a case at once ([`shared_case_file`] for each, every one looked
+/// up): `None` when any is missing.
+///
+/// # Panics
+///
+/// When a file is missing and the environment variable `CI` is `true`.
+pub fn shared_case_files<const N: usize>(relative: [&str; N]) -> Option<[PathBuf; N]> {
+    let files = relative.map(shared_case_file);
+    if files.iter().all(Option::is_some) {
+        Some(files.map(Option::unwrap))
+    } else {
+        None
+    }
 }

@@ -159,18 +159,74 @@ impl<'a> Fields<'a> {
         Ok(n)
     }
 
+    /// The field parsed as a `T`; one that does not parse is an error saying
+    /// `problem`.
+    pub fn parsed<T: std::str::FromStr>(
+        &self,
+        index: usize,
+        field: &str,
+        expected: usize,
+        problem: &str,
+    ) -> Result<T> {
+        let raw = self.raw(index, field, expected)?;
+        raw.parse().map_err(|_| self.error(field, raw, problem))
+    }
+
     /// Any number that parses, `nan` and `inf` included.
     pub fn number(&self, index: usize, field: &str, expected: usize) -> Result<f64> {
-        let raw = self.raw(index, field, expected)?;
-        raw.parse()
-            .map_err(|_| self.error(field, raw, "not a number"))
+        self.parsed(index, field, expected, "not a number")
+    }
+
+    /// An angle (rad), finite and within two full turns.
+    pub fn angle(&self, index: usize, field: &str, expected: usize) -> Result<f64> {
+        self.bounded(
+            index,
+            field,
+            expected,
+            2.0 * limits::MAX_SPAN,
+            "an angle (rad)",
+        )
+    }
+
+    /// The ranges at `indices` (named `range[k]`, `k` from 0) and their validity per
+    /// [`crate::beams::stored_beam`] within `[range_min, range_max]`: REP 117's special
+    /// values are beams without a return; a finite negative range or one above
+    /// [`limits::MAX_RANGE`] is an error (`no_return` says how to write none).
+    pub fn ranges(
+        &self,
+        indices: std::ops::Range<usize>,
+        expected: usize,
+        [range_min, range_max]: [f64; 2],
+        no_return: &str,
+    ) -> Result<(Vec<f64>, Vec<bool>)> {
+        let mut ranges = Vec::with_capacity(indices.len());
+        let mut valid = Vec::with_capacity(indices.len());
+        for (k, index) in indices.enumerate() {
+            let name = format!("range[{k}]");
+            let r = self.number(index, &name, expected)?;
+            if r < 0.0 && !crate::beams::is_special_range(r) {
+                return Err(self.error(&name, self.tokens[index], "negative range"));
+            }
+            if r.is_finite() && r > limits::MAX_RANGE {
+                return Err(self.error(
+                    &name,
+                    self.tokens[index],
+                    format!(
+                        "a range above {:e} m means nothing here ({no_return})",
+                        limits::MAX_RANGE
+                    ),
+                ));
+            }
+            let (range, ok) = crate::beams::stored_beam(r, range_min, range_max);
+            ranges.push(range);
+            valid.push(ok);
+        }
+        Ok((ranges, valid))
     }
 
     /// A non-negative integer.
     pub fn count(&self, index: usize, field: &str, expected: usize) -> Result<usize> {
-        let raw = self.raw(index, field, expected)?;
-        raw.parse()
-            .map_err(|_| self.error(field, raw, "not a non-negative integer"))
+        self.parsed(index, field, expected, "not a non-negative integer")
     }
 
     /// Fails unless the line has exactly `expected` fields; `name_of` names the field

@@ -4,6 +4,9 @@
 //! of its text export; the datmo bags give motion-capture truth that scan matching
 //! agrees with). Real-data tests skip without the folder and fail under CI=true.
 
+mod common;
+
+use common::{content, drive_topics, refused, temp_dir, write};
 use pgm_datasets::bag::container::check_ros1_bytes;
 use pgm_datasets::bag::pairs::{bag_pairs, BagPairOptions};
 use pgm_datasets::bag::synthetic::*;
@@ -12,31 +15,9 @@ use pgm_datasets::builders::{summarize_leigh_pairs, LabelRule, LeighPairOptions}
 use pgm_datasets::mocap::{Footprint, MocapOptions};
 use pgm_datasets::source::PairSource;
 use pgm_datasets::testdata::shared_data_dir;
-use pgm_datasets::{Error, ScanPair};
+use pgm_datasets::ScanPair;
 use pgm_scan::Pose2;
 use std::path::{Path, PathBuf};
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("pgm-bags-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-fn write(dir: &Path, name: &str, bytes: &[u8]) -> PathBuf {
-    let p = dir.join(name);
-    std::fs::write(&p, bytes).unwrap();
-    p
-}
-
-fn all_topics() -> BagTopics {
-    BagTopics {
-        odometry: Some("/odom".into()),
-        ego_pose: Some("/ego_pose".into()),
-        object_pose: Some("/box_pose".into()),
-        ..BagTopics::new("/scan")
-    }
-}
 
 fn options(k: usize) -> BagPairOptions {
     BagPairOptions {
@@ -57,24 +38,14 @@ fn options(k: usize) -> BagPairOptions {
     }
 }
 
-/// The parts of a log that must not depend on the container.
-fn content(log: &BagLog) -> impl PartialEq + std::fmt::Debug {
-    (
-        log.scans.clone(),
-        log.odometry.clone(),
-        log.ego_poses.clone(),
-        log.object_poses.clone(),
-    )
-}
-
 #[test]
 fn ros1_and_ros2_bags_written_here_read_back_identically() {
-    let dir = temp_dir("round-trip");
+    let dir = temp_dir("bags", "round-trip");
     let records = drive(12);
     let ros1 = write(&dir, "drive.bag", &ros1_bag(&records));
     let ros2 = write(&dir, "drive.mcap", &mcap_bag(&records, false, None));
-    let a = read_bag(&ros1, &all_topics()).unwrap();
-    let b = read_bag(&ros2, &all_topics()).unwrap();
+    let a = read_bag(&ros1, &drive_topics()).unwrap();
+    let b = read_bag(&ros2, &drive_topics()).unwrap();
     assert_eq!(content(&a), content(&b));
     // What was written is what is read: stamps to the nanosecond, float32 ranges through
     // their shortest decimal form, infinite ranges as no return.
@@ -122,7 +93,7 @@ fn ros1_and_ros2_bags_written_here_read_back_identically() {
     ] {
         let p = write(&dir, name, &mcap_bag(&records, big, compression));
         assert_eq!(
-            content(&read_bag(&p, &all_topics()).unwrap()),
+            content(&read_bag(&p, &drive_topics()).unwrap()),
             content(&a),
             "{name}"
         );
@@ -149,7 +120,7 @@ fn ros1_and_ros2_bags_written_here_read_back_identically() {
         assert!(bytes.len() < ros1_bag(&records).len(), "{name} compressed");
         let p = write(&dir, name, &bytes);
         assert_eq!(
-            content(&read_bag(&p, &all_topics()).unwrap()),
+            content(&read_bag(&p, &drive_topics()).unwrap()),
             content(&a),
             "{name}"
         );
@@ -174,7 +145,7 @@ fn ros1_and_ros2_bags_written_here_read_back_identically() {
         b"rosbag2_bagfile_information: {}\n",
     );
     assert_eq!(
-        content(&read_bag(&bagdir, &all_topics()).unwrap()),
+        content(&read_bag(&bagdir, &drive_topics()).unwrap()),
         content(&a)
     );
     let zipped = dir.join("drive.bag.zip");
@@ -186,17 +157,24 @@ fn ros1_and_ros2_bags_written_here_read_back_identically() {
         z.finish().unwrap();
     }
     assert_eq!(
-        content(&read_bag(&zipped, &all_topics()).unwrap()),
+        content(&read_bag(&zipped, &drive_topics()).unwrap()),
         content(&a)
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// The synthetic drive of `scans` scans written to `drive.mcap` in `dir`: its path and
+/// the log read back.
+fn drive_mcap(dir: &Path, scans: usize) -> (PathBuf, BagLog) {
+    let path = write(dir, "drive.mcap", &mcap_bag(&drive(scans), false, None));
+    let log = read_bag(&path, &drive_topics()).unwrap();
+    (path, log)
+}
+
 #[test]
 fn motion_capture_truth_of_the_written_drive() {
-    let dir = temp_dir("truth");
-    let path = write(&dir, "drive.mcap", &mcap_bag(&drive(10), false, None));
-    let log = read_bag(&path, &all_topics()).unwrap();
+    let dir = temp_dir("bags", "truth");
+    let (path, log) = drive_mcap(&dir, 10);
     let pairs = bag_pairs(&log, &options(2)).unwrap().pairs;
     let mut box_returns = 0;
     for p in &pairs {
@@ -279,36 +257,40 @@ fn motion_capture_truth_of_the_written_drive() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
-fn expect_bag_error(result: pgm_datasets::Result<BagLog>, needles: &[&str]) {
-    let e = result.expect_err("a malformed bag must be an error");
-    let text = e.to_string();
-    assert!(matches!(e, Error::Bag { .. }), "{text}");
-    for n in needles {
-        assert!(text.contains(n), "{text:?} lacks {n:?}");
+/// Reads every `step`-th truncation of `bytes`, written to `name` in `dir`: each must
+/// be an error or have the content of `full`. Returns the number of errors.
+fn truncation_errors(dir: &Path, name: &str, bytes: &[u8], step: usize, full: &BagLog) -> usize {
+    let mut errors = 0;
+    for cut in (0..bytes.len()).step_by(step) {
+        let p = write(dir, name, &bytes[..cut]);
+        match read_bag(&p, &drive_topics()) {
+            Err(_) => errors += 1,
+            Ok(log) => assert_eq!(content(&log), content(full), "cut at {cut}"),
+        }
     }
+    errors
 }
 
 #[test]
 fn malformed_bags_are_errors_naming_topic_message_and_field() {
-    let dir = temp_dir("malformed");
+    let dir = temp_dir("bags", "malformed");
     let records = drive(3);
     let good = ros1_bag(&records);
     // Not a bag, an old format, a missing topic (the error lists the bag's topics).
     let p = write(&dir, "text.bag", b"hello");
-    expect_bag_error(
-        read_bag(&p, &all_topics()),
-        &["text.bag", "neither a ROS 1 bag"],
-    );
+    refused(&p, &drive_topics(), &["text.bag", "neither a ROS 1 bag"]);
     let p = write(&dir, "old.bag", b"#ROSBAG V1.2\n0000000000000000");
-    expect_bag_error(read_bag(&p, &all_topics()), &["not supported"]);
+    refused(&p, &drive_topics(), &["not supported"]);
     let p = write(&dir, "good.bag", &good);
-    expect_bag_error(
-        read_bag(&p, &BagTopics::new("/nope")),
+    refused(
+        &p,
+        &BagTopics::new("/nope"),
         &["topic /nope", "/scan (sensor_msgs/LaserScan, 3)"],
     );
     // A topic read as the wrong type names the field it lacks.
-    expect_bag_error(
-        read_bag(&p, &BagTopics::new("/odom")),
+    refused(
+        &p,
+        &BagTopics::new("/odom"),
         &[
             "topic /odom",
             "message 1",
@@ -318,32 +300,23 @@ fn malformed_bags_are_errors_naming_topic_message_and_field() {
     );
     // Every truncation of the file is an error or, when only the index section after
     // the chunks is cut, the whole content; never a panic.
-    let full = content(&read_bag(&p, &all_topics()).unwrap());
-    let mut errors = 0;
-    for cut in (0..good.len()).step_by(97) {
-        let p = write(&dir, "cut.bag", &good[..cut]);
-        match read_bag(&p, &all_topics()) {
-            Err(_) => errors += 1,
-            Ok(log) => assert_eq!(content(&log), full, "cut at {cut}"),
-        }
-    }
+    let full = read_bag(&p, &drive_topics()).unwrap();
+    let errors = truncation_errors(&dir, "cut.bag", &good, 97, &full);
     assert!(errors * 10 > good.len() / 97 * 9, "{errors} errors");
     // index_pos beyond the file, a chunk declaring a huge size.
     let mut bad = good.clone();
     let at = bad.windows(10).position(|w| w == b"index_pos=").unwrap() + 10;
     bad[at..at + 8].copy_from_slice(&(1u64 << 40).to_le_bytes());
     let p = write(&dir, "index.bag", &bad);
-    expect_bag_error(
-        read_bag(&p, &all_topics()),
-        &["index_pos", "outside the file"],
-    );
+    refused(&p, &drive_topics(), &["index_pos", "outside the file"]);
     assert!(check_ros1_bytes(&bad).is_err());
     let mut bad = good.clone();
     let at = bad.windows(5).position(|w| w == b"size=").unwrap() + 5;
     bad[at..at + 4].copy_from_slice(&u32::MAX.to_le_bytes());
     let p = write(&dir, "size.bag", &bad);
-    expect_bag_error(
-        read_bag(&p, &all_topics()),
+    refused(
+        &p,
+        &drive_topics(),
         &["declares 4294967295 uncompressed bytes"],
     );
     // A scan whose ranges array claims more elements than the message holds.
@@ -371,8 +344,9 @@ fn malformed_bags_are_errors_naming_topic_message_and_field() {
     let len_at = at + scan_data.len() - 8;
     bytes[len_at..len_at + 4].copy_from_slice(&1_000_000u32.to_le_bytes());
     let p = write(&dir, "ranges.bag", &bytes);
-    expect_bag_error(
-        read_bag(&p, &all_topics()),
+    refused(
+        &p,
+        &drive_topics(),
         &[
             "topic /scan",
             "message 1",
@@ -382,8 +356,9 @@ fn malformed_bags_are_errors_naming_topic_message_and_field() {
     );
     // An empty scan is refused by the scan reader.
     let mcap = write(&dir, "empty.mcap", &mcap_bag(&scan_records, false, None));
-    expect_bag_error(
-        read_bag(&mcap, &all_topics()),
+    refused(
+        &mcap,
+        &drive_topics(),
         &[
             "topic /scan",
             "message 1",
@@ -394,14 +369,7 @@ fn malformed_bags_are_errors_naming_topic_message_and_field() {
     // Every truncation of an MCAP file too (a cut in the summary after the data
     // section leaves the messages whole).
     let good_mcap = mcap_bag(&records, false, None);
-    let mut errors = 0;
-    for cut in (0..good_mcap.len()).step_by(101) {
-        let p = write(&dir, "cut.mcap", &good_mcap[..cut]);
-        match read_bag(&p, &all_topics()) {
-            Err(_) => errors += 1,
-            Ok(log) => assert_eq!(content(&log), full, "cut at {cut}"),
-        }
-    }
+    let errors = truncation_errors(&dir, "cut.mcap", &good_mcap, 101, &full);
     assert!(errors * 10 > good_mcap.len() / 101 * 8, "{errors} errors");
     // A schema whose name claims 4 GB (found by fuzzing: the mcap crate's record parser
     // reserved it): an error naming the record and field, nothing that large allocated.
@@ -412,8 +380,9 @@ fn malformed_bags_are_errors_naming_topic_message_and_field() {
     // The CRCs rewritten, so the record parser is what refuses it.
     reseal_mcap(&mut bytes);
     let p = write(&dir, "schema.mcap", &bytes);
-    expect_bag_error(
-        read_bag(&p, &all_topics()),
+    refused(
+        &p,
+        &drive_topics(),
         &[
             "schema.mcap",
             "schema record",
@@ -427,8 +396,9 @@ fn malformed_bags_are_errors_naming_topic_message_and_field() {
         bytes[at..at + needle.len()].copy_from_slice(b"MSG: geometry_msgs/Pxint");
     }
     let p = write(&dir, "definition.bag", &bytes);
-    expect_bag_error(
-        read_bag(&p, &all_topics()),
+    refused(
+        &p,
+        &drive_topics(),
         &[
             "topic /ego_pose",
             "message 1",
@@ -441,9 +411,8 @@ fn malformed_bags_are_errors_naming_topic_message_and_field() {
 
 #[test]
 fn bag_pair_options_are_checked() {
-    let dir = temp_dir("options");
-    let path = write(&dir, "drive.mcap", &mcap_bag(&drive(4), false, None));
-    let log = read_bag(&path, &all_topics()).unwrap();
+    let dir = temp_dir("bags", "options");
+    let (_, log) = drive_mcap(&dir, 4);
     for k in [0, 4, 99] {
         let e = bag_pairs(&log, &options(k)).unwrap_err().to_string();
         assert!(e.contains(&format!("k = {k}")), "{e}");

@@ -10,36 +10,16 @@
 //!   `fov`) must agree with the beams to within one increment, the increment winning.
 //! - REP 117 `-Inf` (`scan-minus-inf`): a beam without a return in every reader.
 
+mod common;
+
+use common::{content, drive_topics, refused, temp_dir, write};
 use pgm_datasets::bag::synthetic::*;
-use pgm_datasets::bag::{read_bag, BagLog, BagTopics};
+use pgm_datasets::bag::{read_bag, BagTopics};
 use pgm_datasets::carmen::{parse_carmen, CarmenOptions};
 use pgm_datasets::leigh::parse_scans;
-use pgm_datasets::testdata::shared_case_file;
+use pgm_datasets::testdata::shared_case_files;
 use pgm_datasets::Error;
-use std::path::{Path, PathBuf};
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("pgm-cases-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-fn write(dir: &Path, name: &str, bytes: &[u8]) -> PathBuf {
-    let p = dir.join(name);
-    std::fs::write(&p, bytes).unwrap();
-    p
-}
-
-/// The topics of the synthetic drive.
-fn drive_topics() -> BagTopics {
-    BagTopics {
-        odometry: Some("/odom".into()),
-        ego_pose: Some("/ego_pose".into()),
-        object_pose: Some("/box_pose".into()),
-        ..BagTopics::new("/scan")
-    }
-}
+use std::path::Path;
 
 /// The topics of the case bags.
 fn case_topics() -> BagTopics {
@@ -49,27 +29,6 @@ fn case_topics() -> BagTopics {
         object_pose: Some("/object".into()),
         ..BagTopics::new("/scan")
     }
-}
-
-/// What a bag gave, the path left out.
-fn content(log: &BagLog) -> impl PartialEq + std::fmt::Debug {
-    (
-        log.scans.clone(),
-        log.odometry.clone(),
-        log.ego_poses.clone(),
-        log.object_poses.clone(),
-    )
-}
-
-/// The error of a bag that must be refused, with every needle in its message.
-fn refused(path: &Path, topics: &BagTopics, needles: &[&str]) -> String {
-    let e = read_bag(path, topics).expect_err("the bag must be refused");
-    let text = e.to_string();
-    assert!(matches!(e, Error::Bag { .. }), "{text}");
-    for n in needles {
-        assert!(text.contains(n), "{text:?} lacks {n:?}");
-    }
-    text
 }
 
 fn u32_at(b: &[u8], at: usize) -> u32 {
@@ -137,10 +96,9 @@ fn chunks(bytes: &[u8]) -> Vec<ChunkAt> {
 
 #[test]
 fn mcap_bad_crc_case_is_refused_naming_the_chunk_and_both_crcs() {
-    let (Some(plain), Some(bad)) = (
-        shared_case_file("mcap-bad-crc/plain.mcap"),
-        shared_case_file("mcap-bad-crc/badcrc.mcap"),
-    ) else {
+    let Some([plain, bad]) =
+        shared_case_files(["mcap-bad-crc/plain.mcap", "mcap-bad-crc/badcrc.mcap"])
+    else {
         return;
     };
     let log = read_bag(&plain, &case_topics()).unwrap();
@@ -157,7 +115,7 @@ fn mcap_bad_crc_case_is_refused_naming_the_chunk_and_both_crcs() {
         ],
     );
     // A byte flipped anywhere inside any chunk's records of plain.mcap, copied here.
-    let dir = temp_dir("plain-flips");
+    let dir = temp_dir("cases", "plain-flips");
     let bytes = std::fs::read(&plain).unwrap();
     let found = chunks(&bytes);
     assert_eq!(found.len(), 9);
@@ -181,7 +139,7 @@ fn mcap_bad_crc_case_is_refused_naming_the_chunk_and_both_crcs() {
 
 #[test]
 fn every_bit_flip_inside_an_uncompressed_chunk_is_refused() {
-    let dir = temp_dir("flips");
+    let dir = temp_dir("cases", "flips");
     let records = drive(6);
     let bytes = mcap_bag(&records, false, None);
     let good = content(&read_bag(&write(&dir, "good.mcap", &bytes), &drive_topics()).unwrap());
@@ -218,7 +176,7 @@ fn every_bit_flip_inside_an_uncompressed_chunk_is_refused() {
 
 #[test]
 fn compressed_chunks_are_checked_after_decompression() {
-    let dir = temp_dir("compressed");
+    let dir = temp_dir("cases", "compressed");
     let records = drive(6);
     let plain = content(
         &read_bag(
@@ -263,7 +221,7 @@ fn compressed_chunks_are_checked_after_decompression() {
 
 #[test]
 fn a_crc_of_zero_is_one_not_written() {
-    let dir = temp_dir("zero-crc");
+    let dir = temp_dir("cases", "zero-crc");
     let records = drive(4);
     let bytes = mcap_bag(&records, false, None);
     // Damaged records under a chunk CRC of 0 (the data section CRC rewritten to fit):
@@ -311,18 +269,9 @@ fn a_crc_of_zero_is_one_not_written() {
 fn write_records<W: std::io::Write + std::io::Seek>(w: &mut mcap::Writer<W>, records: &[Record]) {
     let mut channels = std::collections::BTreeMap::new();
     for (k, r) in records.iter().enumerate() {
-        let channel = *channels.entry(r.topic).or_insert_with(|| {
-            let ros2_name = r.type_name.replacen('/', "/msg/", 1);
-            let schema = w
-                .add_schema(
-                    &ros2_name,
-                    "ros2msg",
-                    definition(r.type_name, false).as_bytes(),
-                )
-                .unwrap();
-            w.add_channel(schema, r.topic, "cdr", &Default::default())
-                .unwrap()
-        });
+        let channel = *channels
+            .entry(r.topic)
+            .or_insert_with(|| add_ros2_channel(w, r).unwrap());
         w.write_to_known_channel(
             &mcap::records::MessageHeader {
                 channel_id: channel,
@@ -338,7 +287,7 @@ fn write_records<W: std::io::Write + std::io::Seek>(w: &mut mcap::Writer<W>, rec
 
 #[test]
 fn data_section_and_summary_crcs_are_checked() {
-    let dir = temp_dir("sections");
+    let dir = temp_dir("cases", "sections");
     let bytes = mcap_bag(&drive(4), false, None);
     let recs = top_records(&bytes);
     let data_end = recs
@@ -386,7 +335,7 @@ fn data_section_and_summary_crcs_are_checked() {
 
 #[test]
 fn attachment_crcs_are_checked() {
-    let dir = temp_dir("attachment");
+    let dir = temp_dir("cases", "attachment");
     let records = drive(3);
     let mut out = std::io::Cursor::new(Vec::new());
     {
@@ -431,7 +380,7 @@ fn attachment_crcs_are_checked() {
 
 #[test]
 fn a_damaged_zip_entry_is_refused_by_its_crc() {
-    let dir = temp_dir("zip");
+    let dir = temp_dir("cases", "zip");
     let bag = ros1_bag(&drive(3));
     let zipped = dir.join("drive.bag.zip");
     {
@@ -461,33 +410,13 @@ fn a_damaged_zip_entry_is_refused_by_its_crc() {
 // ---------------------------------------------------------------------------------
 // Scan angle range
 
-/// The drive with every scan stating `angles(k)` (`angle_min`, `angle_max`,
-/// `angle_increment`) instead of the consistent ones, `k` counting scans from 0.
-fn drive_with_angles(n: usize, angles: impl Fn(usize) -> [f32; 3]) -> Vec<Record> {
-    let mut k = 0;
-    drive(n)
-        .into_iter()
-        .map(|mut r| {
-            if let Msg::Scan { stamp_ns, ranges } = &r.msg {
-                r.msg = Msg::ScanAngles {
-                    stamp_ns: *stamp_ns,
-                    angles: angles(k),
-                    ranges: ranges.clone(),
-                };
-                k += 1;
-            }
-            r
-        })
-        .collect()
-}
-
 #[test]
 fn scan_angle_range_cases_fencepost_reads_as_consistent_half_increment_is_refused() {
-    let (Some(consistent), Some(fencepost), Some(half)) = (
-        shared_case_file("scan-angle-range/consistent.bag"),
-        shared_case_file("scan-angle-range/fencepost.bag"),
-        shared_case_file("scan-angle-range/half_increment.bag"),
-    ) else {
+    let Some([consistent, fencepost, half]) = shared_case_files([
+        "scan-angle-range/consistent.bag",
+        "scan-angle-range/fencepost.bag",
+        "scan-angle-range/half_increment.bag",
+    ]) else {
         return;
     };
     let a = read_bag(&consistent, &case_topics()).unwrap();
@@ -514,7 +443,7 @@ fn scan_angle_range_cases_fencepost_reads_as_consistent_half_increment_is_refuse
 
 #[test]
 fn angle_max_within_one_increment_reads_as_consistent_and_beyond_is_refused() {
-    let dir = temp_dir("angles");
+    let dir = temp_dir("cases", "angles");
     let consistent =
         content(&read_bag(&write(&dir, "c.bag", &ros1_bag(&drive(5))), &drive_topics()).unwrap());
     let end = ANGLE_MIN + ANGLE_INCREMENT * (BEAMS - 1) as f32;
@@ -624,10 +553,9 @@ fn robotlaser1_fov_must_agree_with_its_beams() {
 
 #[test]
 fn minus_inf_case_reads_as_plain_but_for_those_beams() {
-    let (Some(plain), Some(minus)) = (
-        shared_case_file("scan-minus-inf/plain.bag"),
-        shared_case_file("scan-minus-inf/minus_inf.bag"),
-    ) else {
+    let Some([plain, minus]) =
+        shared_case_files(["scan-minus-inf/plain.bag", "scan-minus-inf/minus_inf.bag"])
+    else {
         return;
     };
     let a = read_bag(&plain, &case_topics()).unwrap();
@@ -654,7 +582,7 @@ fn minus_inf_case_reads_as_plain_but_for_those_beams() {
 
 #[test]
 fn rep117_special_ranges_are_beams_without_a_return_in_every_reader() {
-    let dir = temp_dir("rep117");
+    let dir = temp_dir("cases", "rep117");
     // ROS 1 and ROS 2: beams 3, 4, 5 of every scan -Inf, +Inf, NaN.
     let special = [f32::NEG_INFINITY, f32::INFINITY, f32::NAN];
     let mut records = drive(4);

@@ -200,11 +200,16 @@ fn invalid_pairs_are_not_written() {
     let mut p = pair("bad");
     p.truth.as_mut().unwrap().labels.as_mut().unwrap().pop();
     let err = write_pairs(&dir, &[p]).unwrap_err();
-    assert!(
-        matches!(err, Error::Invalid { ref field, .. } if field == "truth.labels"),
-        "{err}"
-    );
+    assert_eq!(invalid_field(&err), Some("truth.labels"), "{err}");
     assert!(!dir.join(INDEX_FILE).exists());
+}
+
+/// The field an [`Error::Invalid`] names (`None` for another error).
+fn invalid_field(err: &Error) -> Option<&str> {
+    match err {
+        Error::Invalid { field, .. } => Some(field),
+        _ => None,
+    }
 }
 
 fn write_and_corrupt(name: &str, corrupt: impl Fn(&mut serde_json::Value)) -> Error {
@@ -230,10 +235,7 @@ fn validation_on_read_names_file_and_field() {
     let err = write_and_corrupt("labels", |v| {
         v["truth"]["labels"].as_array_mut().unwrap().pop();
     });
-    assert!(
-        matches!(err, Error::Invalid { ref field, .. } if field == "truth.labels"),
-        "{err}"
-    );
+    assert_eq!(invalid_field(&err), Some("truth.labels"), "{err}");
 
     let err = write_and_corrupt("assoc-range", |v| {
         v["truth"]["associations"][0] = serde_json::json!(99);
@@ -252,26 +254,17 @@ fn validation_on_read_names_file_and_field() {
     let err = write_and_corrupt("scan", |v| {
         v["current"]["valid"].as_array_mut().unwrap().pop();
     });
-    assert!(
-        matches!(err, Error::Invalid { ref field, .. } if field == "current"),
-        "{err}"
-    );
+    assert_eq!(invalid_field(&err), Some("current"), "{err}");
 
     let err = write_and_corrupt("label-on-invalid", |v| {
         v["truth"]["labels"][1] = serde_json::json!(0);
     });
-    assert!(
-        matches!(err, Error::Invalid { ref field, .. } if field == "truth.labels[1]"),
-        "{err}"
-    );
+    assert_eq!(invalid_field(&err), Some("truth.labels[1]"), "{err}");
 
     let err = write_and_corrupt("range", |v| {
         v["reference"]["ranges"][0] = serde_json::json!(-1.0);
     });
-    assert!(
-        matches!(err, Error::Invalid { ref field, .. } if field == "reference"),
-        "{err}"
-    );
+    assert_eq!(invalid_field(&err), Some("reference"), "{err}");
 }
 
 #[test]
@@ -285,30 +278,21 @@ fn bad_index_is_reported() {
     )
     .unwrap();
     let err = read_pairs(&dir).unwrap_err();
-    assert!(
-        matches!(err, Error::Invalid { ref field, .. } if field == "version"),
-        "{err}"
-    );
+    assert_eq!(invalid_field(&err), Some("version"), "{err}");
     std::fs::write(
         &index,
         r#"{"format": "pgm-scan-pairs", "version": 1, "pairs": [{"name": "x", "file": "../x.json"}]}"#,
     )
     .unwrap();
     let err = read_pairs(&dir).unwrap_err();
-    assert!(
-        matches!(err, Error::Invalid { ref field, .. } if field == "pairs[0].file"),
-        "{err}"
-    );
+    assert_eq!(invalid_field(&err), Some("pairs[0].file"), "{err}");
     std::fs::write(
         &index,
         r#"{"format": "pgm-scan-pairs", "version": 1, "pairs": [{"name": "y", "file": "pair-00000.json"}]}"#,
     )
     .unwrap();
     let err = read_pairs(&dir).unwrap_err();
-    assert!(
-        matches!(err, Error::Invalid { ref field, .. } if field == "name"),
-        "{err}"
-    );
+    assert_eq!(invalid_field(&err), Some("name"), "{err}");
     std::fs::write(&index, "{ not json").unwrap();
     assert!(matches!(read_pairs(&dir).unwrap_err(), Error::Json { .. }));
     std::fs::remove_dir_all(&dir).unwrap();
@@ -341,24 +325,15 @@ fn numbers_read_from_a_file_round_trip_exactly() {
 fn values_that_mean_nothing_are_refused_on_read_and_write() {
     // Kind 7 of issue 16 in stored pairs: finite, so `validate` accepts them.
     let err = write_and_corrupt("huge-odometry", |v| v["odometry"]["x"] = 1e300.into());
-    assert!(
-        matches!(err, Error::Invalid { ref field, .. } if field == "odometry"),
-        "{err}"
-    );
+    assert_eq!(invalid_field(&err), Some("odometry"), "{err}");
     let err = write_and_corrupt("huge-range", |v| {
         v["current"]["max_range"] = 1e300.into();
     });
-    assert!(
-        matches!(err, Error::Invalid { ref field, .. } if field == "current.max_range"),
-        "{err}"
-    );
+    assert_eq!(invalid_field(&err), Some("current.max_range"), "{err}");
     let err = write_and_corrupt("huge-angle", |v| {
         v["reference"]["angles"][2] = 1e300.into();
     });
-    assert!(
-        matches!(err, Error::Invalid { ref field, .. } if field == "reference.angles[2]"),
-        "{err}"
-    );
+    assert_eq!(invalid_field(&err), Some("reference.angles[2]"), "{err}");
     let mut p = pair("x");
     p.truth.as_mut().unwrap().motions[0].motion = Pose2::new(1e300, 0.0, 0.0);
     let dir = temp_dir("huge-write");

@@ -19,6 +19,10 @@ fn carmen(text: &str) -> pgm_datasets::Result<pgm_datasets::carmen::CarmenLog> {
     parse_carmen(Path::new("log.clf"), text, CarmenOptions::default())
 }
 
+fn leigh_scans(text: &str) -> pgm_datasets::Result<pgm_datasets::leigh::LeighScans> {
+    parse_scans(Path::new("scans.txt"), text)
+}
+
 fn flaser(n: usize, range: &str, pose: &str) -> String {
     let ranges = vec![range; n].join(" ");
     format!("FLASER {n} {ranges} {pose} {pose} 10.0 host 10.0")
@@ -57,11 +61,8 @@ fn declared_beam_counts_are_not_trusted_beyond_the_line() {
     let err = carmen(&format!("{head} 2 1 2 18446744073709551615 {tail}")).unwrap_err();
     field_error(err, 1, "n_rem", "only");
     // leigh-gtm1 style.
-    let err = parse_scans(
-        Path::new("scans.txt"),
-        "SCAN 0 1.0 1.0 laser -1.0 0.1 0.0 10.0 18446744073709551615 1.0 2.0",
-    )
-    .unwrap_err();
+    let err = leigh_scans("SCAN 0 1.0 1.0 laser -1.0 0.1 0.0 10.0 18446744073709551615 1.0 2.0")
+        .unwrap_err();
     assert!(
         matches!(err, Error::Field { ref field, .. } if field == "n"),
         "{err}"
@@ -73,11 +74,7 @@ fn scans_without_beams_are_refused_where_they_are_read() {
     // carmen-zero-beam.
     let err = carmen("FLASER 0  0 0 0 0 0 0 1.0 host 1.0").unwrap_err();
     field_error(err, 1, "n", "at least one beam");
-    let err = parse_scans(
-        Path::new("scans.txt"),
-        "SCAN 0 1.0 1.0 laser -1.0 0.1 0.0 10.0 0",
-    )
-    .unwrap_err();
+    let err = leigh_scans("SCAN 0 1.0 1.0 laser -1.0 0.1 0.0 10.0 0").unwrap_err();
     assert!(err.to_string().contains("at least one beam"), "{err}");
 }
 
@@ -116,10 +113,7 @@ fn a_pair_of_log_scans_names_the_file_line_and_scan_that_cannot_be_used() {
     );
     let err = carmen_scan_pair(path, &log, 7, 0).unwrap_err();
     assert!(err.to_string().contains("scan 7") && err.to_string().contains("2 FLASER"));
-    let scans = parse_scans(
-        Path::new("scans.txt"),
-        "SCAN 4 1.0 1.0 laser -1.0 0.1 0.0 10.0 2 1.0 2.0\nSCAN 5 1.0 1.0 laser -1.0 0.1 0.0 10.0 2 0 nan\n",
-    )
+    let scans = leigh_scans("SCAN 4 1.0 1.0 laser -1.0 0.1 0.0 10.0 2 1.0 2.0\nSCAN 5 1.0 1.0 laser -1.0 0.1 0.0 10.0 2 0 nan\n")
     .unwrap();
     let err = leigh_scan_pair(Path::new("scans.txt"), &scans, 4, 4).unwrap_err();
     assert!(err.to_string().contains("must differ"), "{err}");
@@ -270,12 +264,7 @@ fn values_that_parse_but_mean_nothing_are_refused() {
     );
     // leigh-gtm1: negative range_min (leigh-rmin-neg), zero increment, a person at 1e300
     // (people-huge).
-    let scans = |head: &str| {
-        parse_scans(
-            Path::new("scans.txt"),
-            &format!("SCAN 0 1.0 1.0 l {head} 3 0 1.0 2.0"),
-        )
-    };
+    let scans = |head: &str| leigh_scans(&format!("SCAN 0 1.0 1.0 l {head} 3 0 1.0 2.0"));
     let err = scans("-1.0 0.1 -5 10.0").unwrap_err();
     assert!(
         matches!(err, Error::Field { ref field, .. } if field == "range_min"),
@@ -325,7 +314,7 @@ fn a_scan_offset_k_never_wraps() {
         .map(|i| format!("SCAN {} 1.0 1.0 l -1.0 0.1 0.0 10.0 2 1.0 2.0", 10 + i))
         .collect::<Vec<_>>()
         .join("\n");
-    let scans = parse_scans(Path::new("scans.txt"), &scans).unwrap();
+    let scans = leigh_scans(&scans).unwrap();
     let people = parse_people(
         Path::new("people.txt"),
         "PERSON 10 1 1.0 0.5\nPERSON 11 1 1.0 0.5\nPERSON 13 1 1.0 0.5\n",
@@ -355,10 +344,7 @@ fn a_scan_offset_k_never_wraps() {
 
 #[test]
 fn one_pair_builders_refuse_a_scan_paired_with_itself() {
-    let scans = parse_scans(
-        Path::new("scans.txt"),
-        "SCAN 5 1.0 1.0 l -1.0 0.1 0.0 10.0 2 1.0 2.0\nSCAN 6 1.1 1.1 l -1.0 0.1 0.0 10.0 2 1.0 2.0\n",
-    )
+    let scans = leigh_scans("SCAN 5 1.0 1.0 l -1.0 0.1 0.0 10.0 2 1.0 2.0\nSCAN 6 1.1 1.1 l -1.0 0.1 0.0 10.0 2 1.0 2.0\n")
     .unwrap();
     let err = leigh_scan_pair(Path::new("scans.txt"), &scans, 5, 5).unwrap_err();
     assert!(
@@ -373,10 +359,7 @@ fn one_pair_builders_refuse_a_scan_paired_with_itself() {
 #[test]
 fn person_centres_are_held_against_their_scans_reach() {
     use pgm_datasets::leigh::{check_people_reach, people_out_of_reach, PERSON_REACH_MARGIN};
-    let scans = parse_scans(
-        Path::new("scans.txt"),
-        "SCAN 5 1.0 1.0 l -1.0 0.1 0.0 10.0 2 1.0 2.0\nSCAN 6 1.1 1.1 l -1.0 0.1 0.0 4.0 2 1.0 2.0\n",
-    )
+    let scans = leigh_scans("SCAN 5 1.0 1.0 l -1.0 0.1 0.0 10.0 2 1.0 2.0\nSCAN 6 1.1 1.1 l -1.0 0.1 0.0 4.0 2 1.0 2.0\n")
     .unwrap();
     let people = |text: &str| parse_people(Path::new("people.txt"), text).unwrap();
     // Scan 5 reaches 10 m + margin, scan 6 only 4 m + margin; scan 9 is not in the

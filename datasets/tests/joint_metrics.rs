@@ -10,6 +10,11 @@ fn some(c: &[JointCluster]) -> Vec<Option<JointCluster>> {
     c.iter().copied().map(Some).collect()
 }
 
+/// Returns each in the motion cluster `Object(id)` of its id.
+fn objects(ids: &[usize]) -> Vec<Option<JointCluster>> {
+    ids.iter().map(|&id| Some(Object(id))).collect()
+}
+
 #[test]
 fn matching_maximises_the_total_weight_not_the_largest_entry() {
     // Greedy (largest entry first) takes (0, 0) = 3 and then (1, 1) = 0: total 3. The
@@ -112,26 +117,8 @@ fn one_to_one_matching_beats_majority_voting() {
     // Object 0 has 3 returns in cluster 7 and 2 in cluster 8; object 1 has 3 in
     // cluster 7. One to one, the best is 0 -> 8 and 1 -> 7: 5 of 8 correct (majority
     // voting would give both objects cluster 7).
-    let truth = some(&[
-        Object(0),
-        Object(0),
-        Object(0),
-        Object(0),
-        Object(0),
-        Object(1),
-        Object(1),
-        Object(1),
-    ]);
-    let predicted = some(&[
-        Object(7),
-        Object(7),
-        Object(7),
-        Object(8),
-        Object(8),
-        Object(7),
-        Object(7),
-        Object(7),
-    ]);
+    let truth = objects(&[0, 0, 0, 0, 0, 1, 1, 1]);
+    let predicted = objects(&[7, 7, 7, 8, 8, 7, 7, 7]);
     let m = match_clusterings(&truth, &predicted).unwrap();
     assert_eq!(m.matches, vec![(0, 8, 2), (1, 7, 3)]);
     assert_eq!(m.accuracy(), Some(5.0 / 8.0));
@@ -141,36 +128,15 @@ fn one_to_one_matching_beats_majority_voting() {
 fn surplus_predicted_clusters_and_missed_objects_are_wrong() {
     // More predicted clusters than true objects: the background split in two, only one
     // part can be matched.
-    let truth = some(&[
-        Object(0),
-        Object(0),
-        Object(0),
-        Object(0),
-        Object(1),
-        Object(1),
-    ]);
-    let predicted = some(&[
-        Object(0),
-        Object(0),
-        Object(3),
-        Object(3),
-        Object(1),
-        Object(1),
-    ]);
+    let truth = objects(&[0, 0, 0, 0, 1, 1]);
+    let predicted = objects(&[0, 0, 3, 3, 1, 1]);
     assert_eq!(
         clustering_accuracy_matched(&truth, &predicted).unwrap(),
         Some(4.0 / 6.0)
     );
     // More true objects than predicted clusters: one cluster for everything matches
     // one object only.
-    let truth = some(&[
-        Object(0),
-        Object(0),
-        Object(1),
-        Object(1),
-        Object(2),
-        Object(2),
-    ]);
+    let truth = objects(&[0, 0, 1, 1, 2, 2]);
     let predicted = some(&[Object(0); 6]);
     let m = match_clusterings(&truth, &predicted).unwrap();
     assert_eq!(m.matches.len(), 1);

@@ -16,6 +16,12 @@ fn config() -> ValidSimConfig {
     SimConfig::for_preset(PRESET).check().unwrap()
 }
 
+/// Sequences `0..count` of `seed`, each of 200 scans in pairs of consecutive scans.
+fn walks(seed: u64, count: u64) -> impl Iterator<Item = Vec<ScanPair>> {
+    let c = config();
+    (0..count).map(move |index| simulate_sequence(&c, seed, index, 200, 1))
+}
+
 #[test]
 fn the_preset_is_named_and_brings_its_own_laser() {
     assert_eq!(PRESET.name(), "person-following");
@@ -161,9 +167,7 @@ fn followed(pairs: &[ScanPair]) -> Vec<Option<Followed>> {
 
 #[test]
 fn the_followed_person_walks_ahead_stops_turns_and_walks_on() {
-    let c = config();
-    for index in 0..6 {
-        let pairs = simulate_sequence(&c, 2, index, 200, 1);
+    for pairs in walks(2, 6) {
         let name = &pairs[0].name;
         let person = followed(&pairs);
         let present = person.iter().flatten().count();
@@ -299,10 +303,8 @@ fn the_followed_person_walks_ahead_stops_turns_and_walks_on() {
 
 #[test]
 fn other_pedestrians_pass_by_in_some_sequences() {
-    let c = config();
     let mut with_passers = 0;
-    for index in 0..10 {
-        let pairs = simulate_sequence(&c, 6, index, 200, 1);
+    for pairs in walks(6, 10) {
         let mut others = std::collections::BTreeSet::new();
         for p in &pairs {
             let truth = p.truth.as_ref().unwrap();
@@ -329,8 +331,7 @@ fn other_pedestrians_pass_by_in_some_sequences() {
 fn the_background_is_sparse_trees_posts_and_walls_but_seen() {
     let c = config();
     let mut shares = 0.0;
-    for index in 0..6 {
-        let pairs = simulate_sequence(&c, 8, index, 200, 1);
+    for pairs in walks(8, 6) {
         let name = &pairs[0].name;
         let mut seen = 0;
         let mut valid = 0;

@@ -7,13 +7,36 @@ use pgm_datasets::builders::{
 };
 use pgm_datasets::testdata::shared_data_dir;
 use pgm_datasets::{carmen, leigh, relations};
+use std::path::{Path, PathBuf};
+
+/// The shared data folder and its CARMEN log at `relative`; `None` without the folder.
+fn carmen_log(relative: &str) -> Option<(PathBuf, carmen::CarmenLog)> {
+    let data = shared_data_dir()?;
+    let log = carmen::read_carmen(data.join(relative)).unwrap();
+    Some((data, log))
+}
+
+/// The leigh-gtm1 folder of the shared data, its scans (without odometry) and its
+/// annotated people; `None` without the shared data.
+fn leigh_gtm1() -> Option<(PathBuf, leigh::LeighScans, Vec<leigh::PersonAnnotation>)> {
+    let dir = shared_data_dir()?.join("leigh-gtm1");
+    let scans = leigh::read_scans(dir.join("scans.txt")).unwrap();
+    let people = leigh::read_people(dir.join("people_gt.txt")).unwrap();
+    Some((dir, scans, people))
+}
+
+/// Attaches the odometry of the leigh-gtm1 folder `dir` to its `scans`.
+fn attach_leigh_odometry(dir: &Path, scans: &mut leigh::LeighScans) {
+    let path = dir.join("odom_at_scan.txt");
+    let odometry = leigh::read_odometry(&path).unwrap();
+    leigh::attach_odometry(scans, &odometry, &path).unwrap();
+}
 
 #[test]
 fn mit_csail_log_and_relations() {
-    let Some(data) = shared_data_dir() else {
+    let Some((data, log)) = carmen_log("mit-csail/mit-csail.clf") else {
         return;
     };
-    let log = carmen::read_carmen(data.join("mit-csail/mit-csail.clf")).unwrap();
     assert_eq!(log.scans.len(), 1988);
     assert_eq!(log.skipped_lines(), 0);
     assert!(log
@@ -38,10 +61,9 @@ fn mit_csail_log_and_relations() {
 
 #[test]
 fn intel_lab_consecutive_pairs() {
-    let Some(data) = shared_data_dir() else {
+    let Some((_, log)) = carmen_log("intel-lab/intel-lab.log") else {
         return;
     };
-    let log = carmen::read_carmen(data.join("intel-lab/intel-lab.log")).unwrap();
     assert_eq!(log.scans.len(), 2672);
     assert_eq!(log.vertices.len(), 2672);
     assert_eq!(log.skipped.get("EDGE2"), Some(&3901));
@@ -61,28 +83,21 @@ fn intel_lab_consecutive_pairs() {
 
 #[test]
 fn leigh_pairs_carry_moving_person_labels() {
-    let Some(data) = shared_data_dir() else {
+    let Some((dir, mut scans, people)) = leigh_gtm1() else {
         return;
     };
-    let dir = data.join("leigh-gtm1");
-    let mut scans = leigh::read_scans(dir.join("scans.txt")).unwrap();
     assert_eq!(scans.scans.len(), 873);
     assert!(scans
         .scans
         .iter()
         .all(|s| s.scan.len() == 768 && s.scan.validate().is_ok()));
-    let people = leigh::read_people(dir.join("people_gt.txt")).unwrap();
     assert_eq!(people.len(), 153);
     // Without odometry only threshold 0 is possible.
-    let no_odo = leigh_pairs(
-        &scans,
-        &people,
-        &LeighPairOptions {
-            k: 1,
-            ..Default::default()
-        },
-    );
-    assert!(no_odo.is_err());
+    let k1_options = LeighPairOptions {
+        k: 1,
+        ..Default::default()
+    };
+    assert!(leigh_pairs(&scans, &people, &k1_options).is_err());
     let all = leigh_pairs(
         &scans,
         &people,
@@ -95,17 +110,8 @@ fn leigh_pairs_carry_moving_person_labels() {
     )
     .unwrap();
     assert_eq!(all.len(), 106);
-    let odometry = leigh::read_odometry(dir.join("odom_at_scan.txt")).unwrap();
-    leigh::attach_odometry(&mut scans, &odometry, &dir.join("odom_at_scan.txt")).unwrap();
-    let k1 = leigh_pairs(
-        &scans,
-        &people,
-        &LeighPairOptions {
-            k: 1,
-            ..Default::default()
-        },
-    )
-    .unwrap();
+    attach_leigh_odometry(&dir, &mut scans);
+    let k1 = leigh_pairs(&scans, &people, &k1_options).unwrap();
     assert_eq!(k1.len(), 106);
     let displacement = LeighPairOptions {
         rule: LabelRule::Displacement,
@@ -198,16 +204,12 @@ fn leigh_pairs_carry_moving_person_labels() {
 
 #[test]
 fn leigh_track_rule_labels_walkers_only() {
-    let Some(data) = shared_data_dir() else {
+    let Some((dir, mut scans, people)) = leigh_gtm1() else {
         return;
     };
-    let dir = data.join("leigh-gtm1");
-    let mut scans = leigh::read_scans(dir.join("scans.txt")).unwrap();
-    let people = leigh::read_people(dir.join("people_gt.txt")).unwrap();
     // The track rule needs odometry (unless the walking speed is 0).
     assert!(leigh_pairs(&scans, &people, &LeighPairOptions::default()).is_err());
-    let odometry = leigh::read_odometry(dir.join("odom_at_scan.txt")).unwrap();
-    leigh::attach_odometry(&mut scans, &odometry, &dir.join("odom_at_scan.txt")).unwrap();
+    attach_leigh_odometry(&dir, &mut scans);
     // The data README's counts: pairs with a walking person 33 of 106, 30 of 97, 26 of 92.
     for (k, pairs, walkers) in [(1, 106, 33), (3, 97, 30), (5, 92, 26)] {
         let options = LeighPairOptions {

@@ -4,6 +4,13 @@
 use pgm_datasets::sim::{pair_rng, simulate_pairs, DatasetStats, ObjectKind, Preset, SimConfig};
 use pgm_datasets::ParamGuard;
 
+/// The checked default configuration of an urban `preset`
+/// ([`SimConfig::for_preset`], which is `SimConfig::default()` with that preset).
+fn urban(preset: Preset) -> pgm_datasets::sim::ValidSimConfig {
+    assert!(Preset::URBAN.contains(&preset), "{preset}");
+    SimConfig::for_preset(preset).check().unwrap()
+}
+
 #[test]
 fn mixed_pairs_have_several_moving_objects() {
     let c = SimConfig::default().check().unwrap();
@@ -153,12 +160,7 @@ fn situation_presets_always_show_a_moving_object() {
         Preset::Pedestrians,
         Preset::Mixed,
     ] {
-        let c = SimConfig {
-            preset,
-            ..SimConfig::default()
-        }
-        .check()
-        .unwrap();
+        let c = urban(preset);
         let stats = DatasetStats::from_pairs(&simulate_pairs(&c, 1, 100));
         assert!(
             stats.moving_objects_per_pair.min >= 1.0,
@@ -169,12 +171,7 @@ fn situation_presets_always_show_a_moving_object() {
 
 #[test]
 fn following_objects_keep_pace_with_the_ego_vehicle() {
-    let c = SimConfig {
-        preset: Preset::Following,
-        ..SimConfig::default()
-    }
-    .check()
-    .unwrap();
+    let c = urban(Preset::Following);
     let (mut cars, mut people) = (0, 0);
     for i in 0..40 {
         let mut rng = pair_rng(3, i);
@@ -222,12 +219,7 @@ fn an_unmet_pair_selection_is_reported() {
         simulate_pair, simulate_pair_report, simulate_pairs_report, try_simulate_pairs, SimError,
         SCENE_ATTEMPTS,
     };
-    let pedestrians = SimConfig {
-        preset: Preset::Pedestrians,
-        ..SimConfig::default()
-    }
-    .check()
-    .unwrap();
+    let pedestrians = urban(Preset::Pedestrians);
     let report = simulate_pairs_report(&pedestrians, 1, 100);
     // The pairs are those of simulate_pairs; about a quarter keep a failing last draw.
     assert_eq!(report.pairs, simulate_pairs(&pedestrians, 1, 100));
@@ -279,12 +271,7 @@ fn the_presets_streams_are_unchanged() {
     }
     let mut sums = Vec::new();
     for preset in [Preset::Mixed, Preset::Pedestrians, Preset::Random] {
-        let c = SimConfig {
-            preset,
-            ..SimConfig::default()
-        }
-        .check()
-        .unwrap();
+        let c = urban(preset);
         let mut pairs = simulate_pairs(&c, 1, 4);
         for p in &mut pairs {
             p.truth.as_mut().unwrap().objects = None;
@@ -301,12 +288,7 @@ const EXPECTED_SUMS: [u64; 3] = [0x87a12edc36614afa, 0x6cd234ac8157f030, 0xfb43c
 #[test]
 fn a_sequence_is_one_scene_scanned_at_a_steady_rate() {
     use pgm_datasets::sim::simulate_sequence;
-    let c = SimConfig {
-        preset: Preset::Overtaking,
-        ..SimConfig::default()
-    }
-    .check()
-    .unwrap();
+    let c = urban(Preset::Overtaking);
     let (scans, k) = (8, 3);
     let pairs = simulate_sequence(&c, 5, 2, scans, k);
     assert_eq!(pairs.len(), scans - k);

@@ -196,16 +196,7 @@ fn run(pair: &ScanPair, method: &Fixed) -> JointReport {
 #[test]
 fn objects_are_correct_with_more_than_half_their_returns_outside_the_background() {
     let truth_motion = Pose2::new(1.0, 0.0, 0.0);
-    let labels = vec![
-        Some(0),
-        Some(0),
-        Some(0),
-        Some(0),
-        Some(1),
-        Some(1),
-        Some(1),
-        Some(1),
-    ];
+    let labels = [0, 0, 0, 0, 1, 1, 1, 1].map(Some).to_vec();
     let pair = hand_pair(
         labels,
         vec![ClusterMotion {
@@ -217,14 +208,15 @@ fn objects_are_correct_with_more_than_half_their_returns_outside_the_background(
     // 3 of the object's 4 returns in cluster 1, whose motion is 0.2 m and 0.1 rad off.
     let estimated = Pose2::new(1.2, 0.0, 0.1);
     let ego = Pose2::new(0.05, 0.0, 0.0);
-    let r = run(
-        &pair,
-        &fixed(
-            &[0, 0, 0, 0, 1, 1, 1, 0],
-            vec![Pose2::identity(), estimated],
-            ego,
-        ),
-    );
+    // The method's clusters per beam, the background (0) and the object's cluster (1)
+    // with the estimated motion.
+    let with_clusters = |clusters: &[usize]| {
+        run(
+            &pair,
+            &fixed(clusters, vec![Pose2::identity(), estimated], ego),
+        )
+    };
+    let r = with_clusters(&[0, 0, 0, 0, 1, 1, 1, 0]);
     assert_eq!((r.objects_correct, r.objects_total), (1, 1));
     let s = r.summary;
     assert!((s.object_rotation_error_median.unwrap() - 0.1).abs() < 1e-12);
@@ -244,26 +236,12 @@ fn objects_are_correct_with_more_than_half_their_returns_outside_the_background(
     assert_eq!(s.outliers_found, None);
 
     // Exactly half of the object's returns: not correctly clustered.
-    let r = run(
-        &pair,
-        &fixed(
-            &[0, 0, 0, 0, 1, 1, 0, 0],
-            vec![Pose2::identity(), estimated],
-            ego,
-        ),
-    );
+    let r = with_clusters(&[0, 0, 0, 0, 1, 1, 0, 0]);
     assert_eq!(r.objects_correct, 0);
     assert_eq!(r.summary.object_rotation_error_median, None);
     // The object in the background cluster (matched to it one to one, as the true
     // background is split off into cluster 1): not a detection.
-    let r = run(
-        &pair,
-        &fixed(
-            &[1, 1, 1, 1, 0, 0, 0, 0],
-            vec![Pose2::identity(), estimated],
-            ego,
-        ),
-    );
+    let r = with_clusters(&[1, 1, 1, 1, 0, 0, 0, 0]);
     assert_eq!(r.objects_correct, 0);
 }
 

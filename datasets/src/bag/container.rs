@@ -641,6 +641,11 @@ struct Body<'a> {
 }
 
 impl<'a> Body<'a> {
+    /// The body `data` of a `what` record, read from its start.
+    fn new(data: &'a [u8], what: &'static str) -> Self {
+        Body { data, pos: 0, what }
+    }
+
     fn take(&mut self, n: usize, field: &str) -> Result<&'a [u8], String> {
         let left = self.data.len() - self.pos;
         if n > left {
@@ -737,11 +742,7 @@ impl McapState {
         let at = |e: String| container::<E>(format!("MCAP, record {number} ({place}): {e}"));
         match opcode {
             op::SCHEMA => {
-                let mut b = Body {
-                    data,
-                    pos: 0,
-                    what: "schema",
-                };
+                let mut b = Body::new(data, "schema");
                 let id = b.u16("id").map_err(at)?;
                 let name = b.string("name").map_err(at)?;
                 let encoding = b.string("encoding").map_err(at)?;
@@ -753,11 +754,7 @@ impl McapState {
                 });
             }
             op::CHANNEL => {
-                let mut b = Body {
-                    data,
-                    pos: 0,
-                    what: "channel",
-                };
+                let mut b = Body::new(data, "channel");
                 let id = b.u16("id").map_err(at)?;
                 let schema_id = b.u16("schema_id").map_err(at)?;
                 let topic = b.string("topic").map_err(at)?;
@@ -812,11 +809,7 @@ impl McapState {
                 }
             }
             op::MESSAGE => {
-                let mut b = Body {
-                    data,
-                    pos: 0,
-                    what: "message",
-                };
+                let mut b = Body::new(data, "message");
                 let channel = b.u16("channel_id").map_err(at)?;
                 b.u32("sequence").map_err(at)?;
                 let log_time = b.u64("log_time").map_err(at)?;
@@ -861,11 +854,7 @@ impl McapState {
 
 /// Checks an attachment record's `crc` (of every field before it; 0: not written).
 fn check_attachment(data: &[u8]) -> Result<(), String> {
-    let mut b = Body {
-        data,
-        pos: 0,
-        what: "attachment",
-    };
+    let mut b = Body::new(data, "attachment");
     b.u64("log_time")?;
     b.u64("create_time")?;
     let name = b.string("name")?;
@@ -926,11 +915,7 @@ fn read_chunk<E>(
 ) -> Result<(), ReadError<E>> {
     use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
     let here = |e: String| container::<E>(format!("MCAP, the chunk at byte {at}: {e}"));
-    let mut header = Body {
-        data: record.get(9..).unwrap_or_default(),
-        pos: 0,
-        what: "chunk",
-    };
+    let mut header = Body::new(record.get(9..).unwrap_or_default(), "chunk");
     let start = header.u64("message_start_time").map_err(here)?;
     let end = header.u64("message_end_time").map_err(here)?;
     let size = header.u64("uncompressed_size").map_err(here)?;

@@ -152,19 +152,30 @@ impl<'a> Reader<'a> {
         Ok(u32::from_le_bytes(self.fixed::<4>(path)?))
     }
 
+    fn i32(&mut self, path: &Path) -> Result<i32, DecodeError> {
+        Ok(i32::from_le_bytes(self.fixed::<4>(path)?))
+    }
+
     fn length(&mut self, path: &Path, min_element: usize) -> Result<usize, DecodeError> {
         let n = self.u32(path)? as usize;
         let needed = n.saturating_mul(min_element.max(1));
-        if needed > self.left() {
-            return Err(self.error(
-                path,
-                format!(
-                    "length {n} needs at least {needed} more bytes, {} left in the message",
-                    self.left()
-                ),
-            ));
-        }
+        self.need(path, needed, |left| {
+            format!("length {n} needs at least {needed} more bytes, {left} left in the message")
+        })?;
         Ok(n)
+    }
+
+    /// Fails unless `needed` more bytes are left; `problem(left)` says what needs them.
+    fn need(
+        &self,
+        path: &Path,
+        needed: usize,
+        problem: impl FnOnce(usize) -> String,
+    ) -> Result<(), DecodeError> {
+        if needed > self.left() {
+            return Err(self.error(path, problem(self.left())));
+        }
+        Ok(())
     }
 
     fn string(&mut self, path: &Path) -> Result<String, DecodeError> {
@@ -213,22 +224,15 @@ impl<'a> Reader<'a> {
             Primitive::WString => {
                 return Err(self.error(path, "wstring fields are not supported"));
             }
-            Primitive::Time => {
-                let sec = u32::from_le_bytes(self.fixed::<4>(path)?);
-                let nanosec = u32::from_le_bytes(self.fixed::<4>(path)?);
-                Value::Time {
-                    sec: i64::from(sec),
-                    nanosec: i64::from(nanosec),
-                }
-            }
-            Primitive::Duration => {
-                let sec = i32::from_le_bytes(self.fixed::<4>(path)?);
-                let nanosec = i32::from_le_bytes(self.fixed::<4>(path)?);
-                Value::Time {
-                    sec: i64::from(sec),
-                    nanosec: i64::from(nanosec),
-                }
-            }
+            // Seconds, then nanoseconds (fields are read in the order written).
+            Primitive::Time => Value::Time {
+                sec: i64::from(self.u32(path)?),
+                nanosec: i64::from(self.u32(path)?),
+            },
+            Primitive::Duration => Value::Time {
+                sec: i64::from(self.i32(path)?),
+                nanosec: i64::from(self.i32(path)?),
+            },
         })
     }
 }
@@ -332,8 +336,12 @@ impl Decoder {
             reader.origin = 4;
         }
         let root = &self.definitions.types[&self.definitions.root];
-        let mut path = Vec::new();
-        self.message(&mut reader, root, &mut path)
+        let mut walk = Walk {
+            decoder: self,
+            reader,
+            path: Vec::new(),
+        };
+        walk.message(root)
     }
 
     fn min_size(&self, ty: &FieldType) -> usize {
@@ -342,95 +350,87 @@ impl Decoder {
             FieldType::Message(m) => self.min_sizes.get(m).copied().unwrap_or(0),
         }
     }
+}
 
-    fn message(
-        &self,
-        reader: &mut Reader<'_>,
-        t: &MessageType,
-        path: &mut Path,
-    ) -> Result<Value, DecodeError> {
+/// One message being decoded: the decoder, the reader over its bytes and the path of
+/// the field being read (for errors).
+struct Walk<'d, 'r> {
+    decoder: &'d Decoder,
+    reader: Reader<'r>,
+    path: Path,
+}
+
+impl<'d> Walk<'d, '_> {
+    fn message(&mut self, t: &'d MessageType) -> Result<Value, DecodeError> {
+        let decoder = self.decoder;
         let mut fields = Vec::with_capacity(t.fields.len());
         for f in &t.fields {
-            path.push(f.name.clone());
+            self.path.push(f.name.clone());
             let v = match f.arity {
-                Arity::Single => self.element(reader, &f.ty, path)?,
+                Arity::Single => self.element(&f.ty)?,
                 Arity::Fixed(n) => {
-                    let needed = n.saturating_mul(self.min_size(&f.ty));
-                    if needed > reader.left() {
-                        return Err(reader.error(
-                            path,
-                            format!(
-                                "fixed array of {n} needs at least {needed} bytes, {} left",
-                                reader.left()
-                            ),
-                        ));
-                    }
-                    self.array(reader, &f.ty, n, path)?
+                    let needed = n.saturating_mul(decoder.min_size(&f.ty));
+                    self.reader.need(&self.path, needed, |left| {
+                        format!("fixed array of {n} needs at least {needed} bytes, {left} left")
+                    })?;
+                    self.array(&f.ty, n)?
                 }
                 Arity::Sequence => {
-                    let n = reader.length(path, self.min_size(&f.ty))?;
-                    self.array(reader, &f.ty, n, path)?
+                    let n = self.reader.length(&self.path, decoder.min_size(&f.ty))?;
+                    self.array(&f.ty, n)?
                 }
             };
-            path.pop();
+            self.path.pop();
             fields.push((f.name.clone(), v));
         }
         Ok(Value::Message(fields))
     }
 
-    fn element(
-        &self,
-        reader: &mut Reader<'_>,
-        ty: &FieldType,
-        path: &mut Path,
-    ) -> Result<Value, DecodeError> {
+    fn element(&mut self, ty: &'d FieldType) -> Result<Value, DecodeError> {
         match ty {
-            FieldType::Primitive(p) => reader.primitive(*p, path),
+            FieldType::Primitive(p) => self.reader.primitive(*p, &self.path),
             FieldType::Message(m) => {
-                let Some(t) = self.definitions.types.get(m) else {
-                    return Err(reader.error(path, format!("type {m} is not defined")));
+                let decoder = self.decoder;
+                let Some(t) = decoder.definitions.types.get(m) else {
+                    return Err(self
+                        .reader
+                        .error(&self.path, format!("type {m} is not defined")));
                 };
-                self.message(reader, t, path)
+                self.message(t)
             }
         }
     }
 
-    fn array(
-        &self,
-        reader: &mut Reader<'_>,
-        ty: &FieldType,
-        n: usize,
-        path: &mut Path,
-    ) -> Result<Value, DecodeError> {
+    fn array(&mut self, ty: &'d FieldType, n: usize) -> Result<Value, DecodeError> {
         if let FieldType::Primitive(p) = ty {
             if is_numeric(*p) {
-                let mut out = Vec::with_capacity(n);
-                for k in 0..n {
-                    path.push(format!("[{k}]"));
-                    out.push(reader.number(*p, path)?);
-                    path.pop();
-                }
-                return Ok(Value::Numbers(out));
+                let numbers = self.elements(n, |w| w.reader.number(*p, &w.path))?;
+                return Ok(Value::Numbers(numbers));
             }
         }
         // Elements of size 0 (empty messages) take no bytes: bound their number by the
         // bytes left anyway, so a length from the file never sizes an allocation alone.
-        if self.min_size(ty) == 0 && n > reader.left() {
-            return Err(reader.error(
-                path,
-                format!(
-                    "{n} empty elements: more than the {} bytes left",
-                    reader.left()
-                ),
-            ));
+        if self.decoder.min_size(ty) == 0 {
+            self.reader.need(&self.path, n, |left| {
+                format!("{n} empty elements: more than the {left} bytes left")
+            })?;
         }
+        Ok(Value::Array(self.elements(n, |w| w.element(ty))?))
+    }
+
+    /// `n` elements, each read by `read` with its index `[k]` on the path.
+    fn elements<T>(
+        &mut self,
+        n: usize,
+        mut read: impl FnMut(&mut Self) -> Result<T, DecodeError>,
+    ) -> Result<Vec<T>, DecodeError> {
         let mut out = Vec::with_capacity(n);
         for k in 0..n {
-            path.push(format!("[{k}]"));
-            out.push(self.element(reader, ty, path)?);
-            path.pop();
+            self.path.push(format!("[{k}]"));
+            out.push(read(self)?);
+            self.path.pop();
         }
-        Ok(Value::Array(out))
+        Ok(out)
     }
 }
 
@@ -559,30 +559,33 @@ mod tests {
     fn cdr_alignment_and_endianness() {
         let text = "uint8 a\nfloat64 b\nstring s\nfloat32[] r\n";
         let d = Decoder::new(Definitions::parse("t/T", text, Dialect::Ros2).unwrap());
-        let mut le = vec![0u8, 1, 0, 0];
-        le.push(9);
-        le.extend([0u8; 7]);
-        le.extend(1.5f64.to_le_bytes());
-        le.extend(3u32.to_le_bytes());
-        le.extend(b"ab\0");
-        le.push(0); // pad to 4
-        le.extend(1u32.to_le_bytes());
-        le.extend(0.25f32.to_le_bytes());
-        let v = d.decode(&le).unwrap();
+        // The same message little-endian (encapsulation 00 01) or big-endian (00 00).
+        let message = |big_endian: bool| {
+            // A number's little-endian bytes, in the message's byte order.
+            let put = |m: &mut Vec<u8>, le: &[u8]| {
+                if big_endian {
+                    m.extend(le.iter().rev());
+                } else {
+                    m.extend(le);
+                }
+            };
+            let mut m = vec![0u8, u8::from(!big_endian), 0, 0];
+            m.push(9);
+            m.extend([0u8; 7]);
+            put(&mut m, &1.5f64.to_le_bytes());
+            put(&mut m, &3u32.to_le_bytes());
+            m.extend(b"ab\0");
+            m.push(0); // pad to 4
+            put(&mut m, &1u32.to_le_bytes());
+            put(&mut m, &0.25f32.to_le_bytes());
+            m
+        };
+        let v = d.decode(&message(false)).unwrap();
         assert_eq!(v.get("a").unwrap().as_u64(), Some(9));
         assert_eq!(v.get("b").unwrap().as_f64(), Some(1.5));
         assert_eq!(v.get("s").unwrap().as_str(), Some("ab"));
         assert_eq!(v.get("r").unwrap().as_numbers().unwrap(), &[0.25]);
-        let mut be = vec![0u8, 0, 0, 0];
-        be.push(9);
-        be.extend([0u8; 7]);
-        be.extend(1.5f64.to_be_bytes());
-        be.extend(3u32.to_be_bytes());
-        be.extend(b"ab\0");
-        be.push(0);
-        be.extend(1u32.to_be_bytes());
-        be.extend(0.25f32.to_be_bytes());
-        assert_eq!(d.decode(&be).unwrap(), v);
+        assert_eq!(d.decode(&message(true)).unwrap(), v);
         let e = d.decode(&[0, 7, 0, 0]).unwrap_err();
         assert!(e.problem.contains("encapsulation"), "{e}");
     }

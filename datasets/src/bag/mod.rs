@@ -476,17 +476,8 @@ fn laser_scan(cx: &MessageContext<'_>, m: &Value) -> Result<BagScan> {
     if n == 0 {
         return Err(cx.error("ranges", "a laser scan needs at least one beam"));
     }
-    if n > 1 && increment == 0.0 {
-        return Err(cx.error(
-            "angle_increment",
-            format!("{n} beams 0 rad apart would all lie on one ray"),
-        ));
-    }
-    if increment.abs() * (n - 1) as f64 > limits::MAX_SPAN {
-        return Err(cx.error(
-            "angle_increment",
-            format!("{n} beams {increment} rad apart span more than a full turn"),
-        ));
+    if let Err(problem) = crate::beams::check_increment(n, increment) {
+        return Err(cx.error("angle_increment", problem));
     }
     // The ranges must fill angle_min..angle_max to within one increment; within that
     // the increment wins (crate::beams).
@@ -519,13 +510,9 @@ fn laser_scan(cx: &MessageContext<'_>, m: &Value) -> Result<BagScan> {
                 format!("a range of {r} m means nothing here"),
             ));
         }
-        if crate::beams::is_special_range(r) {
-            ranges.push(0.0);
-            valid.push(false);
-        } else {
-            ranges.push(r);
-            valid.push(r > range_min && r < range_max);
-        }
+        let (range, ok) = crate::beams::stored_beam(r, range_min, range_max);
+        ranges.push(range);
+        valid.push(ok);
     }
     Ok(BagScan {
         number: cx.number,
@@ -534,7 +521,7 @@ fn laser_scan(cx: &MessageContext<'_>, m: &Value) -> Result<BagScan> {
         frame,
         scan: Scan {
             timestamp: stamp,
-            angles: (0..n).map(|k| angle_min + k as f64 * increment).collect(),
+            angles: crate::beams::beam_angles(angle_min, increment, n),
             ranges,
             valid,
             max_range: range_max,

@@ -455,6 +455,26 @@ pub fn drive(n: usize) -> Vec<Record> {
     out
 }
 
+/// The [`drive`] with every scan stating `angles(k)` (`angle_min`, `angle_max`,
+/// `angle_increment`) instead of the consistent ones, `k` counting scans from 0.
+pub fn drive_with_angles(n: usize, angles: impl Fn(usize) -> [f32; 3]) -> Vec<Record> {
+    let mut k = 0;
+    drive(n)
+        .into_iter()
+        .map(|mut r| {
+            if let Msg::Scan { stamp_ns, ranges } = &r.msg {
+                r.msg = Msg::ScanAngles {
+                    stamp_ns: *stamp_ns,
+                    angles: angles(k),
+                    ranges: ranges.clone(),
+                };
+                k += 1;
+            }
+            r
+        })
+        .collect()
+}
+
 fn ros1_field(name: &str, value: &[u8]) -> Vec<u8> {
     let mut f = Vec::new();
     f.extend(((name.len() + 1 + value.len()) as u32).to_le_bytes());
@@ -562,6 +582,21 @@ pub fn ros1_bag_compressed(
     bag
 }
 
+/// Adds to the MCAP writer `w` the ROS 2 schema (`ros2msg`) of `record`'s message
+/// type and a CDR channel on its topic; returns the channel's id.
+pub fn add_ros2_channel<W: std::io::Write + std::io::Seek>(
+    w: &mut mcap::Writer<W>,
+    record: &Record,
+) -> mcap::McapResult<u16> {
+    let ros2_name = record.type_name.replacen('/', "/msg/", 1);
+    let schema = w.add_schema(
+        &ros2_name,
+        "ros2msg",
+        definition(record.type_name, false).as_bytes(),
+    )?;
+    w.add_channel(schema, record.topic, "cdr", &BTreeMap::new())
+}
+
 /// An MCAP file (ROS 2: `ros2msg` schemas, CDR messages) holding `records`.
 pub fn mcap_bag(
     records: &[Record],
@@ -579,17 +614,7 @@ pub fn mcap_bag(
         let mut seq: BTreeMap<&str, u32> = BTreeMap::new();
         for r in records {
             if !channels.contains_key(r.topic) {
-                let ros2_name = r.type_name.replacen('/', "/msg/", 1);
-                let schema = w
-                    .add_schema(
-                        &ros2_name,
-                        "ros2msg",
-                        definition(r.type_name, false).as_bytes(),
-                    )
-                    .expect("schema");
-                let channel = w
-                    .add_channel(schema, r.topic, "cdr", &BTreeMap::new())
-                    .expect("channel");
+                let channel = add_ros2_channel(&mut w, r).expect("schema and channel");
                 channels.insert(r.topic, channel);
             }
             let s = seq.entry(r.topic).or_insert(0);

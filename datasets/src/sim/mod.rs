@@ -272,6 +272,29 @@ fn invalid(name: &'static str, value: impl std::fmt::Debug, expected: &'static s
     }
 }
 
+/// `Ok` when `value` is finite and `>= 0`, else [`invalid`].
+fn non_negative(name: &'static str, value: f64, expected: &'static str) -> Result<()> {
+    if value.is_finite() && value >= 0.0 {
+        Ok(())
+    } else {
+        Err(invalid(name, value, expected))
+    }
+}
+
+/// `Ok` when `[min, max]` is finite with `0 < min <= max <= limit`, else [`invalid`].
+fn positive_interval(
+    name: &'static str,
+    [min, max]: [f64; 2],
+    limit: f64,
+    expected: &'static str,
+) -> Result<()> {
+    if min.is_finite() && max.is_finite() && min > 0.0 && min <= max && max <= limit {
+        Ok(())
+    } else {
+        Err(invalid(name, [min, max], expected))
+    }
+}
+
 impl SimConfig {
     /// Checks every value once; the error names the field and the offending value.
     fn validate(&self) -> Result<()> {
@@ -289,48 +312,36 @@ impl SimConfig {
                 "a positive number of metres",
             ));
         }
-        if !(self.range_noise.is_finite() && self.range_noise >= 0.0) {
-            return Err(invalid(
-                "range_noise",
-                self.range_noise,
-                "a standard deviation >= 0 in metres",
-            ));
-        }
+        non_negative(
+            "range_noise",
+            self.range_noise,
+            "a standard deviation >= 0 in metres",
+        )?;
         if !(self.dropout.is_finite() && (0.0..1.0).contains(&self.dropout)) {
             return Err(invalid("dropout", self.dropout, "a probability in [0, 1)"));
         }
-        let [d0, d1] = self.pair_distance;
-        if !(d0.is_finite() && d1.is_finite() && d0 > 0.0 && d0 <= d1 && d1 <= 20.0) {
-            return Err(invalid(
-                "pair_distance",
-                self.pair_distance,
-                "[min, max] metres with 0 < min <= max <= 20",
-            ));
-        }
-        let [v0, v1] = self.ego_speed;
-        if !(v0.is_finite() && v1.is_finite() && v0 > 0.0 && v0 <= v1 && v1 <= 50.0) {
-            return Err(invalid(
-                "ego_speed",
-                self.ego_speed,
-                "[min, max] m/s with 0 < min <= max <= 50",
-            ));
-        }
-        if !(self.odometry_translation_noise.is_finite() && self.odometry_translation_noise >= 0.0)
-        {
-            return Err(invalid(
-                "odometry_translation_noise",
-                self.odometry_translation_noise,
-                "a standard deviation >= 0 in metres per metre",
-            ));
-        }
-        if !(self.odometry_rotation_noise.is_finite() && self.odometry_rotation_noise >= 0.0) {
-            return Err(invalid(
-                "odometry_rotation_noise",
-                self.odometry_rotation_noise,
-                "a standard deviation >= 0 in radians per metre",
-            ));
-        }
-        Ok(())
+        positive_interval(
+            "pair_distance",
+            self.pair_distance,
+            20.0,
+            "[min, max] metres with 0 < min <= max <= 20",
+        )?;
+        positive_interval(
+            "ego_speed",
+            self.ego_speed,
+            50.0,
+            "[min, max] m/s with 0 < min <= max <= 50",
+        )?;
+        non_negative(
+            "odometry_translation_noise",
+            self.odometry_translation_noise,
+            "a standard deviation >= 0 in metres per metre",
+        )?;
+        non_negative(
+            "odometry_rotation_noise",
+            self.odometry_rotation_noise,
+            "a standard deviation >= 0 in radians per metre",
+        )
     }
 }
 

@@ -111,12 +111,7 @@ impl Plan {
     }
 
     fn push(&mut self, speed: f64, yaw_rate: f64, duration: f64) {
-        let piece = Trajectory {
-            start: self.pose,
-            speed,
-            yaw_rate,
-            lateral_speed: 0.0,
-        };
+        let piece = Trajectory::unicycle(self.pose, speed, yaw_rate);
         self.starts.push(self.time);
         self.pieces.push(piece);
         self.pose = piece.pose_at(duration);
@@ -191,12 +186,7 @@ fn robot_path(person: &Path, start: Pose2, distance: f64, steps: usize) -> Path 
         let room = (next.x - MIN_DISTANCE) / SCAN_PERIOD;
         command = command.min(room).clamp(0.0, MAX_ROBOT_SPEED);
         let yaw_rate = (HEADING_GAIN * bearing).clamp(-MAX_ROBOT_YAW_RATE, MAX_ROBOT_YAW_RATE);
-        let piece = Trajectory {
-            start: pose,
-            speed: command,
-            yaw_rate,
-            lateral_speed: 0.0,
-        };
+        let piece = Trajectory::unicycle(pose, command, yaw_rate);
         starts.push(t);
         pieces.push(piece);
         pose = piece.pose_at(SCAN_PERIOD);
@@ -241,12 +231,11 @@ fn passer<R: Rng>(
     let meet = r.transform_point(&meet);
     let direction = Vector2::new(heading.cos(), heading.sin());
     let start = meet - direction * speed * when;
-    let path = Path::single(Trajectory {
-        start: Pose2::new(start.x, start.y, heading),
+    let path = Path::single(Trajectory::unicycle(
+        Pose2::new(start.x, start.y, heading),
         speed,
-        yaw_rate: 0.0,
-        lateral_speed: 0.0,
-    });
+        0.0,
+    ));
     let mine = samples(&path, steps);
     // Only where it can be seen matters: while it is within SEEN_REACH of the robot
     // (bodies[0]).

@@ -109,15 +109,16 @@ impl Preset {
     /// The urban street presets, the papers' situations scanned by the configured
     /// laser from a car (every preset but [`Preset::PersonFollowing`]), in the order
     /// of [`Preset::ALL`].
-    pub const URBAN: [Preset; 7] = [
-        Preset::Overtaking,
-        Preset::Intersection,
-        Preset::Oncoming,
-        Preset::Pedestrians,
-        Preset::Mixed,
-        Preset::Random,
-        Preset::Following,
-    ];
+    pub const URBAN: [Preset; 7] = {
+        // `Preset::ALL` but its last preset, `PersonFollowing`.
+        let mut urban = [Preset::Overtaking; 7];
+        let mut i = 0;
+        while i < urban.len() {
+            urban[i] = Preset::ALL[i];
+            i += 1;
+        }
+        urban
+    };
 
     /// The preset names accepted by [`Preset::from_str`].
     pub const NAMES: [&'static str; 8] = [
@@ -185,15 +186,7 @@ impl Preset {
         }
         let c = config.params();
         let ego_speed = uniform(rng, c.ego_speed[0], c.ego_speed[1]);
-        let distance = uniform(rng, c.pair_distance[0], c.pair_distance[1]);
-        let interval = distance / ego_speed;
-        let curvature = uniform(rng, -0.004, 0.004);
-        let ego = Trajectory {
-            start: Pose2::new(0.0, uniform(rng, -0.3, 0.3), uniform(rng, -0.02, 0.02)),
-            speed: ego_speed,
-            yaw_rate: curvature * ego_speed,
-            lateral_speed: 0.0,
-        };
+        let (ego, interval) = ego_drive(rng, c.pair_distance, ego_speed, 0.004);
         let intersection = match self {
             Preset::Intersection => true,
             Preset::Overtaking | Preset::Oncoming => false,
@@ -290,15 +283,7 @@ fn following_scene<R: Rng>(config: &ValidSimConfig, rng: &mut R) -> Scene {
     } else {
         uniform(rng, c.ego_speed[0], c.ego_speed[1])
     };
-    let distance = uniform(rng, c.pair_distance[0], c.pair_distance[1]);
-    let interval = distance / ego_speed;
-    let curvature = uniform(rng, -0.002, 0.002);
-    let ego = Trajectory {
-        start: Pose2::new(0.0, uniform(rng, -0.3, 0.3), uniform(rng, -0.02, 0.02)),
-        speed: ego_speed,
-        yaw_rate: curvature * ego_speed,
-        lateral_speed: 0.0,
-    };
+    let (ego, interval) = ego_drive(rng, c.pair_distance, ego_speed, 0.002);
     let layout = Layout::random(rng, 2, false);
     let mut b = Builder::new(rng, layout, ego, interval, ego_speed);
     b.buildings();
@@ -434,6 +419,45 @@ struct Footprint {
 struct Candidate {
     object: MovingObject,
     footprint: Footprint,
+}
+
+impl Candidate {
+    /// `object` with the footprint `circles` (body frame) along its trajectory.
+    fn new(object: MovingObject, circles: Vec<(Point2<f64>, f64)>) -> Self {
+        let trajectory = object.trajectory;
+        Candidate {
+            object,
+            footprint: Footprint {
+                trajectory,
+                circles,
+            },
+        }
+    }
+}
+
+/// The ego vehicle's drive at `ego_speed` over a random distance within
+/// `pair_distance` (m), near y = 0 and heading along x, on a curve of random curvature
+/// within ±`max_curvature` (1/m): its trajectory and the time it takes.
+fn ego_drive<R: Rng>(
+    rng: &mut R,
+    pair_distance: [f64; 2],
+    ego_speed: f64,
+    max_curvature: f64,
+) -> (Trajectory, f64) {
+    let distance = uniform(rng, pair_distance[0], pair_distance[1]);
+    let interval = distance / ego_speed;
+    let curvature = uniform(rng, -max_curvature, max_curvature);
+    let ego = Trajectory::unicycle(
+        Pose2::new(0.0, uniform(rng, -0.3, 0.3), uniform(rng, -0.02, 0.02)),
+        ego_speed,
+        curvature * ego_speed,
+    );
+    (ego, interval)
+}
+
+/// A straight drive from (`x`, `y`) heading `h` at `speed`.
+fn straight(x: f64, y: f64, h: f64, speed: f64) -> Trajectory {
+    Trajectory::unicycle(Pose2::new(x, y, h), speed, 0.0)
 }
 
 fn car_circles(length: f64, width: f64) -> Vec<(Point2<f64>, f64)> {
@@ -732,28 +756,27 @@ impl<'a, R: Rng> Builder<'a, R> {
 
     // ----- moving objects ----------------------------------------------------------
 
+    /// A unicycle at (`x`, `y`) heading `h` at `speed`, turning at the ego's rate.
+    fn with_ego_turn(&self, x: f64, y: f64, h: f64, speed: f64) -> Trajectory {
+        Trajectory::unicycle(Pose2::new(x, y, h), speed, self.ego.yaw_rate)
+    }
+
     fn car(&mut self, trajectory: Trajectory) -> Candidate {
         let length = uniform(self.rng, 4.2, 4.9);
         let width = uniform(self.rng, 1.7, 1.95);
-        Candidate {
-            object: MovingObject::car(length, width, trajectory),
-            footprint: Footprint {
-                trajectory,
-                circles: car_circles(length, width),
-            },
-        }
+        Candidate::new(
+            MovingObject::car(length, width, trajectory),
+            car_circles(length, width),
+        )
     }
 
     fn pedestrian(&mut self, trajectory: Trajectory) -> Candidate {
         let stride = uniform(self.rng, 0.0, 0.35);
         let leg = uniform(self.rng, 0.06, 0.08);
-        Candidate {
-            object: MovingObject::pedestrian(stride, leg, trajectory),
-            footprint: Footprint {
-                trajectory,
-                circles: vec![(Point2::origin(), 0.35)],
-            },
-        }
+        Candidate::new(
+            MovingObject::pedestrian(stride, leg, trajectory),
+            vec![(Point2::origin(), 0.35)],
+        )
     }
 
     /// A car ahead in the ego lane, 8-35 m away, at 0.5-1.3 times the ego speed.
@@ -762,12 +785,7 @@ impl<'a, R: Rng> Builder<'a, R> {
         let y = uniform(self.rng, -0.2, 0.2);
         let speed = (self.ego_speed * uniform(self.rng, 0.5, 1.3)).clamp(5.0, 15.0);
         let h = uniform(self.rng, -0.02, 0.02);
-        Some(self.car(Trajectory {
-            start: Pose2::new(x, y, h),
-            speed,
-            yaw_rate: 0.0,
-            lateral_speed: 0.0,
-        }))
+        Some(self.car(straight(x, y, h, speed)))
     }
 
     /// A car ahead in the ego lane, 8-35 m away, at the ego speed within 5 %.
@@ -776,12 +794,7 @@ impl<'a, R: Rng> Builder<'a, R> {
         let y = self.ego.start.y() + uniform(self.rng, -0.2, 0.2);
         let speed = self.ego_speed * uniform(self.rng, 0.95, 1.05);
         let h = self.ego.start.theta() + uniform(self.rng, -0.01, 0.01);
-        Some(self.car(Trajectory {
-            start: Pose2::new(x, y, h),
-            speed,
-            yaw_rate: self.ego.yaw_rate,
-            lateral_speed: 0.0,
-        }))
+        Some(self.car(self.with_ego_turn(x, y, h, speed)))
     }
 
     /// A car in the next lane to the left, from 3 m behind to 15 m ahead, at the ego
@@ -790,12 +803,7 @@ impl<'a, R: Rng> Builder<'a, R> {
         let x = uniform(self.rng, -3.0, 15.0);
         let y = LANE_WIDTH + uniform(self.rng, -0.2, 0.2);
         let h = self.ego.start.theta();
-        Some(self.car(Trajectory {
-            start: Pose2::new(x, y, h),
-            speed: self.ego_speed,
-            yaw_rate: self.ego.yaw_rate,
-            lateral_speed: 0.0,
-        }))
+        Some(self.car(self.with_ego_turn(x, y, h, self.ego_speed)))
     }
 
     /// A person walking 1.5-4 m ahead of the (slow) ego vehicle, at its speed within 5 %.
@@ -804,12 +812,7 @@ impl<'a, R: Rng> Builder<'a, R> {
         let y = self.ego.start.y() + uniform(self.rng, -0.4, 0.4);
         let h = self.ego.start.theta() + uniform(self.rng, -0.05, 0.05);
         let speed = self.ego_speed * uniform(self.rng, 0.95, 1.05);
-        Some(self.pedestrian(Trajectory {
-            start: Pose2::new(x, y, h),
-            speed,
-            yaw_rate: self.ego.yaw_rate,
-            lateral_speed: 0.0,
-        }))
+        Some(self.pedestrian(self.with_ego_turn(x, y, h, speed)))
     }
 
     /// A car in the next lane to the left (the opposite lane on a one-lane street),
@@ -819,12 +822,7 @@ impl<'a, R: Rng> Builder<'a, R> {
         let y = LANE_WIDTH + uniform(self.rng, -0.2, 0.2);
         let speed = (self.ego_speed + uniform(self.rng, 2.5, 6.0)).min(18.0);
         let h = uniform(self.rng, -0.02, 0.02);
-        Some(self.car(Trajectory {
-            start: Pose2::new(x, y, h),
-            speed,
-            yaw_rate: 0.0,
-            lateral_speed: 0.0,
-        }))
+        Some(self.car(straight(x, y, h, speed)))
     }
 
     /// A car on one of the opposite lanes, 6-60 m ahead, at 6-14 m/s.
@@ -834,12 +832,7 @@ impl<'a, R: Rng> Builder<'a, R> {
         let x = uniform(self.rng, 6.0, 60.0);
         let speed = uniform(self.rng, 6.0, 14.0);
         let h = PI + uniform(self.rng, -0.02, 0.02);
-        Some(self.car(Trajectory {
-            start: Pose2::new(x, y, h),
-            speed,
-            yaw_rate: 0.0,
-            lateral_speed: 0.0,
-        }))
+        Some(self.car(straight(x, y, h, speed)))
     }
 
     /// A car driving along the cross street through the intersection, at 5-13 m/s,
@@ -856,12 +849,7 @@ impl<'a, R: Rng> Builder<'a, R> {
         let y = self.layout.centre() + uniform(self.rng, -25.0, 25.0);
         let speed = uniform(self.rng, 5.0, 13.0);
         let h = h + uniform(self.rng, -0.02, 0.02);
-        Some(self.car(Trajectory {
-            start: Pose2::new(x, y, h),
-            speed,
-            yaw_rate: 0.0,
-            lateral_speed: 0.0,
-        }))
+        Some(self.car(straight(x, y, h, speed)))
     }
 
     /// A car turning at the intersection at 3-7 m/s: either an oncoming car turning
@@ -886,12 +874,7 @@ impl<'a, R: Rng> Builder<'a, R> {
                 -1.0,
             )
         };
-        let arc = Trajectory {
-            start: arc_start,
-            speed,
-            yaw_rate: yaw_sign * speed / radius,
-            lateral_speed: 0.0,
-        };
+        let arc = Trajectory::unicycle(arc_start, speed, yaw_sign * speed / radius);
         let duration = FRAC_PI_2 * radius / speed;
         let offset = uniform(self.rng, 0.0, (duration - self.interval).max(0.0));
         Some(self.car(Trajectory {
@@ -911,12 +894,7 @@ impl<'a, R: Rng> Builder<'a, R> {
         let x = uniform(self.rng, 2.0, 35.0);
         let h = if self.rng.random_bool(0.5) { 0.0 } else { PI } + uniform(self.rng, -0.1, 0.1);
         let speed = uniform(self.rng, 1.0, 1.8);
-        Some(self.pedestrian(Trajectory {
-            start: Pose2::new(x, y, h),
-            speed,
-            yaw_rate: 0.0,
-            lateral_speed: 0.0,
-        }))
+        Some(self.pedestrian(straight(x, y, h, speed)))
     }
 
     /// A pedestrian crossing the main street: on a crosswalk next to the intersection,
@@ -937,12 +915,7 @@ impl<'a, R: Rng> Builder<'a, R> {
             -FRAC_PI_2
         } + uniform(self.rng, -0.1, 0.1);
         let speed = uniform(self.rng, 1.0, 1.8);
-        Some(self.pedestrian(Trajectory {
-            start: Pose2::new(x, y, h),
-            speed,
-            yaw_rate: 0.0,
-            lateral_speed: 0.0,
-        }))
+        Some(self.pedestrian(straight(x, y, h, speed)))
     }
 }
 

@@ -126,14 +126,20 @@ pub struct Trajectory {
 }
 
 impl Trajectory {
-    /// A body that stays at `pose`.
-    pub fn stationary(pose: Pose2) -> Self {
+    /// A unicycle (no lateral speed) at `start` at time 0, driving at `speed` and
+    /// turning at `yaw_rate`.
+    pub fn unicycle(start: Pose2, speed: f64, yaw_rate: f64) -> Self {
         Trajectory {
-            start: pose,
-            speed: 0.0,
-            yaw_rate: 0.0,
+            start,
+            speed,
+            yaw_rate,
             lateral_speed: 0.0,
         }
+    }
+
+    /// A body that stays at `pose`.
+    pub fn stationary(pose: Pose2) -> Self {
+        Trajectory::unicycle(pose, 0.0, 0.0)
     }
 
     /// The constant motion that is at `from` at time 0 and at `to` at time `duration`

@@ -116,41 +116,36 @@ impl DatasetStats {
         let mut s = String::new();
         let _ = writeln!(s, "| statistic ({} pairs) | mean | min | max |", self.pairs);
         let _ = writeln!(s, "|---|---|---|---|");
-        for (name, v) in [
-            ("valid points per scan", self.points_per_scan),
+        // The cells after the name: mean, min and max, or a share in the mean column.
+        let counts = |v: Summary| format!("{:.1} | {:.0} | {:.0}", v.mean, v.min, v.max);
+        let metres = |v: Summary| format!("{:.2} | {:.2} | {:.2}", v.mean, v.min, v.max);
+        let share = |v: f64| format!("{:.1} % | |", 100.0 * v);
+        let rows = [
+            ("valid points per scan", counts(self.points_per_scan)),
             (
                 "dynamic points per pair (current scan)",
-                self.dynamic_points_per_pair,
+                counts(self.dynamic_points_per_pair),
             ),
             (
                 "moving objects per pair (current scan)",
-                self.moving_objects_per_pair,
+                counts(self.moving_objects_per_pair),
             ),
-        ] {
-            let _ = writeln!(
-                s,
-                "| {name} | {:.1} | {:.0} | {:.0} |",
-                v.mean, v.min, v.max
-            );
-        }
-        let t = self.ego_travel;
-        let _ = writeln!(
-            s,
-            "| ego travel between scans (m) | {:.2} | {:.2} | {:.2} |",
-            t.mean, t.min, t.max
-        );
-        for (name, v) in [
-            ("outlier share, all current points", self.outlier_share),
+            ("ego travel between scans (m)", metres(self.ego_travel)),
+            (
+                "outlier share, all current points",
+                share(self.outlier_share),
+            ),
             (
                 "outlier share, background points",
-                self.background_outlier_share,
+                share(self.background_outlier_share),
             ),
             (
                 "outlier share, moving-object points",
-                self.dynamic_outlier_share,
+                share(self.dynamic_outlier_share),
             ),
-        ] {
-            let _ = writeln!(s, "| {name} | {:.1} % | | |", 100.0 * v);
+        ];
+        for (name, cells) in rows {
+            let _ = writeln!(s, "| {name} | {cells} |");
         }
         s
     }
