@@ -16,7 +16,7 @@ mod common;
 use common::logs::{flaser_line, room_ranges};
 use common::*;
 use pgm_datasets::bag::synthetic::{
-    drive, mcap_bag, ros1_bag, Msg, Record, ANGLE_INCREMENT, ANGLE_MIN, BEAMS,
+    drive, drive_with_angles, mcap_bag, ros1_bag, Msg, Record, ANGLE_INCREMENT, ANGLE_MIN, BEAMS,
 };
 use pgm_datasets::testdata::shared_case_file;
 use std::path::{Path, PathBuf};
@@ -319,26 +319,6 @@ fn in_both_formats(a: &[Record], b: &[Record]) -> [(&'static str, Vec<u8>, Vec<u
         ("bag", ros1_bag(a), ros1_bag(b)),
         ("mcap", mcap_bag(a, false, None), mcap_bag(b, false, None)),
     ]
-}
-
-/// The drive with scan `k` (from 0) stating `angles(k)` (`angle_min`, `angle_max`,
-/// `angle_increment`).
-fn drive_with_angles(n: usize, angles: impl Fn(usize) -> [f32; 3]) -> Vec<Record> {
-    let mut k = 0;
-    drive(n)
-        .into_iter()
-        .map(|mut r| {
-            if let Msg::Scan { stamp_ns, ranges } = &r.msg {
-                r.msg = Msg::ScanAngles {
-                    stamp_ns: *stamp_ns,
-                    angles: angles(k),
-                    ranges: ranges.clone(),
-                };
-                k += 1;
-            }
-            r
-        })
-        .collect()
 }
 
 #[test]

@@ -58,12 +58,29 @@ pub fn uai_evidence(data: &[u8]) {
     assert_eq!(first, read.samples[0]);
 }
 
+/// The clock rule of the text readers, on `(timestamp, record_time)` per scan read:
+/// under the header clock no stamp fault passes, under the record clock every scan is
+/// placed at its record time.
+fn check_clock(
+    clock: pgm_datasets::stamps::StampClock,
+    mut stamps: impl Iterator<Item = (f64, f64)>,
+) {
+    use pgm_datasets::stamps::{stamp_faults, StampClock};
+    match clock {
+        StampClock::Header => assert!(
+            stamp_faults(stamps.map(|s| s.0)).is_none(),
+            "header clock refuses faults"
+        ),
+        _ => assert!(stamps.all(|(stamp, record)| stamp == record)),
+    }
+}
+
 /// CARMEN logs: every scan read satisfies the `Scan` invariants, and the pair builders
 /// give valid pairs.
 pub fn carmen(data: &[u8]) {
     use pgm_datasets::builders::{carmen_scan_pair, consecutive_pairs};
     use pgm_datasets::carmen::{parse_carmen, CarmenOptions};
-    use pgm_datasets::stamps::{stamp_faults, StampClock};
+    use pgm_datasets::stamps::StampClock;
     let Some(text) = text(data) else { return };
     let path = Path::new("fuzz.clf");
     for clock in [StampClock::Header, StampClock::Record] {
@@ -72,14 +89,10 @@ pub fn carmen(data: &[u8]) {
             ..CarmenOptions::default()
         };
         if let Ok(read) = parse_carmen(path, text, options) {
-            let stamps = read.scans.iter().map(|s| s.scan.timestamp);
-            match clock {
-                StampClock::Header => assert!(
-                    stamp_faults(stamps).is_none(),
-                    "header clock refuses faults"
-                ),
-                _ => assert!(read.scans.iter().all(|s| s.scan.timestamp == s.record_time)),
-            }
+            check_clock(
+                clock,
+                read.scans.iter().map(|s| (s.scan.timestamp, s.record_time)),
+            );
         }
     }
     let Ok(log) = parse_carmen(path, text, CarmenOptions::default()) else {
@@ -137,7 +150,7 @@ pub fn leigh(data: &[u8]) {
     use pgm_datasets::leigh::{
         attach_odometry, parse_odometry, parse_people, parse_scans, parse_scans_with,
     };
-    use pgm_datasets::stamps::{stamp_faults, StampClock};
+    use pgm_datasets::stamps::StampClock;
     use pgm_datasets::tracking_truth::leigh_objects;
     let Some(text) = text(data) else { return };
     let mut parts = text.split('\u{1e}');
@@ -148,14 +161,10 @@ pub fn leigh(data: &[u8]) {
     );
     for clock in [StampClock::Header, StampClock::Record] {
         if let Ok(read) = parse_scans_with(Path::new("scans.txt"), scans, clock) {
-            let stamps = read.scans.iter().map(|s| s.scan.timestamp);
-            match clock {
-                StampClock::Header => assert!(
-                    stamp_faults(stamps).is_none(),
-                    "header clock refuses faults"
-                ),
-                _ => assert!(read.scans.iter().all(|s| s.scan.timestamp == s.record_time)),
-            }
+            check_clock(
+                clock,
+                read.scans.iter().map(|s| (s.scan.timestamp, s.record_time)),
+            );
         }
     }
     let Ok(mut scans) = parse_scans(Path::new("scans.txt"), scans) else {

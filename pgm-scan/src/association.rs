@@ -247,8 +247,6 @@ pgm_core::checked_params! {
     pub struct NearestAfterIcp(NearestParams) -> Error;
 }
 
-impl NearestAfterIcp {}
-
 impl AssociationSource for NearestAfterIcp {
     fn name(&self) -> &str {
         "icp"
@@ -333,8 +331,6 @@ pgm_core::checked_params! {
     #[derive(Clone, Copy, Debug, PartialEq)]
     pub struct SegmentIcp(SegmentParams) -> Error;
 }
-
-impl SegmentIcp {}
 
 impl AssociationSource for SegmentIcp {
     fn name(&self) -> &str {
