@@ -1,0 +1,77 @@
+"""Type stubs of the compiled module (see the package docstring)."""
+
+from os import PathLike
+from typing import Any, Dict, List, Optional, Sequence, Union
+
+import numpy as np
+import numpy.typing as npt
+
+class PgmError(ValueError):
+    """An error reported by pgm: the message names the value and where it came from."""
+
+class FactorGraph:
+    """A discrete factor graph: variables with finite cardinalities, dense table factors."""
+
+    def __init__(self, cardinalities: Sequence[int]) -> None:
+        """One variable per entry of ``cardinalities`` (each >= 1), numbered from 0."""
+    @staticmethod
+    def from_uai(
+        path: Union[str, PathLike[str]],
+        evidence: Union[str, PathLike[str], None] = None,
+        sample: int = 0,
+    ) -> "FactorGraph":
+        """Reads a UAI model (MARKOV or BAYES) and optionally an evidence file."""
+    def add_factor(
+        self, scope: Sequence[int], table: npt.ArrayLike, log: bool = False
+    ) -> int:
+        """Adds a factor; ``table`` has one axis per scope variable (C order)."""
+    @property
+    def num_variables(self) -> int: ...
+    @property
+    def num_factors(self) -> int: ...
+    @property
+    def cardinalities(self) -> List[int]: ...
+    def log_score(self, assignment: Sequence[int]) -> float:
+        """Sum of the log-potentials of a complete assignment (-inf where a table is 0)."""
+    def map(
+        self,
+        schedule: str = "sequential",
+        damping: float = 0.0,
+        tolerance: float = 1e-9,
+        max_iterations: int = 1000,
+    ) -> Dict[str, Any]:
+        """Max-product BP: assignment, log_score, max_marginals, iterations, converged,
+        residual, contradictions. ``schedule``: flooding, sequential or residual."""
+    def marginals(
+        self,
+        schedule: str = "sequential",
+        damping: float = 0.0,
+        tolerance: float = 1e-9,
+        max_iterations: int = 1000,
+    ) -> Dict[str, Any]:
+        """Sum-product BP: marginals, assignment, log_score, iterations, converged,
+        residual, contradictions."""
+    def trws(self, tolerance: float = 1e-9, max_iterations: int = 1000) -> Dict[str, Any]:
+        """TRW-S: assignment, log_score, bound, gap, iterations, converged, termination."""
+    def to_uai(self) -> str:
+        """The model in the UAI format (MARKOV)."""
+
+ScanArrays = Dict[str, Any]
+
+def read_carmen(path: Union[str, PathLike[str]], clock: str = "auto") -> ScanArrays:
+    """CARMEN log: stamps, ranges, angles, valid, max_range, odometry, record_times,
+    lines, notes. ``clock``: auto, header or record."""
+
+def read_leigh(path: Union[str, PathLike[str]], clock: str = "auto") -> ScanArrays:
+    """leigh-style scans.txt: the scan arrays plus indices, record_times, lines, notes."""
+
+def read_bag_scans(
+    path: Union[str, PathLike[str]],
+    scan_topic: str,
+    odom_topic: Optional[str] = None,
+    ego_pose_topic: Optional[str] = None,
+    object_pose_topic: Optional[str] = None,
+    clock: str = "auto",
+) -> ScanArrays:
+    """ROS 1 bag (.bag, .bag.zip) or MCAP: the scan arrays plus record_times,
+    header_stamps, frame, and odom/ego_pose/object_pose with their _stamps."""
