@@ -105,7 +105,7 @@ use crate::support::{self, Method, Support, ZeroDecoding, ZeroProbability, ZeroP
 use std::ops::ControlFlow;
 use std::time::{Duration, Instant};
 
-/// Unchecked TRW-S settings; [`check`](Self::check) turns them into a [`Trws`].
+/// Unchecked TRW-S settings; [`check`](crate::ParamGuard::check) turns them into a [`Trws`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct TrwsParams {
     max_iterations: usize,

@@ -80,6 +80,26 @@ fn stamped_poses<'py>(
     Ok(())
 }
 
+/// The scans of a text log (scan, record time, file line) with the reader's notes:
+/// the scans' arrays plus `record_times`, `lines` and `notes`.
+fn text_log_dict<'a, 'py>(
+    py: Python<'py>,
+    rows: impl Iterator<Item = (&'a Scan, f64, usize)>,
+    notes: &[String],
+) -> PyResult<Bound<'py, PyDict>> {
+    let (mut scans, mut record, mut lines) = (Vec::new(), Vec::new(), Vec::new());
+    for (scan, time, line) in rows {
+        scans.push(scan);
+        record.push(time);
+        lines.push(line as i64);
+    }
+    let d = scans_dict(py, &scans)?;
+    d.set_item("record_times", PyArray1::from_vec(py, record))?;
+    d.set_item("lines", PyArray1::from_vec(py, lines))?;
+    d.set_item("notes", notes.to_vec())?;
+    Ok(d)
+}
+
 /// Reads a CARMEN log (FLASER and ROBOTLASER1 scans, ODOM poses interpolated at the
 /// scans). `clock`: `auto`, `header` (ipc_timestamp) or `record` (logger_timestamp).
 ///
@@ -99,14 +119,8 @@ pub fn read_carmen<'py>(
     let log = py
         .detach(|| read_carmen_with(&path, options))
         .map_err(|e| pgm_err(None, e))?;
-    let scans: Vec<&Scan> = log.scans.iter().map(|s| &s.scan).collect();
-    let d = scans_dict(py, &scans)?;
-    let record: Vec<f64> = log.scans.iter().map(|s| s.record_time).collect();
-    d.set_item("record_times", PyArray1::from_vec(py, record))?;
-    let lines: Vec<i64> = log.scans.iter().map(|s| s.line as i64).collect();
-    d.set_item("lines", PyArray1::from_vec(py, lines))?;
-    d.set_item("notes", log.notes.clone())?;
-    Ok(d)
+    let rows = log.scans.iter().map(|s| (&s.scan, s.record_time, s.line));
+    text_log_dict(py, rows, &log.notes)
 }
 
 /// Reads a leigh-gtm1-style text export of laser scans (`scans.txt`). `clock` as for
@@ -123,15 +137,10 @@ pub fn read_leigh<'py>(
     let log = py
         .detach(|| read_scans_with(&path, clock))
         .map_err(|e| pgm_err(None, e))?;
-    let scans: Vec<&Scan> = log.scans.iter().map(|s| &s.scan).collect();
-    let d = scans_dict(py, &scans)?;
+    let rows = log.scans.iter().map(|s| (&s.scan, s.record_time, s.line));
+    let d = text_log_dict(py, rows, &log.notes)?;
     let indices: Vec<i64> = log.scans.iter().map(|s| s.index as i64).collect();
     d.set_item("indices", PyArray1::from_vec(py, indices))?;
-    let record: Vec<f64> = log.scans.iter().map(|s| s.record_time).collect();
-    d.set_item("record_times", PyArray1::from_vec(py, record))?;
-    let lines: Vec<i64> = log.scans.iter().map(|s| s.line as i64).collect();
-    d.set_item("lines", PyArray1::from_vec(py, lines))?;
-    d.set_item("notes", log.notes.clone())?;
     Ok(d)
 }
 
@@ -139,10 +148,10 @@ pub fn read_leigh<'py>(
 /// (ROS 1 or ROS 2 messages, CRCs checked) on `scan_topic`, with the optional pose
 /// topics (`nav_msgs/Odometry`, `geometry_msgs/PoseStamped` and the like).
 ///
-/// Returns the scans' arrays (odometry interpolated at each scan when `odom_topic`
-/// is given) plus `record_times` (the bag's record times) and `frame`, and for each
-/// pose topic given its raw messages: `odom`/`ego_pose`/`object_pose` (`[x, y,
-/// theta]`) with `…_stamps`.
+/// Returns the scans' arrays (their `odometry` is NaN: a bag's poses are messages of
+/// their own) plus `record_times` (the bag's record times), `header_stamps` and
+/// `frame`, and for each pose topic given its messages: `odom`/`ego_pose`/
+/// `object_pose` (`[x, y, theta]`, one row per message) with `…_stamps`.
 #[pyfunction]
 #[pyo3(signature = (path, scan_topic, odom_topic=None, ego_pose_topic=None, object_pose_topic=None, clock="auto"))]
 pub fn read_bag_scans<'py>(

@@ -154,7 +154,7 @@ pub struct SimulationReport {
 /// Result type of the simulator.
 pub type Result<T> = std::result::Result<T, SimError>;
 
-/// Simulator parameters, unchecked; [`SimConfig::check`] turns them into a
+/// Simulator parameters, unchecked; [`check`](pgm_scan::ParamGuard::check) turns them into a
 /// [`ValidSimConfig`], the only form the simulator accepts.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default)]

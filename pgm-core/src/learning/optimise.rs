@@ -55,7 +55,7 @@ impl LearningObserver for () {
     }
 }
 
-/// Unchecked learning hyper-parameters; [`check`](Self::check) turns them into a
+/// Unchecked learning hyper-parameters; [`check`](crate::ParamGuard::check) turns them into a
 /// [`Learner`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct LearnerParams {
