@@ -6,7 +6,10 @@ marginals by sum-product (:meth:`FactorGraph.marginals`) or the MAP assignment w
 an upper bound by TRW-S (:meth:`FactorGraph.trws`). Every method runs in log space
 in the Rust engine with the GIL released; results are dicts of numpy arrays.
 Laser logs (CARMEN, leigh-style text exports, ROS 1 bags, MCAP) are read into numpy
-by :func:`read_carmen`, :func:`read_leigh` and :func:`read_bag_scans`.
+by :func:`read_carmen`, :func:`read_leigh` and :func:`read_bag_scans`; two of their
+scans (:func:`scan`) go to scan matching (:func:`match_scans`), point association
+(:func:`associate`) and moving-object detection (:func:`cluster`) by any method of the
+command line's registry.
 Errors are raised as :class:`PgmError` (a ``ValueError``) with the message the
 ``pgm`` command-line tool prints.
 
@@ -22,6 +25,51 @@ Errors are raised as :class:`PgmError` (a ``ValueError``) with the message the
 [1, 1]
 """
 
-from ._native import FactorGraph, PgmError, read_bag_scans, read_carmen, read_leigh
+from ._native import (
+    FactorGraph,
+    PgmError,
+    associate,
+    cluster,
+    match_scans,
+    read_bag_scans,
+    read_carmen,
+    read_leigh,
+)
 
-__all__ = ["FactorGraph", "PgmError", "read_bag_scans", "read_carmen", "read_leigh"]
+__all__ = [
+    "FactorGraph",
+    "PgmError",
+    "associate",
+    "cluster",
+    "match_scans",
+    "read_bag_scans",
+    "read_carmen",
+    "read_leigh",
+    "between",
+    "scan",
+]
+
+
+def between(a, b):
+    """The motion from pose ``a`` to pose ``b`` (each ``[x, y, theta]``) in the frame of
+    ``a``: the odometry prior of a pair whose scans were taken at ``a`` and ``b`` (for
+    a laser at the base's origin). The angle is wrapped to (-pi, pi]."""
+    import math
+
+    dx, dy = b[0] - a[0], b[1] - a[1]
+    c, s = math.cos(a[2]), math.sin(a[2])
+    dtheta = math.atan2(math.sin(b[2] - a[2]), math.cos(b[2] - a[2]))
+    return [c * dx + s * dy, -s * dx + c * dy, dtheta]
+
+
+def scan(log, i):
+    """Scan ``i`` of a reader's result (:func:`read_carmen`, :func:`read_leigh`,
+    :func:`read_bag_scans`) as the dict :func:`match_scans`, :func:`associate` and
+    :func:`cluster` take: ``ranges``, ``angles``, ``valid``, ``max_range``, ``stamp``."""
+    return {
+        "ranges": log["ranges"][i],
+        "angles": log["angles"][i],
+        "valid": log["valid"][i],
+        "max_range": float(log["max_range"][i]),
+        "stamp": float(log["stamps"][i]),
+    }

@@ -75,3 +75,27 @@ def read_bag_scans(
 ) -> ScanArrays:
     """ROS 1 bag (.bag, .bag.zip) or MCAP: the scan arrays plus record_times,
     header_stamps, frame, and odom/ego_pose/object_pose with their _stamps."""
+
+Scan = Dict[str, Any]
+Pose = Sequence[float]
+
+def match_scans(
+    reference: Scan, current: Scan, odometry: Optional[Pose] = None, matcher: str = "icp"
+) -> Dict[str, Any]:
+    """Ego-motion of ``current`` in ``reference``'s frame: motion [x, y, theta],
+    converged, iterations. ``matcher``: odometry, icp, icp+csm, crf-matching, joint."""
+
+def associate(
+    reference: Scan, current: Scan, odometry: Optional[Pose] = None, source: str = "crf-matching"
+) -> Dict[str, Any]:
+    """partners (reference beam per current beam, -1 outlier, -2 no return), ego_motion."""
+
+def cluster(
+    reference: Scan,
+    current: Scan,
+    odometry: Optional[Pose] = None,
+    method: str = "crf",
+    associations: str = "crf-matching",
+) -> Dict[str, Any]:
+    """labels (0 background, k >= 1 moving cluster, -1 no return), motions
+    [[label, x, y, theta], ...], ego_motion, iterations, converged."""

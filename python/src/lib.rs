@@ -18,9 +18,10 @@ use pgm_core::{
 use pyo3::create_exception;
 use pyo3::exceptions::{PyUserWarning, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyList};
+use pyo3::types::PyDict;
 use std::path::PathBuf;
 
+mod methods;
 mod scans;
 
 create_exception!(
@@ -83,11 +84,8 @@ fn bp_result_dict<'py>(
     let assignment: Vec<i64> = r.assignment.iter().map(|&s| s as i64).collect();
     d.set_item("assignment", PyArray1::from_vec(py, assignment))?;
     d.set_item("log_score", r.log_score)?;
-    let beliefs = PyList::empty(py);
-    for b in &r.beliefs {
-        beliefs.append(PyArray1::from_slice(py, b))?;
-    }
-    d.set_item(beliefs_key, beliefs)?;
+    let rows: Vec<&[f64]> = r.beliefs.iter().map(Vec::as_slice).collect();
+    d.set_item(beliefs_key, scans::rows(py, &rows)?)?;
     d.set_item("iterations", r.iterations)?;
     d.set_item("converged", r.converged)?;
     d.set_item("residual", r.residual)?;
@@ -256,7 +254,7 @@ impl PyFactorGraph {
     /// MAP assignment by max-product belief propagation.
     ///
     /// Returns a dict: `assignment` (int64 array, one state per variable),
-    /// `log_score`, `max_marginals` (one array per variable, max-marginals rescaled
+    /// `log_score`, `max_marginals` (one row per variable, max-marginals rescaled
     /// to sum to 1), `iterations`, `converged`, `residual` (the last undamped message
     /// change) and `contradictions`. Raises `PgmError` for bad settings or a model
     /// with no assignment of positive probability.
@@ -282,7 +280,8 @@ impl PyFactorGraph {
     /// Marginals by sum-product belief propagation (exact on trees, approximate on
     /// loopy graphs).
     ///
-    /// Returns a dict: `marginals` (one probability array per variable),
+    /// Returns a dict: `marginals` (one row of probabilities per variable: a 2-D
+    /// array when every variable has the same cardinality, else a list of arrays),
     /// `assignment` (the most probable state of each), `log_score` (of that
     /// assignment), `iterations`, `converged`, `residual` and `contradictions`.
     #[pyo3(signature = (schedule="sequential", damping=0.0, tolerance=1e-9, max_iterations=1000))]
@@ -433,6 +432,9 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(scans::read_carmen, m)?)?;
     m.add_function(wrap_pyfunction!(scans::read_leigh, m)?)?;
     m.add_function(wrap_pyfunction!(scans::read_bag_scans, m)?)?;
+    m.add_function(wrap_pyfunction!(methods::match_scans, m)?)?;
+    m.add_function(wrap_pyfunction!(methods::associate, m)?)?;
+    m.add_function(wrap_pyfunction!(methods::cluster, m)?)?;
     m.add("PgmError", m.py().get_type::<PgmError>())?;
     Ok(())
 }

@@ -19,7 +19,7 @@ fn clock(name: &str) -> PyResult<StampClock> {
 
 /// `rows` as a 2-D array when every row has the same length, else a list of 1-D
 /// arrays (a log whose scans differ in beam count).
-fn rows<T: Element + Copy>(py: Python<'_>, rows: &[&[T]]) -> PyResult<Py<PyAny>> {
+pub(crate) fn rows<T: Element + Copy>(py: Python<'_>, rows: &[&[T]]) -> PyResult<Py<PyAny>> {
     let width = rows.first().map_or(0, |r| r.len());
     if rows.iter().all(|r| r.len() == width) {
         let flat: Vec<T> = rows.iter().flat_map(|r| r.iter().copied()).collect();
