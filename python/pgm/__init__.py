@@ -9,7 +9,8 @@ Laser logs (CARMEN, leigh-style text exports, ROS 1 bags, MCAP) are read into nu
 by :func:`read_carmen`, :func:`read_leigh` and :func:`read_bag_scans`; two of their
 scans (:func:`scan`) go to scan matching (:func:`match_scans`), point association
 (:func:`associate`) and moving-object detection (:func:`cluster`) by any method of the
-command line's registry.
+command line's registry; :class:`OnlineTracker` follows moving objects over a stream
+of scans, online.
 Errors are raised as :class:`PgmError` (a ``ValueError``) with the message the
 ``pgm`` command-line tool prints.
 
@@ -27,6 +28,7 @@ Errors are raised as :class:`PgmError` (a ``ValueError``) with the message the
 
 from ._native import (
     FactorGraph,
+    OnlineTracker,
     PgmError,
     associate,
     cluster,
@@ -38,6 +40,7 @@ from ._native import (
 
 __all__ = [
     "FactorGraph",
+    "OnlineTracker",
     "PgmError",
     "associate",
     "cluster",

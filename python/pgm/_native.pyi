@@ -99,3 +99,16 @@ def cluster(
 ) -> Dict[str, Any]:
     """labels (0 background, k >= 1 moving cluster, -1 no return), motions
     [[label, x, y, theta], ...], ego_motion, iterations, converged."""
+
+class OnlineTracker:
+    """Moving objects followed online over a stream of scans (as ``pgm track``)."""
+
+    def __init__(
+        self, method: str = "crf", associations: str = "crf-matching", k: Optional[int] = None
+    ) -> None:
+        """The detector ``method`` fed by ``associations``; ``k``: pair each scan with
+        the one ``k`` scans before (default: the one about 0.3 s before)."""
+    def push(self, scan: Scan) -> Dict[str, Any]:
+        """The next scan (with ``stamp``, optional ``odometry``): index, time, sequence,
+        pose, converged, objects (track, state, detected, centre, velocity,
+        velocity_covariance, extent, score, beams)."""

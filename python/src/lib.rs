@@ -23,6 +23,7 @@ use std::path::PathBuf;
 
 mod methods;
 mod scans;
+mod tracking;
 
 create_exception!(
     _native,
@@ -429,6 +430,7 @@ impl PyFactorGraph {
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyFactorGraph>()?;
+    m.add_class::<tracking::PyOnlineTracker>()?;
     m.add_function(wrap_pyfunction!(scans::read_carmen, m)?)?;
     m.add_function(wrap_pyfunction!(scans::read_leigh, m)?)?;
     m.add_function(wrap_pyfunction!(scans::read_bag_scans, m)?)?;

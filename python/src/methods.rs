@@ -11,9 +11,10 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 /// A scan from a dict with `ranges` (m) and `angles` (rad), one per beam, and
-/// `max_range` (m); optional `valid` (bool per beam; default: a finite range inside
-/// (0, max_range)) and `stamp` (s). One row of what the readers return.
-fn scan_of(which: &str, d: &Bound<'_, PyDict>) -> PyResult<Scan> {
+/// `max_range` (m); optional `valid` (bool per beam; without it a beam is a return
+/// when its range is finite and inside (0, max_range), and other ranges become 0) and
+/// `stamp` (s). One row of what the readers return.
+pub(crate) fn scan_of(which: &str, d: &Bound<'_, PyDict>) -> PyResult<Scan> {
     let get = |key: &str| -> PyResult<Bound<'_, PyAny>> {
         d.get_item(key)?.ok_or_else(|| {
             PgmError::new_err(format!(
@@ -37,18 +38,30 @@ fn scan_of(which: &str, d: &Bound<'_, PyDict>) -> PyResult<Scan> {
             angles.len()
         )));
     }
-    let mut scan = Scan::from_ranges(angles, ranges, max_range);
-    if let Some(valid) = d.get_item("valid")? {
-        let valid: Vec<bool> = valid.extract()?;
-        if valid.len() != scan.ranges.len() {
-            return Err(PgmError::new_err(format!(
-                "{which}.valid: {} flags for {} beams",
-                valid.len(),
-                scan.ranges.len()
-            )));
+    let mut scan = match d.get_item("valid")? {
+        // The readers' own flags, and their ranges as read (a return beyond the
+        // maximum range is kept: free-space tests read it).
+        Some(valid) => {
+            let valid: Vec<bool> = valid.extract()?;
+            if valid.len() != ranges.len() {
+                return Err(PgmError::new_err(format!(
+                    "{which}.valid: {} flags for {} beams",
+                    valid.len(),
+                    ranges.len()
+                )));
+            }
+            Scan {
+                timestamp: 0.0,
+                angles,
+                ranges,
+                valid,
+                max_range,
+                odometry: None,
+                laser_offset: Pose2::identity(),
+            }
         }
-        scan.valid = valid;
-    }
+        None => Scan::from_ranges(angles, ranges, max_range),
+    };
     if let Some(stamp) = d.get_item("stamp")? {
         scan.timestamp = stamp.extract()?;
     }
