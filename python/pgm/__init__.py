@@ -55,14 +55,21 @@ __all__ = [
 
 def between(a, b):
     """The motion from pose ``a`` to pose ``b`` (each ``[x, y, theta]``) in the frame of
-    ``a``: the odometry prior of a pair whose scans were taken at ``a`` and ``b`` (for
-    a laser at the base's origin). The angle is wrapped to (-pi, pi]."""
+    ``a``, as a float64 array ``[x, y, theta]``: the odometry prior of a pair whose
+    scans were taken at ``a`` and ``b`` (for a laser at the base's origin). The angle
+    is wrapped to (-pi, pi]."""
     import math
 
+    import numpy as np
+
+    a = np.asarray(a, dtype=np.float64)
+    b = np.asarray(b, dtype=np.float64)
+    if a.shape != (3,) or b.shape != (3,):
+        raise PgmError(f"between: poses are [x, y, theta], got shapes {a.shape} and {b.shape}")
     dx, dy = b[0] - a[0], b[1] - a[1]
     c, s = math.cos(a[2]), math.sin(a[2])
     dtheta = math.atan2(math.sin(b[2] - a[2]), math.cos(b[2] - a[2]))
-    return [c * dx + s * dy, -s * dx + c * dy, dtheta]
+    return np.array([c * dx + s * dy, -s * dx + c * dy, dtheta])
 
 
 def scan(log, i):

@@ -42,6 +42,37 @@ fn pgm_err(context: Option<&str>, e: impl std::fmt::Display) -> PyErr {
     }
 }
 
+/// A whole number >= 0 from Python (a count, an index, a state), or an error naming
+/// the argument (Python's own conversion says only "can't convert negative int").
+pub(crate) fn count(name: &str, v: i64) -> PyResult<usize> {
+    usize::try_from(v)
+        .map_err(|_| PgmError::new_err(format!("{name} = {v}: expected a whole number >= 0")))
+}
+
+/// [`count`] for each entry, named `name[i]`.
+pub(crate) fn counts(name: &str, v: &[i64]) -> PyResult<Vec<usize>> {
+    v.iter()
+        .enumerate()
+        .map(|(i, &x)| count(&format!("{name}[{i}]"), x))
+        .collect()
+}
+
+/// Any array-like of numbers (a numpy array of any dtype, a list, nested lists) as a
+/// float64 array, or an error naming the argument.
+pub(crate) fn float_array<'py>(
+    obj: &Bound<'py, PyAny>,
+    name: &str,
+) -> PyResult<PyReadonlyArrayDyn<'py, f64>> {
+    let numpy = obj.py().import("numpy")?;
+    numpy
+        .call_method1("asarray", (obj, "float64"))
+        .and_then(|a| {
+            a.extract::<PyReadonlyArrayDyn<'py, f64>>()
+                .map_err(PyErr::from)
+        })
+        .map_err(|e| PgmError::new_err(format!("{name}: {e} (expected an array of numbers)")))
+}
+
 /// A discrete factor graph: variables with finite cardinalities and factors given
 /// by dense tables over them.
 ///
@@ -99,7 +130,8 @@ impl PyFactorGraph {
     /// A graph with one variable per entry of `cardinalities` (each at least 1) and no
     /// factors.
     #[new]
-    fn new(cardinalities: Vec<usize>) -> PyResult<Self> {
+    fn new(cardinalities: Vec<i64>) -> PyResult<Self> {
+        let cardinalities = counts("cardinalities", &cardinalities)?;
         let graph = FactorGraph::with_variables(&cardinalities).map_err(|e| pgm_err(None, e))?;
         Ok(Self {
             graph,
@@ -112,7 +144,8 @@ impl PyFactorGraph {
     /// file (UAI 2014 `q v x …`, or the 2010 variant: `sample` picks the sample).
     #[staticmethod]
     #[pyo3(signature = (path, evidence=None, sample=0))]
-    fn from_uai(path: PathBuf, evidence: Option<PathBuf>, sample: usize) -> PyResult<Self> {
+    fn from_uai(path: PathBuf, evidence: Option<PathBuf>, sample: i64) -> PyResult<Self> {
+        let sample = count("sample", sample)?;
         let shown = path.display().to_string();
         let model = UaiModel::read(&path).map_err(|e| pgm_err(None, e))?;
         let mut graph = model
@@ -156,10 +189,12 @@ impl PyFactorGraph {
     #[pyo3(signature = (scope, table, log=false))]
     fn add_factor(
         &mut self,
-        scope: Vec<usize>,
-        table: PyReadonlyArrayDyn<'_, f64>,
+        scope: Vec<i64>,
+        table: &Bound<'_, PyAny>,
         log: bool,
     ) -> PyResult<usize> {
+        let scope = counts("scope", &scope)?;
+        let table = float_array(table, "table")?;
         let shape = table.shape().to_vec();
         if shape.len() != scope.len() {
             return Err(PgmError::new_err(format!(
@@ -172,9 +207,9 @@ impl PyFactorGraph {
         for (axis, (&v, &k)) in scope.iter().zip(&shape).enumerate() {
             if v >= self.graph.num_variables() {
                 return Err(PgmError::new_err(format!(
-                    "scope[{axis}] = {v}: the graph has {} variables (0..{})",
+                    "scope[{axis}] = {v}: the graph has {} variables (0 to {})",
                     self.graph.num_variables(),
-                    self.graph.num_variables()
+                    self.graph.num_variables().saturating_sub(1)
                 )));
             }
             let card = self.graph.cardinality(VariableId(v));
@@ -246,7 +281,8 @@ impl PyFactorGraph {
 
     /// The log-score of a complete assignment: the sum of its log-potentials (−inf
     /// where a table is 0).
-    fn log_score(&self, assignment: Vec<usize>) -> PyResult<f64> {
+    fn log_score(&self, assignment: Vec<i64>) -> PyResult<f64> {
+        let assignment = counts("assignment", &assignment)?;
         self.graph
             .log_score(&assignment)
             .map_err(|e| pgm_err(self.context(), e))
@@ -266,7 +302,7 @@ impl PyFactorGraph {
         schedule: &str,
         damping: f64,
         tolerance: f64,
-        max_iterations: usize,
+        max_iterations: i64,
     ) -> PyResult<Bound<'py, PyDict>> {
         self.run_bp(
             py,
@@ -292,7 +328,7 @@ impl PyFactorGraph {
         schedule: &str,
         damping: f64,
         tolerance: f64,
-        max_iterations: usize,
+        max_iterations: i64,
     ) -> PyResult<Bound<'py, PyDict>> {
         self.run_bp(
             py,
@@ -315,10 +351,10 @@ impl PyFactorGraph {
         &mut self,
         py: Python<'py>,
         tolerance: f64,
-        max_iterations: usize,
+        max_iterations: i64,
     ) -> PyResult<Bound<'py, PyDict>> {
         let trws = TrwsParams::default()
-            .max_iterations(max_iterations)
+            .max_iterations(count("max_iterations", max_iterations)?)
             .tolerance(tolerance)
             .check()
             .map_err(|e| pgm_err(None, e))?;
@@ -380,9 +416,10 @@ impl PyFactorGraph {
         schedule: &str,
         damping: f64,
         tolerance: f64,
-        max_iterations: usize,
+        max_iterations: i64,
     ) -> PyResult<Bound<'py, PyDict>> {
         let kind = schedule_kind(schedule)?;
+        let max_iterations = count("max_iterations", max_iterations)?;
         let bp = BpParams::new(mode)
             .damping(damping)
             .tolerance(tolerance)
@@ -411,6 +448,15 @@ impl PyFactorGraph {
         }
         if result.support_undecided {
             let message = "the search for an assignment of positive probability gave up before a verdict, so Z > 0 is unverified and these marginals may describe a model with none";
+            PyErr::warn(
+                py,
+                &py.get_type::<PyUserWarning>(),
+                &std::ffi::CString::new(message)?,
+                1,
+            )?;
+        }
+        if mode == Mode::SumProduct && result.log_score == f64::NEG_INFINITY {
+            let message = "the most probable state of each variable makes an assignment of probability 0 (log_score -inf): on a loopy model with hard zeros the marginals' modes need not fit together; map() or trws() give a feasible assignment";
             PyErr::warn(
                 py,
                 &py.get_type::<PyUserWarning>(),

@@ -2,8 +2,8 @@
 //! `--method`, `--associations` and `--matcher` take on the command line: scan
 //! matching (ego-motion), point association and motion clustering of two scans.
 
-use crate::{pgm_err, PgmError};
-use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1};
+use crate::{float_array, pgm_err, PgmError};
+use numpy::{PyArray1, PyArray2, PyArrayMethods, PyUntypedArrayMethods};
 use pgm::methods::{association_source, clusterer, scan_matcher, MethodOptions};
 use pgm_scan::pair::{Association, ScanPair};
 use pgm_scan::{Pose2, Scan};
@@ -22,15 +22,21 @@ pub(crate) fn scan_of(which: &str, d: &Bound<'_, PyDict>) -> PyResult<Scan> {
             ))
         })
     };
-    let ranges: PyReadonlyArray1<'_, f64> = get("ranges")?.extract().map_err(|e| {
-        PgmError::new_err(format!("{which}.ranges: {e} (a 1-D float array, metres)"))
-    })?;
-    let angles: PyReadonlyArray1<'_, f64> = get("angles")?.extract().map_err(|e| {
-        PgmError::new_err(format!("{which}.angles: {e} (a 1-D float array, radians)"))
-    })?;
-    let max_range: f64 = get("max_range")?.extract()?;
-    let ranges = ranges.as_array().to_vec();
-    let angles = angles.as_array().to_vec();
+    let vector = |key: &str, unit: &str| -> PyResult<Vec<f64>> {
+        let a = float_array(&get(key)?, &format!("{which}.{key}"))?;
+        if a.ndim() != 1 {
+            return Err(PgmError::new_err(format!(
+                "{which}.{key}: {} axes, expected one value per beam ({unit})",
+                a.ndim()
+            )));
+        }
+        Ok(a.as_array().iter().copied().collect())
+    };
+    let ranges = vector("ranges", "metres")?;
+    let angles = vector("angles", "radians")?;
+    let max_range: f64 = get("max_range")?
+        .extract()
+        .map_err(|e| PgmError::new_err(format!("{which}.max_range: {e} (a number of metres)")))?;
     if ranges.len() != angles.len() {
         return Err(PgmError::new_err(format!(
             "{which}: {} ranges but {} angles (one of each per beam)",
@@ -63,23 +69,40 @@ pub(crate) fn scan_of(which: &str, d: &Bound<'_, PyDict>) -> PyResult<Scan> {
         None => Scan::from_ranges(angles, ranges, max_range),
     };
     if let Some(stamp) = d.get_item("stamp")? {
-        scan.timestamp = stamp.extract()?;
+        scan.timestamp = stamp
+            .extract()
+            .map_err(|e| PgmError::new_err(format!("{which}.stamp: {e} (a time in seconds)")))?;
     }
     scan.validate()
         .map_err(|e| PgmError::new_err(format!("{which}: {e}")))?;
     Ok(scan)
 }
 
+/// `[x, y, theta]` as a pose, or an error naming `name`.
+pub(crate) fn pose_of(name: &str, v: &[f64]) -> PyResult<Pose2> {
+    match v {
+        [x, y, theta] if v.iter().all(|c| c.is_finite()) => Ok(Pose2::new(*x, *y, *theta)),
+        [_, _, _] => Err(PgmError::new_err(format!(
+            "{name} = {v:?}: expected finite numbers [x, y, theta]"
+        ))),
+        _ => Err(PgmError::new_err(format!(
+            "{name}: {} numbers, expected 3: [x, y, theta] (m, m, rad)",
+            v.len()
+        ))),
+    }
+}
+
 fn pair_of(
     reference: &Bound<'_, PyDict>,
     current: &Bound<'_, PyDict>,
-    odometry: Option<[f64; 3]>,
+    odometry: Option<Vec<f64>>,
 ) -> PyResult<ScanPair> {
+    let odometry = odometry.map(|v| pose_of("odometry", &v)).transpose()?;
     let pair = ScanPair {
         name: "python".into(),
         reference: scan_of("reference", reference)?,
         current: scan_of("current", current)?,
-        odometry: odometry.map(|[x, y, theta]| Pose2::new(x, y, theta)),
+        odometry,
         truth: None,
     };
     pair.validate().map_err(|e| pgm_err(None, e))?;
@@ -102,7 +125,7 @@ pub fn match_scans<'py>(
     py: Python<'py>,
     reference: &Bound<'py, PyDict>,
     current: &Bound<'py, PyDict>,
-    odometry: Option<[f64; 3]>,
+    odometry: Option<Vec<f64>>,
     matcher: &str,
 ) -> PyResult<Bound<'py, PyDict>> {
     let pair = pair_of(reference, current, odometry)?;
@@ -118,8 +141,8 @@ pub fn match_scans<'py>(
 }
 
 /// Point associations of `current`'s returns to `reference`'s by the association
-/// source `source` (`icp`, `segment-icp`, `crf-matching`, `joint`, …, as
-/// `--associations`).
+/// source `source` (`icp`, `segment-icp` or `crf-matching`, as `--associations`; `true`
+/// needs ground truth, which a pair from Python does not carry).
 ///
 /// Returns `partners` (int64 per current beam: the reference beam it corresponds to,
 /// −1 an outlier, −2 a beam without a return) and `ego_motion` (`[x, y, theta]`, NaN
@@ -130,7 +153,7 @@ pub fn associate<'py>(
     py: Python<'py>,
     reference: &Bound<'py, PyDict>,
     current: &Bound<'py, PyDict>,
-    odometry: Option<[f64; 3]>,
+    odometry: Option<Vec<f64>>,
     source: &str,
 ) -> PyResult<Bound<'py, PyDict>> {
     let pair = pair_of(reference, current, odometry)?;
@@ -172,7 +195,7 @@ pub fn cluster<'py>(
     py: Python<'py>,
     reference: &Bound<'py, PyDict>,
     current: &Bound<'py, PyDict>,
-    odometry: Option<[f64; 3]>,
+    odometry: Option<Vec<f64>>,
     method: &str,
     associations: &str,
 ) -> PyResult<Bound<'py, PyDict>> {

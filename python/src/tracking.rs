@@ -6,7 +6,6 @@ use crate::{pgm_err, PgmError};
 use numpy::{PyArray1, PyArrayMethods};
 use pgm::methods::{association_source, clusterer, MethodOptions};
 use pgm_scan::methods::MotionClusterer;
-use pgm_scan::Pose2;
 use pgm_tracking::online::{OnlineParams, OnlineTracker, TrackState};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
@@ -47,7 +46,8 @@ fn state_name(s: TrackState) -> &'static str {
 impl PyOnlineTracker {
     #[new]
     #[pyo3(signature = (method="crf", associations="crf-matching", k=None))]
-    fn new(method: &str, associations: &str, k: Option<usize>) -> PyResult<Self> {
+    fn new(method: &str, associations: &str, k: Option<i64>) -> PyResult<Self> {
+        let k = k.map(|k| crate::count("k", k)).transpose()?;
         let options = MethodOptions::default();
         let source = association_source(associations, &options).map_err(|e| pgm_err(None, e))?;
         let detector = clusterer(method, source, &options).map_err(|e| pgm_err(None, e))?;
@@ -73,13 +73,19 @@ impl PyOnlineTracker {
         py: Python<'py>,
         scan: &Bound<'py, PyDict>,
     ) -> PyResult<Bound<'py, PyDict>> {
+        if scan.get_item("stamp")?.is_none() {
+            return Err(PgmError::new_err(
+                "scan: no `stamp`: the tracker places each scan in time (seconds; pgm.scan(log, i) gives it)",
+            ));
+        }
         let mut s = scan_of("scan", scan)?;
         if let Some(odometry) = scan.get_item("odometry")? {
-            let [x, y, theta]: [f64; 3] = odometry.extract().map_err(|e| {
+            let v: Vec<f64> = odometry.extract().map_err(|e| {
                 PgmError::new_err(format!("scan.odometry: {e} (expected [x, y, theta])"))
             })?;
-            if [x, y, theta].iter().all(|v| v.is_finite()) {
-                s.odometry = Some(Pose2::new(x, y, theta));
+            // A row of NaN (a log without odometry at this scan) is no prior.
+            if !v.iter().all(|c| c.is_nan()) {
+                s.odometry = Some(crate::methods::pose_of("scan.odometry", &v)?);
             }
         }
         let report = self

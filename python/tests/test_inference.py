@@ -133,6 +133,28 @@ def test_tables_in_any_memory_layout_and_in_log_space():
     np.testing.assert_allclose(swapped[0], want[1], atol=1e-12)
 
 
+def test_tables_from_lists_and_other_dtypes():
+    want = pgm.FactorGraph([2])
+    want.add_factor([0], np.array([1.0, 3.0]))
+    for table in ([1, 3], [1.0, 3.0], np.array([1, 3]), np.array([1, 3], dtype=np.float32)):
+        g = pgm.FactorGraph([2])
+        g.add_factor([0], table)
+        np.testing.assert_allclose(g.marginals()["marginals"][0], want.marginals()["marginals"][0], atol=1e-12)
+
+
+def test_marginals_warn_when_their_modes_do_not_fit_together():
+    # A feasible loopy model (an even cycle, "not equal" tables) whose marginals are
+    # uniform: each variable's most probable state is 0, which no table allows.
+    ne = np.array([[0.0, 1.0], [1.0, 0.0]])
+    g = pgm.FactorGraph([2] * 6)
+    for v in range(6):
+        g.add_factor([v, (v + 1) % 6], ne)
+    with pytest.warns(UserWarning, match=r"probability 0"):
+        m = g.marginals()
+    assert m["log_score"] == -math.inf
+    assert g.map()["log_score"] == 0.0
+
+
 def test_uai_round_trip(tmp_path):
     rng = np.random.default_rng(3)
     cards, factors = random_model(rng, 5, random_loopy(rng, 5))
@@ -171,6 +193,10 @@ def test_evidence_file_conditions_the_model(tmp_path):
         (lambda: pgm.FactorGraph([2]).marginals(damping=1.0), r"damping = 1\.0: a number in \[0, 1\)"),
         (lambda: pgm.FactorGraph([2]).trws(max_iterations=0), r"max_iterations"),
         (lambda: pgm.FactorGraph([2, 2]).log_score([0]), r"."),
+        (lambda: pgm.FactorGraph([2, -1]), r"cardinalities\[1\] = -1: expected a whole number >= 0"),
+        (lambda: pgm.FactorGraph([2]).add_factor([-1], np.ones(2)), r"scope\[0\] = -1: expected a whole number >= 0"),
+        (lambda: pgm.FactorGraph([2]).map(max_iterations=-1), r"max_iterations = -1: expected a whole number >= 0"),
+        (lambda: pgm.FactorGraph([2]).add_factor([0], "two"), r"table: .*expected an array of numbers"),
         (lambda: pgm.FactorGraph.from_uai("/nonexistent/model.uai"), r"/nonexistent/model\.uai"),
     ],
 )

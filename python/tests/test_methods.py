@@ -100,11 +100,23 @@ def test_a_real_pair_from_a_reader():
         (lambda a: pgm.match_scans({"ranges": np.ones(3), "angles": np.ones(2), "max_range": 5.0}, a), r"reference: 3 ranges but 2 angles"),
         (lambda a: pgm.match_scans(a, {"ranges": np.ones(3), "max_range": 5.0}), r"current: no `angles`"),
         (lambda a: pgm.match_scans(a, dict(a, valid=[True])), r"current\.valid: 1 flags for 361 beams"),
+        (lambda a: pgm.match_scans(a, a, odometry=[np.nan, 0, 0]), r"odometry = \[NaN, 0\.0, 0\.0\]: expected finite numbers"),
+        (lambda a: pgm.match_scans(a, a, odometry=[0.1, 0.0]), r"odometry: 2 numbers, expected 3"),
+        (lambda a: pgm.match_scans(a, dict(a, max_range="80")), r"current\.max_range: .*a number of metres"),
+        (lambda a: pgm.between([0, 0], [1, 1, 0]), r"between: poses are \[x, y, theta\]"),
     ],
 )
 def test_bad_input_is_a_pgm_error(call, message):
     with pytest.raises(pgm.PgmError, match=message):
         call(ray_cast(0.0, 0.0, 0.0))
+
+
+def test_scans_from_lists():
+    a = ray_cast(0.0, 0.0, 0.0)
+    b = ray_cast(0.2, 0.1, 0.05)
+    as_lists = {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in b.items()}
+    want = pgm.match_scans(a, b)["motion"]
+    np.testing.assert_array_equal(pgm.match_scans(a, as_lists)["motion"], want)
 
 
 def test_between_is_the_motion_in_the_first_frame():

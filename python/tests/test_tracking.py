@@ -84,3 +84,7 @@ def test_tracker_errors():
         t.push(scan)
     with pytest.raises(pgm.PgmError, match=r"scan\.odometry"):
         t.push(dict(scan, stamp=0.0, odometry="north"))
+    with pytest.raises(pgm.PgmError, match=r"scan: no `stamp`"):
+        t.push({k: v for k, v in scan.items() if k != "stamp"})
+    with pytest.raises(pgm.PgmError, match=r"k = -1: expected a whole number >= 0"):
+        pgm.OnlineTracker(k=-1)
