@@ -66,10 +66,7 @@ pub(crate) fn float_array<'py>(
     let numpy = obj.py().import("numpy")?;
     numpy
         .call_method1("asarray", (obj, "float64"))
-        .and_then(|a| {
-            a.extract::<PyReadonlyArrayDyn<'py, f64>>()
-                .map_err(PyErr::from)
-        })
+        .and_then(|a| a.extract::<PyReadonlyArrayDyn<'py, f64>>())
         .map_err(|e| PgmError::new_err(format!("{name}: {e} (expected an array of numbers)")))
 }
 
