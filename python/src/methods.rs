@@ -56,15 +56,10 @@ pub(crate) fn scan_of(which: &str, d: &Bound<'_, PyDict>) -> PyResult<Scan> {
                     ranges.len()
                 )));
             }
-            Scan {
-                timestamp: 0.0,
-                angles,
-                ranges,
-                valid,
-                max_range,
-                odometry: None,
-                laser_offset: Pose2::identity(),
-            }
+            let mut scan = Scan::from_ranges(angles, ranges.clone(), max_range);
+            scan.ranges = ranges;
+            scan.valid = valid;
+            scan
         }
         None => Scan::from_ranges(angles, ranges, max_range),
     };
