@@ -5,6 +5,8 @@ ask for the MAP assignment by max-product belief propagation (:meth:`FactorGraph
 marginals by sum-product (:meth:`FactorGraph.marginals`) or the MAP assignment with
 an upper bound by TRW-S (:meth:`FactorGraph.trws`). Every method runs in log space
 in the Rust engine with the GIL released; results are dicts of numpy arrays.
+Log-linear weights are learned by maximum pseudo-likelihood (:func:`learn`) over
+:class:`FeatureSet` templates and :class:`LogLinearModel` instances.
 Laser logs (CARMEN, leigh-style text exports, ROS 1 bags, MCAP) are read into numpy
 by :func:`read_carmen`, :func:`read_leigh` and :func:`read_bag_scans`; two of their
 scans (:func:`scan`) go to scan matching (:func:`match_scans`), point association
@@ -28,9 +30,12 @@ Errors are raised as :class:`PgmError` (a ``ValueError``) with the message the
 
 from ._native import (
     FactorGraph,
+    FeatureSet,
+    LogLinearModel,
     OnlineTracker,
     PgmError,
     associate,
+    learn,
     cluster,
     match_scans,
     read_bag_scans,
@@ -40,9 +45,12 @@ from ._native import (
 
 __all__ = [
     "FactorGraph",
+    "FeatureSet",
+    "LogLinearModel",
     "OnlineTracker",
     "PgmError",
     "associate",
+    "learn",
     "cluster",
     "match_scans",
     "read_bag_scans",

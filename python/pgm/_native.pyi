@@ -112,3 +112,30 @@ class OnlineTracker:
         """The next scan (with ``stamp``, optional ``odometry``): index, time, sequence,
         pose, converged, objects (track, state, detected, centre, velocity,
         velocity_covariance, extent, score, beams)."""
+
+class FeatureSet:
+    """Named weights grouped in templates that cliques share."""
+
+    def __init__(self, model: str, version: int = 1) -> None: ...
+    def add_template(self, name: str, features: Sequence[str]) -> int:
+        """One weight per feature, named "{name}.{feature}"; returns the template id."""
+    @property
+    def names(self) -> List[str]: ...
+
+class LogLinearModel:
+    """One instance: variables and cliques (a template and a dense feature table each)."""
+
+    def __init__(self, feature_set: FeatureSet, cardinalities: Sequence[int]) -> None: ...
+    def add_clique(self, template: int, scope: Sequence[int], features: npt.ArrayLike) -> int:
+        """``features``: shape [cards of scope] + [template's features], C order."""
+    def to_factor_graph(self, weights: npt.ArrayLike) -> FactorGraph: ...
+
+def learn(
+    feature_set: FeatureSet,
+    instances: List[Any],
+    prior_variance: float = 10.0,
+    max_iterations: int = 200,
+    gradient_tolerance: float = 1e-6,
+) -> Dict[str, Any]:
+    """Maximum pseudo-likelihood: weights, weight_vector, objective, gradient_norm,
+    iterations, converged, termination. ``instances``: [(model, labels), ...]."""

@@ -21,6 +21,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::path::PathBuf;
 
+mod learning;
 mod methods;
 mod scans;
 mod tracking;
@@ -77,7 +78,7 @@ pub(crate) fn float_array<'py>(
 /// `add_factor(scope, table)` adds a factor whose table is a numpy array with one axis
 /// per scope variable (C order: the last scope variable varies fastest, as in UAI).
 #[pyclass(name = "FactorGraph", module = "pgm")]
-struct PyFactorGraph {
+pub(crate) struct PyFactorGraph {
     graph: FactorGraph,
     /// Where the model came from, for error messages (`None`: built from tables).
     source: Option<String>,
@@ -86,6 +87,15 @@ struct PyFactorGraph {
 }
 
 impl PyFactorGraph {
+    /// A graph built in Rust (a learned model's), with no file behind it.
+    pub(crate) fn from_graph(graph: FactorGraph) -> Self {
+        Self {
+            graph,
+            source: None,
+            specialised: false,
+        }
+    }
+
     fn context(&self) -> Option<&str> {
         self.source.as_deref()
     }
@@ -474,6 +484,9 @@ impl PyFactorGraph {
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyFactorGraph>()?;
     m.add_class::<tracking::PyOnlineTracker>()?;
+    m.add_class::<learning::PyFeatureSet>()?;
+    m.add_class::<learning::PyLogLinearModel>()?;
+    m.add_function(wrap_pyfunction!(learning::learn, m)?)?;
     m.add_function(wrap_pyfunction!(scans::read_carmen, m)?)?;
     m.add_function(wrap_pyfunction!(scans::read_leigh, m)?)?;
     m.add_function(wrap_pyfunction!(scans::read_bag_scans, m)?)?;
