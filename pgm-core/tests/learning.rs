@@ -739,3 +739,21 @@ fn bad_weights_and_parameters_are_errors() {
         Err(Error::ModelMismatch { .. })
     ));
 }
+
+#[test]
+fn a_dense_clique_whose_width_is_not_its_templates_is_refused() {
+    let mut features = FeatureSet::new("widths", 1);
+    let bias = features.add_template("bias", &["heads"]).unwrap();
+    let features = Arc::new(features);
+    let mut model = LogLinearModel::new(Arc::clone(&features), &[2]).unwrap();
+    // Two features per state for a one-weight template: before, this was accepted
+    // and panicked at the first evaluation (a slice copy of mismatched lengths).
+    let wide = DenseFeatures::new(vec![VariableId(0)], vec![2], 2, vec![0.0; 4]).unwrap();
+    let err = model.add_clique(bias, wide).unwrap_err().to_string();
+    assert!(
+        err.contains("clique features") && err.contains("2 per joint state (clique 0)"),
+        "{err}"
+    );
+    let right = DenseFeatures::new(vec![VariableId(0)], vec![2], 1, vec![0.0, 1.0]).unwrap();
+    assert_eq!(model.add_clique(bias, right).unwrap(), 0);
+}

@@ -116,8 +116,7 @@ impl PyLogLinearModel {
             )));
         }
         let width = shape[scope.len()];
-        // (The engine's own add_clique does not compare the table's width with the
-        // template's; a mismatch would only fail at the first evaluation.)
+        // The engine refuses it too; checked here first to name the template.
         let wanted = self
             .features
             .template(template)

@@ -253,8 +253,17 @@ pub trait CliqueFeatures: Send + Sync {
     /// The number of states of each scope variable.
     fn shape(&self) -> &[usize];
 
-    /// Writes the feature vector at a joint state into `out` (zero on entry).
+    /// Writes the feature vector at a joint state into `out` (zero on entry; its
+    /// length is the template's number of features).
     fn features(&self, states: &[usize], out: &mut [f64]);
+
+    /// The number of features the clique writes per joint state, when it is fixed by
+    /// the clique's data (a [`DenseFeatures`] table): [`LogLinearModel::add_clique`]
+    /// then refuses a clique whose width is not its template's. `None` (the default)
+    /// for cliques that write whatever `out` holds.
+    fn width(&self) -> Option<usize> {
+        None
+    }
 }
 
 /// A clique over a fixed number `N` of variables whose features a function computes:
@@ -384,6 +393,10 @@ impl CliqueFeatures for DenseFeatures {
         let start: usize = states.iter().zip(&self.strides).map(|(s, d)| s * d).sum();
         out.copy_from_slice(&self.table[start..start + self.width]);
     }
+
+    fn width(&self) -> Option<usize> {
+        Some(self.width)
+    }
 }
 
 /// One clique of a [`LogLinearModel`].
@@ -475,6 +488,15 @@ impl LogLinearModel {
                 expected: "a template of the model's feature set",
             })?
             .weights();
+        if let Some(width) = clique.width() {
+            if width != weights.len() {
+                return Err(Error::InvalidParameter {
+                    name: "clique features",
+                    value: format!("{width} per joint state (clique {index})"),
+                    expected: "the template's number of features",
+                });
+            }
+        }
         let (scope, shape) = (clique.scope(), clique.shape());
         crate::factor::check_scope_against(
             index,
