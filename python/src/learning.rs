@@ -66,6 +66,9 @@ pub struct PyLogLinearModel {
     features: Arc<FeatureSet>,
     cardinalities: Vec<usize>,
     cliques: Vec<(TemplateId, DenseFeatures)>,
+    /// The same cliques in the engine's model, which checks each as it is added
+    /// (`learn` takes models by value, so each run builds its own from `cliques`).
+    checked: LogLinearModel,
 }
 
 impl PyLogLinearModel {
@@ -88,11 +91,13 @@ impl PyLogLinearModel {
         let cardinalities = counts("cardinalities", &cardinalities)?;
         let features = Arc::clone(&feature_set.set);
         // Checks the cardinalities now, with the engine's message.
-        LogLinearModel::new(Arc::clone(&features), &cardinalities).map_err(|e| pgm_err(None, e))?;
+        let checked = LogLinearModel::new(Arc::clone(&features), &cardinalities)
+            .map_err(|e| pgm_err(None, e))?;
         Ok(Self {
             features,
             cardinalities,
             cliques: Vec::new(),
+            checked,
         })
     }
 
@@ -139,8 +144,8 @@ impl PyLogLinearModel {
         let clique = DenseFeatures::new(ids, shape[..scope.len()].to_vec(), width, values)
             .map_err(|e| pgm_err(None, e))?;
         // Checked against the variables and the template by the engine.
-        let mut probe = self.build()?;
-        let index = probe
+        let index = self
+            .checked
             .add_clique(template, clique.clone())
             .map_err(|e| pgm_err(None, e))?;
         self.cliques.push((template, clique));
