@@ -22,7 +22,8 @@
 //! - [`joint`] (`pgm-joint`): the joint model of scan matching, moving-object
 //!   detection and motion estimation;
 //! - [`methods`]: every method by the name the command line uses;
-//! - [`plot`]: SVG pictures of scan pairs and clusterings.
+//! - [`plot`]: SVG pictures of scan pairs and clusterings;
+//! - [`foxglove`]: results as MCAP files under Foxglove's schemas.
 //!
 //! The whole pipeline on simulated pairs: simulate, cluster the current scans' points
 //! by motion with the ground-truth associations, and score the result.
@@ -52,5 +53,6 @@ pub use pgm_joint as joint;
 pub use pgm_scan as scan;
 pub use pgm_tracking as tracking;
 
+pub mod foxglove;
 pub mod methods;
 pub mod plot;

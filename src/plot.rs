@@ -143,6 +143,28 @@ pub fn cluster_colour(label: u32) -> RGBColor {
     }
 }
 
+/// One moving cluster of a [`PairPicture`], as drawn ([`PairPicture::moving_clusters`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct DrawnCluster {
+    /// Its label in [`PairPicture::labels`].
+    pub label: u32,
+    /// The number the picture shows for it (after the true object it mostly covers, or
+    /// by bearing).
+    pub number: u32,
+    /// Its colour ([`cluster_colour`] of `number`).
+    pub colour: RGBColor,
+    /// Its kind, from its motion ("moving" when none is given).
+    pub kind: String,
+    /// The current-scan beams of its returns.
+    pub beams: Vec<usize>,
+    /// Those returns in the reference sensor frame (m), aligned by
+    /// [`PairPicture::alignment`].
+    pub points: Vec<Point2<f64>>,
+    /// Its centre at the reference time and at the current time (reference frame,
+    /// m), when the picture has its motion.
+    pub arrow: Option<(Point2<f64>, Point2<f64>)>,
+}
+
 /// How a [`PairPicture`] chooses the region it draws when [`PairPicture::view`] is
 /// `None`.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -246,6 +268,91 @@ impl<'a> PairPicture<'a> {
             .as_ref()
             .and_then(|t| t.labels.as_deref())
             .filter(|t| t.len() == self.pair.current.len())
+    }
+
+    /// Every moving cluster (a label other than 0 in [`PairPicture::labels`]) as the
+    /// picture shows it: its number and colour, its returns, and the arrow of its
+    /// motion. The same numbers and colours as [`PairPicture::to_svg_string`] (used by
+    /// the MCAP recordings of [`crate::foxglove`]).
+    ///
+    /// # Errors
+    /// [`PlotError::LabelCount`] when the labels do not match the current scan.
+    pub fn moving_clusters(&self) -> Result<Vec<DrawnCluster>, PlotError> {
+        let current = &self.pair.current;
+        if let Some(labels) = self.labels {
+            if labels.len() != current.len() {
+                return Err(PlotError::LabelCount {
+                    labels: labels.len(),
+                    beams: current.len(),
+                });
+            }
+        }
+        let (current_points, current_beams) = current.points();
+        let aligned: Vec<Point2<f64>> = current_points
+            .iter()
+            .map(|p| self.alignment.transform_point(p))
+            .collect();
+        let (clusters, numbers, _, arrows) = self.cluster_layout(&current_beams, &aligned);
+        Ok(clusters
+            .iter()
+            .map(|(&label, members)| DrawnCluster {
+                label,
+                number: numbers[&label],
+                colour: cluster_colour(numbers[&label]),
+                kind: self
+                    .motions
+                    .iter()
+                    .find(|m| m.label == label && !m.kind.is_empty())
+                    .map_or("moving", |m| m.kind.as_str())
+                    .to_string(),
+                beams: members.iter().map(|&i| current_beams[i]).collect(),
+                points: members.iter().map(|&i| aligned[i]).collect(),
+                arrow: arrows.get(&label).copied(),
+            })
+            .collect())
+    }
+
+    /// The moving clusters (indices into `beams` and `aligned`, by label), their
+    /// numbers, how those were chosen, and each one's arrow: its centre at the
+    /// reference time, then at the current time (reference frame).
+    #[allow(clippy::type_complexity)]
+    fn cluster_layout(
+        &self,
+        beams: &[usize],
+        aligned: &[Point2<f64>],
+    ) -> (
+        BTreeMap<u32, Vec<usize>>,
+        BTreeMap<u32, u32>,
+        Numbering,
+        BTreeMap<u32, (Point2<f64>, Point2<f64>)>,
+    ) {
+        let label_of = |k: usize| self.labels.and_then(|l| l[k]);
+        let mut clusters: BTreeMap<u32, Vec<usize>> = BTreeMap::new();
+        for (i, &k) in beams.iter().enumerate() {
+            if let Some(l) = label_of(k).filter(|&l| l != 0) {
+                clusters.entry(l).or_default().push(i);
+            }
+        }
+        let (numbers, numbering) = self.numbering(&clusters, beams, aligned);
+        let current_points: Vec<Point2<f64>> = beams
+            .iter()
+            .map(|&k| self.pair.current.beam_point(k))
+            .collect();
+        let arrows = clusters
+            .iter()
+            .filter_map(|(&label, members)| {
+                let m = self.motions.iter().find(|m| m.label == label)?;
+                let c = centroid(members.iter().map(|&i| current_points[i]));
+                Some((
+                    label,
+                    (
+                        m.motion.transform_point(&c),
+                        self.alignment.transform_point(&c),
+                    ),
+                ))
+            })
+            .collect();
+        (clusters, numbers, numbering, arrows)
     }
 
     /// The number shown for every moving cluster (by label), and how they were
@@ -369,30 +476,7 @@ impl<'a> PairPicture<'a> {
             .map(|p| self.alignment.transform_point(p))
             .collect();
         let label_of = |k: usize| self.labels.and_then(|l| l[k]);
-
-        // Every moving cluster: its indices into the current points, by label.
-        let mut clusters: BTreeMap<u32, Vec<usize>> = BTreeMap::new();
-        for (i, &k) in current_beams.iter().enumerate() {
-            if let Some(l) = label_of(k).filter(|&l| l != 0) {
-                clusters.entry(l).or_default().push(i);
-            }
-        }
-        let (numbers, numbering) = self.numbering(&clusters, &current_beams, &aligned);
-        // Arrows: each cluster's centre at the reference time, then at the current.
-        let arrows: BTreeMap<u32, (Point2<f64>, Point2<f64>)> = clusters
-            .iter()
-            .filter_map(|(&label, members)| {
-                let m = self.motions.iter().find(|m| m.label == label)?;
-                let c = centroid(members.iter().map(|&i| current_points[i]));
-                Some((
-                    label,
-                    (
-                        m.motion.transform_point(&c),
-                        self.alignment.transform_point(&c),
-                    ),
-                ))
-            })
-            .collect();
+        let (clusters, numbers, numbering, arrows) = self.cluster_layout(&current_beams, &aligned);
         let kind_of = |label: u32| {
             self.motions
                 .iter()

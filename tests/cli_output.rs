@@ -502,5 +502,30 @@ fn an_output_file_in_a_missing_directory_is_refused_the_same_way_everywhere() {
         ),
     ];
     refused_all(&cases);
+    // `--mcap` (every command that records for Foxglove) the same way.
+    let missing = path(&dir, "no/such/dir/x.mcap");
+    let expected = format!(
+        "{missing}: cannot write here: the directory {} does not exist",
+        path(&dir, "no/such/dir")
+    );
+    let track = ["track", "--method", "crf"];
+    refused_all(&[
+        (
+            vec!["joint", "--pairs", &ds, "--mcap", &missing],
+            vec![&expected],
+        ),
+        (
+            vec!["match", "--pairs", &ds, "--mcap", &missing],
+            vec![&expected],
+        ),
+        (
+            vec!["cluster", "--pairs", &ds, "--mcap", &missing],
+            vec![&expected],
+        ),
+        (
+            [&track[..], &["--pairs", &ds, "--mcap", &missing]].concat(),
+            vec![&expected],
+        ),
+    ]);
     assert!(!dir.join("no").exists());
 }

@@ -19,7 +19,6 @@ use clap::{Args, ValueEnum};
 use pgm::methods::{association_source, default_association, MethodOptions, ASSOCIATION_SOURCES};
 use pgm::plot::PairPicture;
 use pgm_crf_clustering::{Clustering, UpdateSchedule};
-use pgm_datasets::format::StagedFile;
 use pgm_datasets::{builders, leigh, ClusterMotion, ScanPair};
 use pgm_scan::ParamGuard;
 use serde::Serialize;
@@ -180,12 +179,30 @@ pub struct ClusterArgs {
     /// Draw the result into this SVG file.
     #[arg(long)]
     pub svg: Option<PathBuf>,
+    /// Record the pair and its clusters into this MCAP file for Foxglove (scans,
+    /// sensor poses, clusters with their motions; docs/foxglove.md).
+    #[arg(long)]
+    pub mcap: Option<PathBuf>,
 }
 
 impl OnePairArgs {
     /// Loads the pair named by the arguments.
     pub fn load(&self) -> Result<ScanPair, CliError> {
         load_pair(self)
+    }
+
+    /// The files and directories the pair is read from (outputs may not replace them).
+    pub fn inputs(&self) -> Vec<&std::path::Path> {
+        [
+            self.pairs.as_deref(),
+            self.bag.bag.as_deref(),
+            self.scans.as_deref(),
+            self.odometry.as_deref(),
+            self.carmen.as_deref(),
+        ]
+        .into_iter()
+        .flatten()
+        .collect()
     }
 }
 
@@ -281,12 +298,20 @@ pub fn draw(
     title: String,
     path: &std::path::Path,
 ) -> Result<(), CliError> {
-    let svg = drawing(pair, clustering, title)?;
-    pgm_datasets::format::write_atomically(path, svg.as_bytes()).map_err(CliError::from_display)
+    with_picture(pair, clustering, title, |picture| {
+        let svg = picture.to_svg_string().map_err(CliError::from_display)?;
+        pgm_datasets::format::write_atomically(path, svg.as_bytes()).map_err(CliError::from_display)
+    })
 }
 
-/// The SVG text of `clustering` of `pair` (see [`draw`]).
-fn drawing(pair: &ScanPair, clustering: &Clustering, title: String) -> Result<String, CliError> {
+/// Calls `f` with the picture of `clustering` of `pair`: the current scan coloured by
+/// cluster, aligned by the background's motion, each moving cluster's motion.
+fn with_picture<T>(
+    pair: &ScanPair,
+    clustering: &Clustering,
+    title: String,
+    f: impl FnOnce(&PairPicture<'_>) -> T,
+) -> T {
     let motions: Vec<ClusterMotion> = clustering
         .clusters
         .iter()
@@ -303,14 +328,18 @@ fn drawing(pair: &ScanPair, clustering: &Clustering, title: String) -> Result<St
     picture.alignment = clustering.background_motion;
     picture.framing = pgm::plot::Framing::MovingObjects;
     picture.title = title;
-    picture.to_svg_string().map_err(CliError::from_display)
+    f(&picture)
 }
 
 /// Runs `pgm cluster`.
 pub fn run(args: ClusterArgs) -> CliResult {
-    if let Some(svg) = &args.svg {
-        super::check_output_file(svg)?;
-    }
+    super::check_outputs(
+        &[
+            ("--svg", args.svg.as_deref()),
+            ("--mcap", args.mcap.as_deref()),
+        ],
+        &args.source.inputs(),
+    )?;
     let pair = args.source.load()?;
     let options = args.crf.options()?;
     let clusterer = options
@@ -333,21 +362,18 @@ pub fn run(args: ClusterArgs) -> CliResult {
         clustering: &clustering,
     };
     let json = to_json(&output)?;
-    // The picture is staged beside its destination before the result is printed and
-    // renamed into place after: a command that fails writes nothing.
-    let staged = match &args.svg {
-        Some(path) => {
-            let title = format!(
-                "{}: CRF-Clustering ({} associations), {} moving",
-                pair.name,
-                source.name(),
-                clustering.clusters.len().saturating_sub(1)
-            );
-            let svg = drawing(&pair, &clustering, title)?;
-            Some(StagedFile::stage(path, svg.as_bytes()).map_err(CliError::from_display)?)
-        }
-        None => None,
-    };
+    // The picture and the recording are staged beside their destinations before the
+    // result is printed and renamed into place after: a command that fails writes
+    // nothing.
+    let title = format!(
+        "{}: CRF-Clustering ({} associations), {} moving",
+        pair.name,
+        source.name(),
+        clustering.clusters.len().saturating_sub(1)
+    );
+    let staged = with_picture(&pair, &clustering, title, |picture| {
+        super::StagedOutputs::of_pair(picture, args.svg.as_deref(), args.mcap.as_deref())
+    })?;
     {
         use std::io::Write;
         // A closed pipe (`| head`) is not an error worth a panic.
@@ -358,10 +384,7 @@ pub fn run(args: ClusterArgs) -> CliResult {
             }
         }
     }
-    if let (Some(staged), Some(path)) = (staged, &args.svg) {
-        staged.commit().map_err(CliError::from_display)?;
-        eprintln!("pgm: drew {} into {}", pair.name, path.display());
-    }
+    staged.commit(&pair.name)?;
     if !clustering.converged {
         eprintln!(
             "pgm: warning: CRF-Clustering of {} did not converge ({} sweeps in {} rounds{}); \

@@ -125,6 +125,11 @@ pub struct JointArgs {
     /// Draw the associations and clusters into this SVG file.
     #[arg(long)]
     pub svg: Option<PathBuf>,
+    /// Record the pair, its associations and clusters into this MCAP file for
+    /// Foxglove (scans, sensor poses, clusters with their motions, association lines;
+    /// docs/foxglove.md).
+    #[arg(long)]
+    pub mcap: Option<PathBuf>,
 }
 
 /// One motion cluster in the output of `pgm joint`.
@@ -176,15 +181,27 @@ fn joint_params(
     Ok(params)
 }
 
-/// Draws a joint method's `estimate` of `pair` into `path`: association lines, the
-/// current scan coloured by cluster (outlier cluster black), motion arrows and boxes
-/// around the moving clusters, aligned by the estimated ego-motion.
+/// Draws a joint method's `estimate` of `pair` into `path` (see [`with_joint_picture`]).
 pub fn draw_joint(
     pair: &pgm_datasets::ScanPair,
     estimate: &JointEstimate,
     title: String,
     path: &Path,
 ) -> Result<(), CliError> {
+    with_joint_picture(pair, estimate, title, |picture| {
+        picture.write_svg(path).map_err(CliError::from_display)
+    })
+}
+
+/// Calls `f` with the picture of a joint method's `estimate` of `pair`: association
+/// lines, the current scan coloured by cluster (outlier cluster black), motion arrows
+/// and boxes around the moving clusters, aligned by the estimated ego-motion.
+fn with_joint_picture<T>(
+    pair: &pgm_datasets::ScanPair,
+    estimate: &JointEstimate,
+    title: String,
+    f: impl FnOnce(&PairPicture<'_>) -> T,
+) -> T {
     let clustering = estimate.to_motion_clustering(OutlierReturns::Unlabelled);
     let motions: Vec<ClusterMotion> = clustering
         .motions
@@ -200,14 +217,18 @@ pub fn draw_joint(
     picture.framing = pgm::plot::Framing::MovingObjects;
     picture.unlabelled = Some("outlier cluster".into());
     picture.title = title;
-    picture.write_svg(path).map_err(CliError::from_display)
+    f(&picture)
 }
 
 /// Runs `pgm joint`.
 pub fn run_joint(args: JointArgs) -> CliResult {
-    if let Some(svg) = &args.svg {
-        super::check_output_file(svg)?;
-    }
+    super::check_outputs(
+        &[
+            ("--svg", args.svg.as_deref()),
+            ("--mcap", args.mcap.as_deref()),
+        ],
+        &args.source.inputs(),
+    )?;
     let pair = args.source.load()?;
     let params = joint_params(
         args.candidates,
@@ -239,33 +260,34 @@ pub fn run_joint(args: JointArgs) -> CliResult {
         outliers: count(JointCluster::Outlier),
     };
     let json = to_json(&output)?;
-    if let Some(path) = &args.svg {
-        let estimate = JointEstimate {
-            associations: result.associations.clone(),
-            clusters: result.clusters.clone(),
-            motions: result.motions.clone(),
-            background: result.background,
-            ego_motion: result.ego_motion,
-            iterations: result.sweeps,
-            converged: result.converged,
-        };
-        let outliers = result
-            .associations
-            .iter()
-            .filter(|a| **a == Some(Association::Outlier))
-            .count();
-        let title = format!(
-            "{}: joint model, {} moving clusters, {} association outliers, {} sweeps",
-            pair.name,
-            result.motions.len().saturating_sub(1),
-            outliers,
-            result.sweeps
-        );
-        draw_joint(&pair, &estimate, title, path)?;
-        eprintln!("pgm: drew {} into {}", pair.name, path.display());
-    }
-    // Printed once every file is written: a failing command prints nothing.
+    let estimate = JointEstimate {
+        associations: result.associations.clone(),
+        clusters: result.clusters.clone(),
+        motions: result.motions.clone(),
+        background: result.background,
+        ego_motion: result.ego_motion,
+        iterations: result.sweeps,
+        converged: result.converged,
+    };
+    let outliers = result
+        .associations
+        .iter()
+        .filter(|a| **a == Some(Association::Outlier))
+        .count();
+    let title = format!(
+        "{}: joint model, {} moving clusters, {} association outliers, {} sweeps",
+        pair.name,
+        result.motions.len().saturating_sub(1),
+        outliers,
+        result.sweeps
+    );
+    // Staged before the result is printed, renamed into place after: a command that
+    // fails writes nothing.
+    let staged = with_joint_picture(&pair, &estimate, title, |picture| {
+        super::StagedOutputs::of_pair(picture, args.svg.as_deref(), args.mcap.as_deref())
+    })?;
     println!("{json}");
+    staged.commit(&pair.name)?;
     if !result.converged {
         eprintln!(
             "pgm: warning: the joint model did not converge on {} ({} sweeps in {} rounds); \

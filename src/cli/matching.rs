@@ -126,6 +126,10 @@ pub struct MatchArgs {
     /// Draw the associations into this SVG file.
     #[arg(long)]
     pub svg: Option<PathBuf>,
+    /// Record the pair and its associations into this MCAP file for Foxglove (scans,
+    /// sensor poses, association lines; docs/foxglove.md).
+    #[arg(long)]
+    pub mcap: Option<PathBuf>,
 }
 
 #[derive(Serialize)]
@@ -141,9 +145,13 @@ struct MatchOutput<'a> {
 
 /// Runs `pgm match`.
 pub fn run_match(args: MatchArgs) -> CliResult {
-    if let Some(svg) = &args.svg {
-        super::check_output_file(svg)?;
-    }
+    super::check_outputs(
+        &[
+            ("--svg", args.svg.as_deref()),
+            ("--mcap", args.mcap.as_deref()),
+        ],
+        &args.source.inputs(),
+    )?;
     let pair = args.source.load()?;
     let options = args.matching.apply(MethodOptions::default())?;
     let matcher = options
@@ -160,35 +168,24 @@ pub fn run_match(args: MatchArgs) -> CliResult {
     })?;
     // Staged before the result is printed, renamed into place after: a command that
     // fails writes nothing.
-    let staged = match &args.svg {
-        Some(path) => {
-            let mut picture = PairPicture::new(&pair);
-            picture.labels = None;
-            picture.motions = &[];
-            picture.alignment = matching.motion;
-            picture.associations = Some(&matching.associations);
-            picture.title = format!(
-                "{}: CRF-Matching, {} outliers",
-                pair.name,
-                matching
-                    .associations
-                    .iter()
-                    .filter(|a| **a == Some(pgm_scan::Association::Outlier))
-                    .count()
-            );
-            let svg = picture.to_svg_string().map_err(CliError::from_display)?;
-            Some(
-                pgm_datasets::format::StagedFile::stage(path, svg.as_bytes())
-                    .map_err(CliError::from_display)?,
-            )
-        }
-        None => None,
-    };
+    let mut picture = PairPicture::new(&pair);
+    picture.labels = None;
+    picture.motions = &[];
+    picture.alignment = matching.motion;
+    picture.associations = Some(&matching.associations);
+    picture.title = format!(
+        "{}: CRF-Matching, {} outliers",
+        pair.name,
+        matching
+            .associations
+            .iter()
+            .filter(|a| **a == Some(pgm_scan::Association::Outlier))
+            .count()
+    );
+    let staged =
+        super::StagedOutputs::of_pair(&picture, args.svg.as_deref(), args.mcap.as_deref())?;
     println!("{json}");
-    if let (Some(staged), Some(path)) = (staged, &args.svg) {
-        staged.commit().map_err(CliError::from_display)?;
-        eprintln!("pgm: drew {} into {}", pair.name, path.display());
-    }
+    staged.commit(&pair.name)?;
     if !matching.converged {
         eprintln!(
             "pgm: warning: CRF-Matching of {} did not converge: {}",

@@ -144,6 +144,99 @@ pub fn check_not_an_input(
     Ok(())
 }
 
+/// Checks a command's output files before it runs: each one as
+/// [`check_output_file`] and [`check_not_an_input`], and no two naming the same file.
+/// `outputs` pairs each option (`"--svg"`) with its path, if given.
+pub fn check_outputs(
+    outputs: &[(&str, Option<&std::path::Path>)],
+    inputs: &[&std::path::Path],
+) -> Result<(), CliError> {
+    let given: Vec<(&str, &std::path::Path)> = outputs
+        .iter()
+        .filter_map(|(flag, path)| path.map(|p| (*flag, p)))
+        .collect();
+    for (_, path) in &given {
+        check_output_file(path)?;
+        check_not_an_input(path, inputs)?;
+    }
+    for (i, (flag_a, a)) in given.iter().enumerate() {
+        for (flag_b, b) in &given[i + 1..] {
+            if a == b || resolved_output(a).is_some_and(|r| Some(r) == resolved_output(b)) {
+                return Err(CliError(format!(
+                    "{flag_a} {} and {flag_b} {} are the same file",
+                    a.display(),
+                    b.display()
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// A command's files of one pair (`--svg` picture, `--mcap` recording), staged
+/// beside their destinations before the command prints its result and renamed into
+/// place after ([`StagedOutputs::commit`]): a command that fails writes nothing.
+#[derive(Debug, Default)]
+pub struct StagedOutputs(
+    Vec<(
+        pgm_datasets::format::StagedFile,
+        &'static str,
+        std::path::PathBuf,
+    )>,
+);
+
+impl StagedOutputs {
+    /// Stages `picture` as an SVG file at `svg` and as an MCAP recording
+    /// ([`pgm::foxglove::pair_recording`]) at `mcap`, each when given.
+    pub fn of_pair(
+        picture: &pgm::plot::PairPicture<'_>,
+        svg: Option<&std::path::Path>,
+        mcap: Option<&std::path::Path>,
+    ) -> Result<Self, CliError> {
+        let mut staged = StagedOutputs::default();
+        if let Some(path) = svg {
+            let text = picture.to_svg_string().map_err(CliError::from_display)?;
+            staged.stage(path, text.as_bytes(), "drew")?;
+        }
+        if let Some(path) = mcap {
+            let bytes = pgm::foxglove::pair_recording(picture)
+                .map_err(|e| CliError(format!("--mcap {}: {e}", path.display())))?;
+            staged.stage(path, &bytes, "recorded")?;
+        }
+        Ok(staged)
+    }
+
+    /// Stages `bytes` for `path`; `verb` says what the commit message reports.
+    pub fn stage(
+        &mut self,
+        path: &std::path::Path,
+        bytes: &[u8],
+        verb: &'static str,
+    ) -> Result<(), CliError> {
+        let file =
+            pgm_datasets::format::StagedFile::stage(path, bytes).map_err(CliError::from_display)?;
+        self.0.push((file, verb, path.to_path_buf()));
+        Ok(())
+    }
+
+    /// Renames every staged file into place, reporting each on stderr as `what`.
+    pub fn commit(self, what: &str) -> Result<(), CliError> {
+        for (file, verb, path) in self.0 {
+            file.commit().map_err(CliError::from_display)?;
+            eprintln!("pgm: {verb} {what} into {}", path.display());
+        }
+        Ok(())
+    }
+
+    /// Renames every staged file into place, for a command that reports them itself.
+    pub fn commit_quietly(self) -> Result<(), CliError> {
+        for (file, _, _) in self.0 {
+            file.commit().map_err(CliError::from_display)?;
+        }
+        Ok(())
+    }
+}
+
 /// Result type of subcommands.
 pub type CliResult = Result<std::process::ExitCode, CliError>;
 

@@ -27,7 +27,7 @@ use super::eval_clustering::MethodArgs;
 use super::online::{
     mode_name, scan_sequence, sequence_count, track_scans, NamedReport, OnlineArgs,
 };
-use super::{check_not_an_input, check_output_file, resolved_output, to_json, CliError, CliResult};
+use super::{to_json, CliError, CliResult};
 use clap::Args;
 use nalgebra::Point2;
 use pgm::plot::{ObjectState, TrackPicture, TrackedScan};
@@ -64,6 +64,10 @@ pub struct TrackArgs {
     /// first scan's frame, the sensor's path and each track's path.
     #[arg(long)]
     pub svg: Option<PathBuf>,
+    /// Record every scan, the sensor's pose and the tracks into this MCAP file for
+    /// Foxglove (docs/foxglove.md).
+    #[arg(long)]
+    pub mcap: Option<PathBuf>,
 }
 
 /// Where `pgm track`'s scans come from: a bag, a CARMEN log or a leigh-gtm1 scan log
@@ -237,19 +241,14 @@ pub fn run(args: TrackArgs) -> CliResult {
     .into_iter()
     .flatten()
     .collect();
-    for out in [&args.out, &args.svg].into_iter().flatten() {
-        check_output_file(out)?;
-        check_not_an_input(out, &inputs)?;
-    }
-    if let (Some(a), Some(b)) = (&args.out, &args.svg) {
-        if a == b || resolved_output(a).is_some_and(|r| Some(r) == resolved_output(b)) {
-            return Err(CliError(format!(
-                "--out {} and --svg {} are the same file",
-                a.display(),
-                b.display()
-            )));
-        }
-    }
+    super::check_outputs(
+        &[
+            ("--out", args.out.as_deref()),
+            ("--svg", args.svg.as_deref()),
+            ("--mcap", args.mcap.as_deref()),
+        ],
+        &inputs,
+    )?;
     let pairs = load_pairs(&source)?.pairs;
     if pairs.is_empty() {
         return Err(CliError(format!(
@@ -275,7 +274,7 @@ pub fn run(args: TrackArgs) -> CliResult {
     let built = args.method.build(&options, &[])?;
     let sequence = scan_sequence(&pairs);
     let n_scans = sequence.len();
-    let svg_scans: Vec<pgm_scan::Scan> = if args.svg.is_some() {
+    let kept_scans: Vec<pgm_scan::Scan> = if args.svg.is_some() || args.mcap.is_some() {
         sequence.iter().map(|(_, s)| s.clone()).collect()
     } else {
         Vec::new()
@@ -283,6 +282,9 @@ pub fn run(args: TrackArgs) -> CliResult {
     let reports = track_scans(sequence, built.method.as_ref(), &params, args.online.smooth)
         .map_err(|e| CliError(format!("{source}: {}", e.0)))?;
     let shown = |o: &&pgm_tracking::online::TrackedObject| o.state != TrackState::Tentative;
+    // Every file is staged beside its destination and renamed into place once all are
+    // written: a command that fails writes nothing.
+    let mut staged = super::StagedOutputs::default();
     if let Some(path) = &args.svg {
         // The longest sequence, scans in time order.
         let mut length = std::collections::BTreeMap::<usize, usize>::new();
@@ -295,7 +297,7 @@ pub fn run(args: TrackArgs) -> CliResult {
             .map(|(q, _)| *q);
         let scans = reports
             .iter()
-            .zip(&svg_scans)
+            .zip(&kept_scans)
             .filter(|(r, _)| Some(r.report.sequence) == longest)
             .map(|(r, scan)| TrackedScan {
                 scan,
@@ -336,13 +338,22 @@ pub fn run(args: TrackArgs) -> CliResult {
                 .map_or(String::new(), |a| format!(", {a} associations")),
             mode_name(args.online.smooth),
         );
-        TrackPicture {
+        let svg = TrackPicture {
             scans,
             title,
             width: 900,
         }
-        .write_svg(path)
+        .to_svg_string()
         .map_err(CliError::from_display)?;
+        staged.stage(path, svg.as_bytes(), "drew")?;
+    }
+    if let Some(path) = &args.mcap {
+        let names: Vec<String> = reports.iter().map(|r| r.scan.clone()).collect();
+        let scan_reports: Vec<pgm_tracking::ScanReport> =
+            reports.iter().map(|r| r.report.clone()).collect();
+        let bytes = pgm::foxglove::track_recording(&names, &kept_scans, &scan_reports)
+            .map_err(|e| CliError(format!("--mcap {}: {e}", path.display())))?;
+        staged.stage(path, &bytes, "recorded")?;
     }
     let reported: usize = reports
         .iter()
@@ -372,10 +383,10 @@ pub fn run(args: TrackArgs) -> CliResult {
     };
     let json = to_json(&output)?;
     match &args.out {
-        Some(path) => pgm_datasets::format::write_atomically(path, format!("{json}\n").as_bytes())
-            .map_err(CliError::from_display)?,
+        Some(path) => staged.stage(path, format!("{json}\n").as_bytes(), "wrote the tracks")?,
         None => println!("{json}"),
     }
+    staged.commit_quietly()?;
     eprintln!(
         "pgm: {n_scans} scans of {source} tracked {}; objects reported (confirmed, stopped or \
          coasting): {reported} on {tracks} tracks; sequences: {sequences}{}",
@@ -384,12 +395,16 @@ pub fn run(args: TrackArgs) -> CliResult {
         } else {
             "online"
         },
-        [("", &args.out), ("picture ", &args.svg)]
-            .iter()
-            .filter_map(|(what, p)| p
-                .as_ref()
-                .map(|p| format!("; {what}written to {}", p.display())))
-            .collect::<String>()
+        [
+            ("", &args.out),
+            ("picture ", &args.svg),
+            ("recording ", &args.mcap)
+        ]
+        .iter()
+        .filter_map(|(what, p)| p
+            .as_ref()
+            .map(|p| format!("; {what}written to {}", p.display())))
+        .collect::<String>()
     );
     Ok(ExitCode::SUCCESS)
 }
