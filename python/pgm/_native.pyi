@@ -41,7 +41,8 @@ class FactorGraph:
         max_iterations: int = 1000,
     ) -> Dict[str, Any]:
         """Max-product BP: assignment, log_score, max_marginals, iterations, converged,
-        residual, contradictions. ``schedule``: flooding, sequential or residual."""
+        residual, contradictions, seconds (the run alone). ``schedule``: flooding,
+        sequential or residual."""
     def marginals(
         self,
         schedule: str = "sequential",
@@ -50,9 +51,10 @@ class FactorGraph:
         max_iterations: int = 1000,
     ) -> Dict[str, Any]:
         """Sum-product BP: marginals, assignment, log_score, iterations, converged,
-        residual, contradictions."""
+        residual, contradictions, seconds (the run alone)."""
     def trws(self, tolerance: float = 1e-9, max_iterations: int = 1000) -> Dict[str, Any]:
-        """TRW-S: assignment, log_score, bound, gap, iterations, converged, termination."""
+        """TRW-S: assignment, log_score, bound, gap, iterations, converged, termination,
+        seconds (the run alone)."""
     def to_uai(self) -> str:
         """The model in the UAI format (MARKOV)."""
 

@@ -300,7 +300,8 @@ impl PyFactorGraph {
     /// Returns a dict: `assignment` (int64 array, one state per variable),
     /// `log_score`, `max_marginals` (one row per variable, max-marginals rescaled
     /// to sum to 1), `iterations`, `converged`, `residual` (the last undamped message
-    /// change) and `contradictions`. Raises `PgmError` for bad settings or a model
+    /// change), `contradictions` and `seconds` (the run alone, as `pgm map --stats`
+    /// times it). Raises `PgmError` for bad settings or a model
     /// with no assignment of positive probability.
     #[pyo3(signature = (schedule="sequential", damping=0.0, tolerance=1e-9, max_iterations=1000))]
     fn map<'py>(
@@ -327,7 +328,8 @@ impl PyFactorGraph {
     /// Returns a dict: `marginals` (one row of probabilities per variable: a 2-D
     /// array when every variable has the same cardinality, else a list of arrays),
     /// `assignment` (the most probable state of each), `log_score` (of that
-    /// assignment), `iterations`, `converged`, `residual` and `contradictions`.
+    /// assignment), `iterations`, `converged`, `residual`, `contradictions` and
+    /// `seconds` (the run alone).
     #[pyo3(signature = (schedule="sequential", damping=0.0, tolerance=1e-9, max_iterations=1000))]
     fn marginals<'py>(
         &mut self,
@@ -352,7 +354,7 @@ impl PyFactorGraph {
     ///
     /// Returns a dict: `assignment`, `log_score`, `bound` (no assignment scores
     /// higher), `gap` (`bound − log_score`, 0 proves the assignment optimal),
-    /// `iterations`, `converged` and `termination`.
+    /// `iterations`, `converged`, `termination` and `seconds` (the run alone).
     #[pyo3(signature = (tolerance=1e-9, max_iterations=1000))]
     fn trws<'py>(
         &mut self,
@@ -367,9 +369,12 @@ impl PyFactorGraph {
             .map_err(|e| pgm_err(None, e))?;
         self.prepare();
         let graph = &self.graph;
-        let result = py
-            .detach(|| trws.run(graph))
-            .map_err(|e| pgm_err(self.context(), e))?;
+        let (result, seconds) = py.detach(|| {
+            let started = std::time::Instant::now();
+            let result = trws.run(graph);
+            (result, started.elapsed().as_secs_f64())
+        });
+        let result = result.map_err(|e| pgm_err(self.context(), e))?;
         if let Some(zero) = &result.zero_decoding {
             let message = format!(
                 "TRW-S decoded {:?}, which has probability 0 ({}); returning instead the first assignment of positive probability found by a search guided by its messages (log-score {}, gap {} to the bound)",
@@ -398,6 +403,7 @@ impl PyFactorGraph {
             TrwsTermination::Observer => "observer",
         };
         d.set_item("termination", termination)?;
+        d.set_item("seconds", seconds)?;
         Ok(d)
     }
 
@@ -435,12 +441,14 @@ impl PyFactorGraph {
             .map_err(|e| pgm_err(None, e))?;
         self.prepare();
         let graph = &self.graph;
-        let result = py
-            .detach(|| {
-                let mut schedule = kind.build();
-                bp.run(graph, &mut schedule)
-            })
-            .map_err(|e| pgm_err(self.context(), e))?;
+        // `seconds` times the run alone, as `pgm map --stats` does.
+        let (result, seconds) = py.detach(|| {
+            let mut schedule = kind.build();
+            let started = std::time::Instant::now();
+            let result = bp.run(graph, &mut schedule);
+            (result, started.elapsed().as_secs_f64())
+        });
+        let result = result.map_err(|e| pgm_err(self.context(), e))?;
         if let Some(zero) = &result.zero_decoding {
             let message = format!(
                 "max-product ({schedule} schedule) decoded {:?}, which has probability 0 ({}); returning instead the first assignment of positive probability found by a search guided by its messages (log-score {}, no optimality claim: trws() bounds the gap)",
@@ -475,7 +483,9 @@ impl PyFactorGraph {
             Mode::MaxProduct => "max_marginals",
             Mode::SumProduct => "marginals",
         };
-        bp_result_dict(py, &result, key)
+        let d = bp_result_dict(py, &result, key)?;
+        d.set_item("seconds", seconds)?;
+        Ok(d)
     }
 }
 

@@ -5,6 +5,7 @@ The real logs live in ../shared/data beside the checkout (or $PGM_SHARED_DATA): 
 them these tests skip, except under CI=true, where a missing data folder fails.
 """
 
+import importlib
 import os
 import pathlib
 
@@ -26,8 +27,9 @@ def shared_data(*parts):
 
 
 def need(module):
+    """The module (a submodule too), skipping without it; required under CI=true."""
     if os.environ.get("CI") == "true":
-        return __import__(module)
+        return importlib.import_module(module)
     return pytest.importorskip(module)
 
 
