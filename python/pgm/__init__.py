@@ -8,7 +8,9 @@ in the Rust engine with the GIL released; results are dicts of numpy arrays.
 Log-linear weights are learned by maximum pseudo-likelihood (:func:`learn`) over
 :class:`FeatureSet` templates and :class:`LogLinearModel` instances.
 Laser logs (CARMEN, leigh-style text exports, ROS 1 bags, MCAP) are read into numpy
-by :func:`read_carmen`, :func:`read_leigh` and :func:`read_bag_scans`; two of their
+by :func:`read_carmen`, :func:`read_leigh` and :func:`read_bag_scans`, their ground
+truth by :func:`read_people`, :func:`read_relations` and the bag's pose and people
+topics; two of their
 scans (:func:`scan`) go to scan matching (:func:`match_scans`), point association
 (:func:`associate`) and moving-object detection (:func:`cluster`) by any method of the
 command line's registry; :class:`OnlineTracker` follows moving objects over a stream
@@ -41,6 +43,8 @@ from ._native import (
     read_bag_scans,
     read_carmen,
     read_leigh,
+    read_people,
+    read_relations,
 )
 
 __all__ = [
@@ -56,6 +60,8 @@ __all__ = [
     "read_bag_scans",
     "read_carmen",
     "read_leigh",
+    "read_people",
+    "read_relations",
     "between",
     "scan",
 ]

@@ -73,10 +73,19 @@ def read_bag_scans(
     odom_topic: Optional[str] = None,
     ego_pose_topic: Optional[str] = None,
     object_pose_topic: Optional[str] = None,
+    people_topic: Optional[str] = None,
     clock: str = "auto",
 ) -> ScanArrays:
     """ROS 1 bag (.bag, .bag.zip) or MCAP: the scan arrays plus record_times,
-    header_stamps, frame, and odom/ego_pose/object_pose with their _stamps."""
+    header_stamps, frame, odom/ego_pose/object_pose with their _stamps, and
+    people_times, people_ids, people_positions (annotated people)."""
+
+def read_people(path: Union[str, PathLike[str]]) -> Dict[str, Any]:
+    """leigh-gtm1 people_gt.txt: scans (scan_idx), ids, positions (n x 2, laser frame),
+    lines."""
+
+def read_relations(path: Union[str, PathLike[str]]) -> Dict[str, Any]:
+    """CARMEN .relations (true motions between scans): t1, t2, motions (n x 3), lines."""
 
 Scan = Dict[str, Any]
 Pose = Sequence[float]

@@ -500,6 +500,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(scans::read_carmen, m)?)?;
     m.add_function(wrap_pyfunction!(scans::read_leigh, m)?)?;
     m.add_function(wrap_pyfunction!(scans::read_bag_scans, m)?)?;
+    m.add_function(wrap_pyfunction!(scans::read_people, m)?)?;
+    m.add_function(wrap_pyfunction!(scans::read_relations, m)?)?;
     m.add_function(wrap_pyfunction!(methods::match_scans, m)?)?;
     m.add_function(wrap_pyfunction!(methods::associate, m)?)?;
     m.add_function(wrap_pyfunction!(methods::cluster, m)?)?;

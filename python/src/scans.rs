@@ -152,8 +152,14 @@ pub fn read_leigh<'py>(
 /// their own) plus `record_times` (the bag's record times), `header_stamps` and
 /// `frame`, and for each pose topic given its messages: `odom`/`ego_pose`/
 /// `object_pose` (`[x, y, theta]`, one row per message) with `…_stamps`.
+///
+/// `people_topic` (leigh-gtm1's `/ground_truth_people_tracks`, leg_tracker `Person`
+/// messages): the annotated people as `people_times` (record time, s: which scan
+/// an annotation belongs to), `people_ids` (int64) and `people_positions` (`[x, y]`
+/// m in the laser frame, one row per annotation).
 #[pyfunction]
-#[pyo3(signature = (path, scan_topic, odom_topic=None, ego_pose_topic=None, object_pose_topic=None, clock="auto"))]
+#[pyo3(signature = (path, scan_topic, odom_topic=None, ego_pose_topic=None, object_pose_topic=None, people_topic=None, clock="auto"))]
+#[allow(clippy::too_many_arguments)]
 pub fn read_bag_scans<'py>(
     py: Python<'py>,
     path: PathBuf,
@@ -161,12 +167,14 @@ pub fn read_bag_scans<'py>(
     odom_topic: Option<String>,
     ego_pose_topic: Option<String>,
     object_pose_topic: Option<String>,
+    people_topic: Option<String>,
     clock: &str,
 ) -> PyResult<Bound<'py, PyDict>> {
     let topics = BagTopics {
         odometry: odom_topic,
         ego_pose: ego_pose_topic,
         object_pose: object_pose_topic,
+        people: people_topic,
         clock: self::clock(clock)?,
         ..BagTopics::new(scan_topic)
     };
@@ -191,5 +199,75 @@ pub fn read_bag_scans<'py>(
     if topics.object_pose.is_some() {
         stamped_poses(py, &d, "object_pose", &log.object_poses)?;
     }
+    if topics.people.is_some() {
+        let times: Vec<f64> = log.people.iter().map(|p| p.time).collect();
+        d.set_item("people_times", PyArray1::from_vec(py, times))?;
+        let ids: Vec<i64> = log.people.iter().map(|p| i64::from(p.id)).collect();
+        d.set_item("people_ids", PyArray1::from_vec(py, ids))?;
+        let positions: Vec<[f64; 2]> = log
+            .people
+            .iter()
+            .map(|p| [p.position.x, p.position.y])
+            .collect();
+        d.set_item("people_positions", points(py, &positions)?)?;
+    }
+    Ok(d)
+}
+
+/// `n × 2` array of points.
+fn points<'py>(py: Python<'py>, points: &[[f64; 2]]) -> PyResult<Py<PyAny>> {
+    let flat: Vec<f64> = points.iter().flatten().copied().collect();
+    Ok(PyArray1::from_vec(py, flat)
+        .reshape([points.len(), 2])?
+        .into_any()
+        .unbind())
+}
+
+/// Reads a leigh-gtm1 `people_gt.txt` (`PERSON scan_idx person_id x y`: hand-annotated
+/// person centres, laser frame of that scan, m) with the CLI's checks and errors.
+///
+/// Returns a dict: `scans` (int64: the `scan_idx` each annotation belongs to, as
+/// `read_leigh`'s `indices` number the scans), `ids` (int64), `positions` (`[x, y]`
+/// per annotation) and `lines` (1-based line numbers).
+#[pyfunction]
+pub fn read_people<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, PyDict>> {
+    let people = py
+        .detach(|| pgm_datasets::leigh::read_people(&path))
+        .map_err(|e| pgm_err(None, e))?;
+    let d = PyDict::new(py);
+    let scans: Vec<i64> = people.iter().map(|p| p.scan as i64).collect();
+    d.set_item("scans", PyArray1::from_vec(py, scans))?;
+    let ids: Vec<i64> = people.iter().map(|p| i64::from(p.person)).collect();
+    d.set_item("ids", PyArray1::from_vec(py, ids))?;
+    let positions: Vec<[f64; 2]> = people.iter().map(|p| [p.centre.x, p.centre.y]).collect();
+    d.set_item("positions", points(py, &positions)?)?;
+    let lines: Vec<i64> = people.iter().map(|p| p.line as i64).collect();
+    d.set_item("lines", PyArray1::from_vec(py, lines))?;
+    Ok(d)
+}
+
+/// Reads the ground-truth relations of a CARMEN log (the `.relations` files of the
+/// Kümmerle et al. SLAM benchmark: `t1 t2 x y z roll pitch yaw`, the true motion of
+/// the robot from the scan at `t1` to the scan at `t2`, in the robot frame at `t1`),
+/// with the CLI's checks and errors.
+///
+/// Returns a dict: `t1`, `t2` (s), `motions` (`[x, y, theta]` m and rad, one row per
+/// relation) and `lines` (1-based line numbers).
+#[pyfunction]
+pub fn read_relations<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, PyDict>> {
+    let relations = py
+        .detach(|| pgm_datasets::relations::read_relations(&path))
+        .map_err(|e| pgm_err(None, e))?;
+    let d = PyDict::new(py);
+    let t1: Vec<f64> = relations.iter().map(|r| r.t1).collect();
+    let t2: Vec<f64> = relations.iter().map(|r| r.t2).collect();
+    d.set_item("t1", PyArray1::from_vec(py, t1))?;
+    d.set_item("t2", PyArray1::from_vec(py, t2))?;
+    d.set_item(
+        "motions",
+        poses(py, relations.iter().map(|r| Some(r.motion)))?,
+    )?;
+    let lines: Vec<i64> = relations.iter().map(|r| r.line as i64).collect();
+    d.set_item("lines", PyArray1::from_vec(py, lines))?;
     Ok(d)
 }

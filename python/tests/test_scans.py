@@ -122,3 +122,47 @@ def test_a_missing_topic_lists_those_the_bag_has():
     path = shared_data("datmo", "overtake_ego.bag")
     with pytest.raises(pgm.PgmError, match=r"topic /nope: no such topic in the bag; it has: /ego_pose"):
         pgm.read_bag_scans(path, "/nope")
+
+
+def test_ground_truth_files_read_from_python_equal_their_text():
+    people_path = shared_data("leigh-gtm1", "people_gt.txt")
+    people = pgm.read_people(people_path)
+    rows = [line.split() for line in people_path.read_text().splitlines() if line.startswith("PERSON")]
+    assert len(rows) == len(people["ids"]) > 100
+    np.testing.assert_array_equal(people["scans"], [int(r[1]) for r in rows])
+    np.testing.assert_array_equal(people["ids"], [int(r[2]) for r in rows])
+    np.testing.assert_array_equal(people["positions"], [[float(r[3]), float(r[4])] for r in rows])
+    # Every annotation belongs to a scan of the log.
+    assert set(people["scans"]) <= set(pgm.read_leigh(shared_data("leigh-gtm1", "scans.txt"))["indices"])
+    relations_path = shared_data("mit-csail", "mit-csail.relations")
+    relations = pgm.read_relations(relations_path)
+    rows = [line.split() for line in relations_path.read_text().splitlines() if line.strip()]
+    assert len(rows) == len(relations["t1"]) > 1000
+    np.testing.assert_array_equal(relations["t1"], [float(r[0]) for r in rows])
+    np.testing.assert_array_equal(relations["t2"], [float(r[1]) for r in rows])
+    np.testing.assert_allclose(relations["motions"], [[float(r[2]), float(r[3]), float(r[7])] for r in rows], rtol=0, atol=1e-12)
+
+
+def test_the_bags_people_are_the_annotations_of_its_text_export():
+    bag = pgm.read_bag_scans(
+        shared_data("leigh-gtm1", "general_tracking_moving_1.bag.zip"), "/scan",
+        odom_topic="/odom", people_topic="/ground_truth_people_tracks",
+    )
+    text = pgm.read_people(shared_data("leigh-gtm1", "people_gt.txt"))
+    np.testing.assert_array_equal(bag["people_ids"], text["ids"])
+    # The export rounds to 0.1 mm.
+    np.testing.assert_array_equal(np.round(bag["people_positions"], 4), text["positions"])
+    # An annotation belongs to the last scan recorded at or before it.
+    scan_of = np.searchsorted(bag["record_times"], bag["people_times"], side="right") - 1
+    np.testing.assert_array_equal(scan_of, text["scans"])
+
+
+def test_ground_truth_errors_name_the_file_line_and_field(tmp_path):
+    people = tmp_path / "people_gt.txt"
+    people.write_text("PERSON 3 1 4.0 -2.0\nPERSON 4 x 4.0 -2.0\n")
+    with pytest.raises(pgm.PgmError, match=r"people_gt\.txt:2: field `person_id` = `x`"):
+        pgm.read_people(people)
+    relations = tmp_path / "log.relations"
+    relations.write_text("1.0 2.0 0.1 0.0 0.0 0.0 0.0 nan\n")
+    with pytest.raises(pgm.PgmError, match=r"log\.relations:1: field `yaw`"):
+        pgm.read_relations(relations)
