@@ -279,14 +279,7 @@ impl<'a> PairPicture<'a> {
     /// [`PlotError::LabelCount`] when the labels do not match the current scan.
     pub fn moving_clusters(&self) -> Result<Vec<DrawnCluster>, PlotError> {
         let current = &self.pair.current;
-        if let Some(labels) = self.labels {
-            if labels.len() != current.len() {
-                return Err(PlotError::LabelCount {
-                    labels: labels.len(),
-                    beams: current.len(),
-                });
-            }
-        }
+        self.check_per_beam(self.labels.map(<[_]>::len))?;
         let (current_points, current_beams) = current.points();
         let aligned: Vec<Point2<f64>> = current_points
             .iter()
@@ -310,6 +303,16 @@ impl<'a> PairPicture<'a> {
                 arrow: arrows.get(&label).copied(),
             })
             .collect())
+    }
+
+    /// [`PlotError::LabelCount`] unless `given` (the length of a per-beam slice, if
+    /// any) is the current scan's beam count.
+    fn check_per_beam(&self, given: Option<usize>) -> Result<(), PlotError> {
+        let beams = self.pair.current.len();
+        match given {
+            Some(labels) if labels != beams => Err(PlotError::LabelCount { labels, beams }),
+            _ => Ok(()),
+        }
     }
 
     /// The moving clusters (indices into `beams` and `aligned`, by label), their
@@ -450,22 +453,8 @@ impl<'a> PairPicture<'a> {
     /// Draws the picture and returns the SVG text.
     pub fn to_svg_string(&self) -> Result<String, PlotError> {
         let current = &self.pair.current;
-        if let Some(labels) = self.labels {
-            if labels.len() != current.len() {
-                return Err(PlotError::LabelCount {
-                    labels: labels.len(),
-                    beams: current.len(),
-                });
-            }
-        }
-        if let Some(a) = self.associations {
-            if a.len() != current.len() {
-                return Err(PlotError::LabelCount {
-                    labels: a.len(),
-                    beams: current.len(),
-                });
-            }
-        }
+        self.check_per_beam(self.labels.map(<[_]>::len))?;
+        self.check_per_beam(self.associations.map(<[_]>::len))?;
         if let Some(view) = self.view {
             check_view(view)?;
         }

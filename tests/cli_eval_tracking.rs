@@ -17,22 +17,7 @@ use std::collections::HashMap;
 
 /// A pedestrians sequence of `scans` scans (seed 11) at `dir/seq`.
 fn sequence(dir: &std::path::Path, scans: usize) -> String {
-    let out = path(dir, "seq");
-    let scans = scans.to_string();
-    ok(&[
-        "sim",
-        "--preset",
-        "pedestrians",
-        "--seed",
-        "11",
-        "--pairs",
-        "1",
-        "--sequence",
-        &scans,
-        "--out",
-        &out,
-    ]);
-    out
+    simulated_sequence(dir, "pedestrians", 11, scans)
 }
 
 #[test]

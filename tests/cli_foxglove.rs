@@ -230,20 +230,7 @@ fn pair_commands_record_scans_poses_clusters_and_associations() {
 #[test]
 fn track_records_every_scan_and_every_reported_track() {
     let dir = temp_dir("mcap-track");
-    let seq = path(&dir, "seq");
-    ok(&[
-        "sim",
-        "--preset",
-        "overtaking",
-        "--seed",
-        "3",
-        "--pairs",
-        "1",
-        "--sequence",
-        "20",
-        "--out",
-        &seq,
-    ]);
+    let seq = simulated_sequence(&dir, "overtaking", 3, 20);
     let file = path(&dir, "track.mcap");
     let out = path(&dir, "track.json");
     ok(&[

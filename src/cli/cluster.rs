@@ -176,13 +176,9 @@ pub struct ClusterArgs {
     /// CRF-Clustering options.
     #[command(flatten)]
     pub crf: CrfArgs,
-    /// Draw the result into this SVG file.
-    #[arg(long)]
-    pub svg: Option<PathBuf>,
-    /// Record the pair and its clusters into this MCAP file for Foxglove (scans,
-    /// sensor poses, clusters with their motions; docs/foxglove.md).
-    #[arg(long)]
-    pub mcap: Option<PathBuf>,
+    /// The SVG picture and the MCAP recording.
+    #[command(flatten)]
+    pub outputs: super::PairOutputArgs,
 }
 
 impl OnePairArgs {
@@ -333,13 +329,7 @@ fn with_picture<T>(
 
 /// Runs `pgm cluster`.
 pub fn run(args: ClusterArgs) -> CliResult {
-    super::check_outputs(
-        &[
-            ("--svg", args.svg.as_deref()),
-            ("--mcap", args.mcap.as_deref()),
-        ],
-        &args.source.inputs(),
-    )?;
+    args.outputs.check(&args.source.inputs())?;
     let pair = args.source.load()?;
     let options = args.crf.options()?;
     let clusterer = options
@@ -372,7 +362,7 @@ pub fn run(args: ClusterArgs) -> CliResult {
         clustering.clusters.len().saturating_sub(1)
     );
     let staged = with_picture(&pair, &clustering, title, |picture| {
-        super::StagedOutputs::of_pair(picture, args.svg.as_deref(), args.mcap.as_deref())
+        args.outputs.stage(picture)
     })?;
     {
         use std::io::Write;

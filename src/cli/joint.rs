@@ -122,14 +122,9 @@ pub struct JointArgs {
     /// Weights and boosters written by `pgm train joint` (default: the shipped ones).
     #[arg(long)]
     pub weights: Option<PathBuf>,
-    /// Draw the associations and clusters into this SVG file.
-    #[arg(long)]
-    pub svg: Option<PathBuf>,
-    /// Record the pair, its associations and clusters into this MCAP file for
-    /// Foxglove (scans, sensor poses, clusters with their motions, association lines;
-    /// docs/foxglove.md).
-    #[arg(long)]
-    pub mcap: Option<PathBuf>,
+    /// The SVG picture and the MCAP recording.
+    #[command(flatten)]
+    pub outputs: super::PairOutputArgs,
 }
 
 /// One motion cluster in the output of `pgm joint`.
@@ -222,13 +217,7 @@ fn with_joint_picture<T>(
 
 /// Runs `pgm joint`.
 pub fn run_joint(args: JointArgs) -> CliResult {
-    super::check_outputs(
-        &[
-            ("--svg", args.svg.as_deref()),
-            ("--mcap", args.mcap.as_deref()),
-        ],
-        &args.source.inputs(),
-    )?;
+    args.outputs.check(&args.source.inputs())?;
     let pair = args.source.load()?;
     let params = joint_params(
         args.candidates,
@@ -284,7 +273,7 @@ pub fn run_joint(args: JointArgs) -> CliResult {
     // Staged before the result is printed, renamed into place after: a command that
     // fails writes nothing.
     let staged = with_joint_picture(&pair, &estimate, title, |picture| {
-        super::StagedOutputs::of_pair(picture, args.svg.as_deref(), args.mcap.as_deref())
+        args.outputs.stage(picture)
     })?;
     println!("{json}");
     staged.commit(&pair.name)?;

@@ -123,13 +123,9 @@ pub struct MatchArgs {
     /// CRF-Matching options.
     #[command(flatten)]
     pub matching: MatchingOptionArgs,
-    /// Draw the associations into this SVG file.
-    #[arg(long)]
-    pub svg: Option<PathBuf>,
-    /// Record the pair and its associations into this MCAP file for Foxglove (scans,
-    /// sensor poses, association lines; docs/foxglove.md).
-    #[arg(long)]
-    pub mcap: Option<PathBuf>,
+    /// The SVG picture and the MCAP recording.
+    #[command(flatten)]
+    pub outputs: super::PairOutputArgs,
 }
 
 #[derive(Serialize)]
@@ -145,13 +141,7 @@ struct MatchOutput<'a> {
 
 /// Runs `pgm match`.
 pub fn run_match(args: MatchArgs) -> CliResult {
-    super::check_outputs(
-        &[
-            ("--svg", args.svg.as_deref()),
-            ("--mcap", args.mcap.as_deref()),
-        ],
-        &args.source.inputs(),
-    )?;
+    args.outputs.check(&args.source.inputs())?;
     let pair = args.source.load()?;
     let options = args.matching.apply(MethodOptions::default())?;
     let matcher = options
@@ -182,8 +172,7 @@ pub fn run_match(args: MatchArgs) -> CliResult {
             .filter(|a| **a == Some(pgm_scan::Association::Outlier))
             .count()
     );
-    let staged =
-        super::StagedOutputs::of_pair(&picture, args.svg.as_deref(), args.mcap.as_deref())?;
+    let staged = args.outputs.stage(&picture)?;
     println!("{json}");
     staged.commit(&pair.name)?;
     if !matching.converged {

@@ -173,6 +173,40 @@ pub fn check_outputs(
     Ok(())
 }
 
+/// The files a one-pair command (`pgm match`, `pgm cluster`, `pgm joint`) writes
+/// besides the JSON it prints.
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct PairOutputArgs {
+    /// Draw the pair and the command's result (associations, clusters, motions) into
+    /// this SVG file.
+    #[arg(long)]
+    pub svg: Option<std::path::PathBuf>,
+    /// Record the pair and the command's result into this MCAP file for Foxglove:
+    /// both scans, the sensor's motion, the clusters with their motions, the
+    /// association lines (docs/foxglove.md).
+    #[arg(long)]
+    pub mcap: Option<std::path::PathBuf>,
+}
+
+impl PairOutputArgs {
+    /// Checks the files before the command runs ([`check_outputs`]), against the
+    /// pair's `inputs`.
+    pub fn check(&self, inputs: &[&std::path::Path]) -> Result<(), CliError> {
+        check_outputs(
+            &[
+                ("--svg", self.svg.as_deref()),
+                ("--mcap", self.mcap.as_deref()),
+            ],
+            inputs,
+        )
+    }
+
+    /// Stages the files of `picture` ([`StagedOutputs::of_pair`]).
+    pub fn stage(&self, picture: &pgm::plot::PairPicture<'_>) -> Result<StagedOutputs, CliError> {
+        StagedOutputs::of_pair(picture, self.svg.as_deref(), self.mcap.as_deref())
+    }
+}
+
 /// A command's files of one pair (`--svg` picture, `--mcap` recording), staged
 /// beside their destinations before the command prints its result and renamed into
 /// place after ([`StagedOutputs::commit`]): a command that fails writes nothing.

@@ -148,6 +148,27 @@ pub fn simulated(dir: &Path, name: &str, seed: u64, n: usize) -> (String, Vec<Sc
     (path, pairs)
 }
 
+/// One simulated sequence of `scans` scans (`pgm sim --preset PRESET --seed SEED
+/// --pairs 1 --sequence SCANS`) written as a data set at `dir/seq`: its path.
+pub fn simulated_sequence(dir: &Path, preset: &str, seed: u64, scans: usize) -> String {
+    let out = path(dir, "seq");
+    let (seed, scans) = (seed.to_string(), scans.to_string());
+    ok(&[
+        "sim",
+        "--preset",
+        preset,
+        "--seed",
+        &seed,
+        "--pairs",
+        "1",
+        "--sequence",
+        &scans,
+        "--out",
+        &out,
+    ]);
+    out
+}
+
 /// `pairs` written as a data set at `dir/name` without the writer's checks (the
 /// readers must refuse what the writer would).
 pub fn write_raw(dir: &Path, name: &str, pairs: &[serde_json::Value]) -> String {
