@@ -311,17 +311,10 @@ fn pgm_track_prints_what_the_streaming_tracker_returns_scan_by_scan() {
     let dir = temp_dir("eval-tracking-stream");
     let seq = sequence(&dir, 25);
     let tracks = path(&dir, "tracks.json");
-    ok(&[
-        "track",
-        "--method",
-        "crf",
-        "--associations",
+    ok(&track_crf(
         "segment-icp",
-        "--pairs",
-        &seq,
-        "--out",
-        &tracks,
-    ]);
+        &["--pairs", &seq, "--out", &tracks],
+    ));
     let printed = read_json(&tracks);
     let printed = printed["scans"].as_array().unwrap();
     // The same scans pushed one by one into the library's tracker.

@@ -233,19 +233,10 @@ fn track_records_every_scan_and_every_reported_track() {
     let seq = simulated_sequence(&dir, "overtaking", 3, 20);
     let file = path(&dir, "track.mcap");
     let out = path(&dir, "track.json");
-    ok(&[
-        "track",
-        "--method",
-        "crf",
-        "--associations",
+    ok(&track_crf(
         "segment-icp",
-        "--pairs",
-        &seq,
-        "--out",
-        &out,
-        "--mcap",
-        &file,
-    ]);
+        &["--pairs", &seq, "--out", &out, "--mcap", &file],
+    ));
     let reported = check_track_recording(&read_recording(&file), &read_json(&out));
     assert!(reported > 0, "the overtaking car is tracked");
 }
@@ -304,21 +295,19 @@ fn the_datmo_car_is_recorded_track_by_track() {
     let bag = bag.to_str().unwrap();
     let tmp = temp_dir("mcap-datmo");
     let (file, out) = (path(&tmp, "car.mcap"), path(&tmp, "car.json"));
-    ok(&[
-        "track",
-        "--method",
-        "crf",
-        "--associations",
+    ok(&track_crf(
         "crf-matching",
-        "--bag",
-        bag,
-        "--scan-topic",
-        "/scan",
-        "--out",
-        &out,
-        "--mcap",
-        &file,
-    ]);
+        &[
+            "--bag",
+            bag,
+            "--scan-topic",
+            "/scan",
+            "--out",
+            &out,
+            "--mcap",
+            &file,
+        ],
+    ));
     let messages = read_recording(&file);
     let report = read_json(&out);
     let entities = check_track_recording(&messages, &report);

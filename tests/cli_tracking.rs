@@ -188,15 +188,7 @@ fn datmo_overtake_ego_track_follows_the_car_as_one_track() {
     let Some(bag) = overtake_ego() else {
         return;
     };
-    let head = [
-        "track",
-        "--method",
-        "crf",
-        "--associations",
-        "crf-matching",
-        "--bag",
-        &bag,
-    ];
+    let head = track_crf("crf-matching", &["--bag", &bag]);
     let out = ok_json(&[&head[..], &DATMO_SCANS, &["--k", "3"]].concat());
     assert_eq!(out["mode"], "online");
     assert_eq!(out["tracking"]["k"], 3);

@@ -148,6 +148,15 @@ pub fn simulated(dir: &Path, name: &str, seed: u64, n: usize) -> (String, Vec<Sc
     (path, pairs)
 }
 
+/// `pgm track --method crf --associations ASSOCIATIONS` followed by `rest`.
+pub fn track_crf<'a>(associations: &'a str, rest: &[&'a str]) -> Vec<&'a str> {
+    [
+        &["track", "--method", "crf", "--associations", associations][..],
+        rest,
+    ]
+    .concat()
+}
+
 /// One simulated sequence of `scans` scans (`pgm sim --preset PRESET --seed SEED
 /// --pairs 1 --sequence SCANS`) written as a data set at `dir/seq`: its path.
 pub fn simulated_sequence(dir: &Path, preset: &str, seed: u64, scans: usize) -> String {
