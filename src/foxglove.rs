@@ -45,6 +45,9 @@ pub mod topics {
     pub const TF: &str = "/tf";
     /// `foxglove.SceneUpdate`: the tracks of each scan (`pgm track`).
     pub const TRACKS: &str = "/tracks";
+    /// `foxglove.SceneUpdate`: each track's path so far, in the fixed frame (`pgm
+    /// track`).
+    pub const TRACK_PATHS: &str = "/tracks/paths";
     /// `foxglove.LaserScan`, frame [`super::REFERENCE_FRAME`] (pair commands).
     pub const REFERENCE_SCAN: &str = "/reference/scan";
     /// `foxglove.LaserScan`, frame [`super::CURRENT_FRAME`] (pair commands).
@@ -54,6 +57,11 @@ pub mod topics {
     /// `foxglove.SceneUpdate`: one line per current return and its reference partner.
     pub const ASSOCIATIONS: &str = "/associations";
 }
+
+/// How many reported centres a track's path holds in a track recording (20 s at
+/// 10 Hz): each scan's message repeats the path, so a longer one would make a long
+/// log's file grow with the square of a track's age.
+pub const PATH_LENGTH: usize = 200;
 
 /// Fixed frame of a track recording: the sensor frame of the sequence's first scan.
 pub const WORLD_FRAME: &str = "world";
@@ -680,7 +688,10 @@ fn state_name(state: TrackState) -> &'static str {
 ///   a box of the track's extent turned along its velocity (translucent when
 ///   coasting), its number (the JSON's `track`), its velocity as an arrow of where it
 ///   will be in one second, its returns as dots, and its state, score and speed as
-///   metadata; colours as in `pgm track --svg`.
+///   metadata; colours as in `pgm track --svg`;
+/// - [`topics::TRACK_PATHS`]: for the same tracks, the path of their last
+///   [`PATH_LENGTH`] reported centres (this scan's included), a line in
+///   [`WORLD_FRAME`] (a sequence's paths start again with it).
 ///
 /// # Errors
 /// [`RecordingError::Value`] naming the scan and field a message cannot hold (see
@@ -691,10 +702,18 @@ pub fn track_recording(
     reports: &[ScanReport],
 ) -> Result<Vec<u8>, RecordingError> {
     let mut rec = Recording::new()?;
+    // Each track's reported centres so far (fixed frame), for the current sequence.
+    let mut paths: BTreeMap<u64, Vec<Vector3>> = BTreeMap::new();
+    let mut sequence = None;
     for ((name, scan), report) in names.iter().zip(scans).zip(reports) {
         let time = rec.laser_scan(topics::SCAN, SENSOR_FRAME, scan, name)?;
         rec.frame_transform(time, WORLD_FRAME, SENSOR_FRAME, &report.pose)?;
+        if sequence != Some(report.sequence) {
+            paths.clear();
+            sequence = Some(report.sequence);
+        }
         let mut entities = Vec::new();
+        let mut lines = Vec::new();
         for o in report
             .objects
             .iter()
@@ -728,8 +747,33 @@ pub fn track_recording(
             e.meta("speed (m/s)", format!("{:.3}", v.norm()));
             e.meta("detected", o.detected);
             entities.push(e);
+            let at = report.pose.transform_point(&centre);
+            let path = paths.entry(o.track).or_default();
+            if path.len() == PATH_LENGTH {
+                path.remove(0);
+            }
+            path.push(Vector3 {
+                x: at.x,
+                y: at.y,
+                z: 0.0,
+            });
+            let mut line = SceneEntity::new(time, WORLD_FRAME, format!("track {}", o.track));
+            line.meta("track", o.track);
+            line.meta("reported centres", path.len());
+            line.lines.push(LinePrimitive {
+                kind: 0,
+                pose: Pose::identity(),
+                thickness: 2.0,
+                scale_invariant: true,
+                points: path.clone(),
+                color: Color::of(colour, 1.0),
+                colors: Vec::new(),
+                indices: Vec::new(),
+            });
+            lines.push(line);
         }
         rec.scene(topics::TRACKS, time, entities)?;
+        rec.scene(topics::TRACK_PATHS, time, lines)?;
     }
     rec.finish()
 }

@@ -250,10 +250,14 @@ fn check_track_recording(messages: &[Message], report: &Value) -> usize {
     assert_eq!(topics["/scan"], scans.len());
     assert_eq!(topics["/tf"], scans.len());
     assert_eq!(topics["/tracks"], scans.len());
+    assert_eq!(topics["/tracks/paths"], scans.len());
     let (mut objects, mut entities) = (0, 0);
-    for ((tf, tracks), scan) in on(messages, "/tf")
+    // Each track's reported centres so far, in the fixed frame.
+    let mut centres: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
+    for (((tf, tracks), paths), scan) in on(messages, "/tf")
         .iter()
         .zip(on(messages, "/tracks"))
+        .zip(on(messages, "/tracks/paths"))
         .zip(scans)
     {
         assert_eq!(tf.json["parent_frame_id"], "world");
@@ -279,6 +283,41 @@ fn check_track_recording(messages: &[Message], report: &Value) -> usize {
         assert_eq!(ids, shown);
         // Each scan replaces the last one's tracks.
         assert_eq!(tracks.json["deletions"][0]["type"], 1);
+        // The paths: the same tracks, each ending at its centre moved into the fixed
+        // frame by the sensor's pose (one sequence here).
+        let (x, y, yaw) = planar(&tf.json);
+        let path_entities = paths.json["entities"].as_array().unwrap();
+        assert_eq!(path_entities.len(), shown.len());
+        for (o, e) in scan["objects"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|o| o["state"] != "tentative")
+            .zip(path_entities)
+        {
+            assert_eq!(e["frame_id"], "world");
+            let (cx, cy) = (
+                o["centre"][0].as_f64().unwrap(),
+                o["centre"][1].as_f64().unwrap(),
+            );
+            let at = (
+                x + yaw.cos() * cx - yaw.sin() * cy,
+                y + yaw.sin() * cx + yaw.cos() * cy,
+            );
+            let path = centres
+                .entry(e["id"].as_str().unwrap().to_string())
+                .or_default();
+            path.push(at);
+            if path.len() > pgm::foxglove::PATH_LENGTH {
+                path.remove(0);
+            }
+            let points = e["lines"][0]["points"].as_array().unwrap();
+            assert_eq!(points.len(), path.len());
+            for (p, q) in points.iter().zip(path.iter()) {
+                assert!((p["x"].as_f64().unwrap() - q.0).abs() < 1e-9);
+                assert!((p["y"].as_f64().unwrap() - q.1).abs() < 1e-9);
+            }
+        }
         objects += shown.len();
         entities += ids.len();
     }

@@ -23,6 +23,7 @@ EXPECTED = {
     "/current/scan": "foxglove.LaserScan",
     "/tf": "foxglove.FrameTransform",
     "/tracks": "foxglove.SceneUpdate",
+    "/tracks/paths": "foxglove.SceneUpdate",
     "/clusters": "foxglove.SceneUpdate",
     "/associations": "foxglove.SceneUpdate",
 }
@@ -129,6 +130,7 @@ def test_a_tracked_bag_decodes_under_foxglove_schemas(bag, tmp_path):
     messages = read_recording(mcap_path)
     scans = on(messages, "/scan")
     assert len(scans) == len(on(messages, "/tf")) == len(on(messages, "/tracks")) == len(report)
+    assert len(on(messages, "/tracks/paths")) == len(report)
     # The recorded ranges are the bag's, as the Python reader gives them (no return: 0).
     arrays = pgm.read_bag_scans(path, "/scan")
     assert len(arrays["stamps"]) == len(scans)
