@@ -7,7 +7,8 @@ mod common;
 use pgm_core::exact::{brute_force, forward_backward, BruteForceLimit, ChainSampler};
 use pgm_core::learning::{
     CliqueFeatures, DenseFeatures, FeatureSet, FnFeatures, LabelledInstance, LearnerParams,
-    LogLinearModel, Progress, PseudoLikelihood, TemplateId, Weights, DEFAULT_FEATURE_CACHE_BYTES,
+    Likelihood, LikelihoodKind, LogLinearModel, Progress, PseudoLikelihood, TemplateId, Weights,
+    DEFAULT_FEATURE_CACHE_BYTES,
 };
 use pgm_core::{BpParams, Error, Mode, ParamGuard, Sequential, VariableId};
 use proptest::prelude::*;
@@ -756,4 +757,163 @@ fn a_dense_clique_whose_width_is_not_its_templates_is_refused() {
     );
     let right = DenseFeatures::new(vec![VariableId(0)], vec![2], 1, vec![0.0, 1.0]).unwrap();
     assert_eq!(model.add_clique(bias, right).unwrap(), 0);
+}
+
+// ---------------------------------------------------------------------------------
+// The likelihood: exact on forests, the Bethe approximation on loops.
+
+/// `−Σ_i log p(y_i) + ‖w‖²/(2σ²)` by brute-force enumeration.
+fn brute_force_objective(data: &[LabelledInstance], weights: &[f64], prior_variance: f64) -> f64 {
+    let mut value = 0.0;
+    for instance in data {
+        let graph = instance.model.to_factor_graph(weights).unwrap();
+        let solution = brute_force(&graph, BruteForceLimit::default()).unwrap();
+        value += solution.log_partition - graph.log_score(&instance.labels).unwrap();
+    }
+    if prior_variance.is_finite() {
+        value += weights.iter().map(|w| w * w).sum::<f64>() / (2.0 * prior_variance);
+    }
+    value
+}
+
+/// The largest `|g − fd| / max(1, |g|)` over the weights, central differences of step h.
+fn worst_gradient_error(
+    objective: &Likelihood<'_>,
+    weights: &[f64],
+    h: f64,
+) -> (usize, f64, f64, f64) {
+    let (_, gradient) = objective.value_and_gradient(weights).unwrap();
+    let mut worst = (0, 0.0, 0.0, 0.0);
+    for k in 0..weights.len() {
+        let mut plus = weights.to_vec();
+        let mut minus = weights.to_vec();
+        plus[k] += h;
+        minus[k] -= h;
+        let fd = (objective.value_and_gradient(&plus).unwrap().0
+            - objective.value_and_gradient(&minus).unwrap().0)
+            / (2.0 * h);
+        let error = (gradient[k] - fd).abs() / gradient[k].abs().max(1.0);
+        if error >= worst.3 {
+            worst = (k, gradient[k], fd, error);
+        }
+    }
+    worst
+}
+
+proptest! {
+    #![proptest_config(common::persisted(128, "proptest-regressions/likelihood.txt"))]
+
+    /// On forests (chains and trees) the exact likelihood equals brute force, the Bethe
+    /// likelihood equals it too, and the gradient matches finite differences.
+    #[test]
+    fn likelihood_equals_brute_force_on_forests(spec in problem(2)) {
+        let (features, data) = spec.build();
+        let forest = data.iter().all(|i| i.model.to_factor_graph(&spec.weights).unwrap().is_forest());
+        prop_assume!(forest);
+        let expected = brute_force_objective(&data, &spec.weights, spec.prior_variance);
+        for kind in [LikelihoodKind::Exact, LikelihoodKind::Bethe] {
+            let objective = Likelihood::new(kind, Arc::clone(&features), &data, spec.prior_variance).unwrap();
+            let (value, _) = objective.value_and_gradient(&spec.weights).unwrap();
+            prop_assert!((value - expected).abs() <= 1e-8 * expected.abs().max(1.0),
+                "{:?}: {} vs brute force {}", kind, value, expected);
+            let (k, g, fd, error) = worst_gradient_error(&objective, &spec.weights, 1e-5);
+            prop_assert!(error < 1e-5, "{:?}: weight {}: analytic {} vs finite difference {} ({:e})", kind, k, g, fd, error);
+        }
+    }
+}
+
+/// A cycle of `n` binary variables: a unary "is 1" feature on each and an "agree"
+/// feature on each neighbouring pair, labels `labels`.
+fn binary_cycle(n: usize, labels: Vec<usize>) -> (Arc<FeatureSet>, Vec<LabelledInstance>) {
+    let mut features = FeatureSet::new("cycle", 1);
+    let unary = features.add_template("unary", &["one"]).unwrap();
+    let pair = features.add_template("pair", &["agree"]).unwrap();
+    let features = Arc::new(features);
+    let mut model = LogLinearModel::new(Arc::clone(&features), &vec![2; n]).unwrap();
+    for i in 0..n {
+        let f = DenseFeatures::new(vec![VariableId(i)], vec![2], 1, vec![0.0, 1.0]).unwrap();
+        model.add_clique(unary, f).unwrap();
+        let j = (i + 1) % n;
+        let f = DenseFeatures::new(
+            vec![VariableId(i), VariableId(j)],
+            vec![2, 2],
+            1,
+            vec![1.0, 0.0, 0.0, 1.0],
+        )
+        .unwrap();
+        model.add_clique(pair, f).unwrap();
+    }
+    (features, vec![LabelledInstance::new(model, labels)])
+}
+
+#[test]
+fn the_exact_likelihood_refuses_a_loop_and_the_bethe_one_approximates_it() {
+    let (features, data) = binary_cycle(4, vec![1, 1, 0, 1]);
+    let refused =
+        Likelihood::new(LikelihoodKind::Exact, Arc::clone(&features), &data, 10.0).unwrap_err();
+    let message = refused.to_string();
+    assert!(
+        message.contains("instance 0") && message.contains("cycle"),
+        "{message}"
+    );
+    let bethe = Likelihood::new(LikelihoodKind::Bethe, features, &data, f64::INFINITY).unwrap();
+    for weights in [[0.3, 0.2], [-0.4, 0.5], [0.1, -0.3]] {
+        let (value, _) = bethe.value_and_gradient(&weights).unwrap();
+        let exact = brute_force_objective(&data, &weights, f64::INFINITY);
+        // Weak couplings: the Bethe approximation of log Z is close, not equal.
+        assert!(
+            (value - exact).abs() < 0.01 * exact.abs(),
+            "{weights:?}: Bethe {value} vs exact {exact}"
+        );
+        assert!(
+            (value - exact).abs() > 1e-9,
+            "{weights:?}: on a loop Bethe is not exact"
+        );
+        // At BP's fixed point the gradient of −F_B is the beliefs' expectation.
+        let (k, g, fd, error) = worst_gradient_error(&bethe, &weights, 1e-5);
+        assert!(
+            error < 1e-4,
+            "weight {k}: analytic {g} vs finite difference {fd} ({error:e})"
+        );
+    }
+}
+
+#[test]
+fn belief_propagation_that_does_not_converge_is_an_error_naming_the_instance() {
+    let (features, data) = binary_cycle(5, vec![1, 0, 1, 0, 1]);
+    let bp = Likelihood::default_bp().max_iterations(2);
+    let bethe = Likelihood::with_bp(LikelihoodKind::Bethe, features, &data, 1.0, bp).unwrap();
+    let e = bethe
+        .value_and_gradient(&[0.5, 3.0])
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("instance 0") && e.contains("did not converge in 2 iterations"),
+        "{e}"
+    );
+}
+
+#[test]
+fn likelihood_settings_are_checked() {
+    let (features, data) = binary_cycle(3, vec![0, 0, 1]);
+    let max_product = BpParams::new(Mode::MaxProduct);
+    let e = Likelihood::with_bp(
+        LikelihoodKind::Bethe,
+        Arc::clone(&features),
+        &data,
+        1.0,
+        max_product,
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("sum-product"), "{e}");
+    let e = Likelihood::new(LikelihoodKind::Bethe, Arc::clone(&features), &data, 0.0).unwrap_err();
+    assert!(e.to_string().contains("prior_variance"), "{e}");
+    let e = Likelihood::new(LikelihoodKind::Bethe, Arc::clone(&features), &[], 1.0).unwrap_err();
+    assert!(e.to_string().contains("instances"), "{e}");
+    let bad = vec![LabelledInstance::new(
+        LogLinearModel::new(Arc::clone(&features), &[2, 2, 2]).unwrap(),
+        vec![0, 0, 2],
+    )];
+    let e = Likelihood::new(LikelihoodKind::Bethe, features, &bad, 1.0).unwrap_err();
+    assert!(e.to_string().contains("instance 0"), "{e}");
 }

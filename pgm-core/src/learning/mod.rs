@@ -71,11 +71,13 @@
 //! assert_eq!(exact.map, vec![0, 0, 1, 1, 1]);
 //! ```
 
+mod likelihood;
 mod model;
 mod optimise;
 mod pseudo_likelihood;
 mod weights;
 
+pub use likelihood::{Likelihood, LikelihoodKind};
 pub use model::{
     CliqueFeatures, DenseFeatures, FeatureSet, FnFeatures, LabelledInstance, LogLinearModel,
     Template, TemplateId, MAX_ABS_WEIGHT,

@@ -1,0 +1,346 @@
+//! The conditional likelihood of log-linear CRFs, exact on chains and trees and by the
+//! Bethe approximation of loopy belief propagation on any graph.
+//!
+//! For an instance with features `F(x) = Σ_c f_c(x_c, z)` and labels `y`,
+//! `log p(y | z; w) = w · F(y) − log Z(w)`, `Z(w) = Σ_x exp(w · F(x))`, and
+//! `∂ log p / ∂w = F(y) − E_w[F]`, the expectation taken under the model's clique
+//! marginals `p(x_c)` (Koller & Friedman, *Probabilistic Graphical Models*, §20.3;
+//! CRFsuite's and UGM's maximum likelihood).
+//!
+//! Both quantities come from sum-product belief propagation on the instance's factor
+//! graph: the clique beliefs `b_c(x_c) ∝ exp(θ_c(x_c)) Π_{v∈c} m_{v→c}(x_v)` and the
+//! Bethe free energy
+//!
+//! `F_B = Σ_c Σ_{x_c} b_c (log b_c − θ_c) − Σ_v (d_v − 1) Σ_{x_v} b_v log b_v`,
+//!
+//! with `log Z ≈ −F_B` (Yedidia, Freeman & Weiss, "Constructing free-energy
+//! approximations and generalized belief propagation algorithms", IEEE Trans. IT
+//! 51(7), 2005). On a forest BP converges to the exact marginals and `−F_B = log Z`
+//! exactly: that is [`LikelihoodKind::Exact`], which refuses a graph with a cycle. On a
+//! loopy graph ([`LikelihoodKind::Bethe`]) the beliefs are BP's fixed point and `−F_B`
+//! its approximation of `log Z`; at a fixed point its gradient is exactly the beliefs'
+//! expectation, so the objective and its gradient agree, but it is neither a bound nor
+//! convex, and BP may not converge on strongly coupled models (an error naming the
+//! instance; damping or pseudo-likelihood are the remedies).
+
+use super::model::{FeatureSet, LabelledInstance};
+use crate::error::{Error, Result};
+use crate::graph::{FactorId, VariableId};
+use crate::{BeliefPropagation, BpParams, Mode, ParamGuard, Sequential};
+use rayon::prelude::*;
+use std::sync::Arc;
+
+/// Which likelihood [`Likelihood`] evaluates.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LikelihoodKind {
+    /// The exact likelihood: every instance's factor graph must be a forest (chains and
+    /// trees), where belief propagation is exact.
+    Exact,
+    /// The Bethe approximation from loopy belief propagation's fixed point, for any
+    /// graph.
+    Bethe,
+}
+
+impl LikelihoodKind {
+    fn name(self) -> &'static str {
+        match self {
+            LikelihoodKind::Exact => "maximum likelihood",
+            LikelihoodKind::Bethe => "Bethe likelihood",
+        }
+    }
+}
+
+/// The negative conditional log-likelihood of a training set with a Gaussian prior, and
+/// its gradient (see the module docs).
+///
+/// ```
+/// use std::sync::Arc;
+/// use pgm_core::learning::{DenseFeatures, FeatureSet, LabelledInstance, Likelihood, LikelihoodKind, LogLinearModel};
+/// use pgm_core::VariableId;
+///
+/// // One binary variable, one feature "x = 1", label 1: −log p = log(1 + e^w) − w.
+/// let mut features = FeatureSet::new("coin", 1);
+/// let bias = features.add_template("bias", &["one"]).unwrap();
+/// let features = Arc::new(features);
+/// let mut model = LogLinearModel::new(Arc::clone(&features), &[2]).unwrap();
+/// model.add_clique(bias, DenseFeatures::new(vec![VariableId(0)], vec![2], 1, vec![0.0, 1.0]).unwrap()).unwrap();
+/// let data = vec![LabelledInstance::new(model, vec![1])];
+///
+/// let objective = Likelihood::new(LikelihoodKind::Exact, features, &data, f64::INFINITY).unwrap();
+/// let (value, gradient) = objective.value_and_gradient(&[0.0]).unwrap();
+/// assert!((value - 2f64.ln()).abs() < 1e-12);
+/// assert!((gradient[0] + 0.5).abs() < 1e-12);
+/// ```
+#[derive(Debug)]
+pub struct Likelihood<'a> {
+    kind: LikelihoodKind,
+    features: Arc<FeatureSet>,
+    instances: &'a [LabelledInstance],
+    prior_variance: f64,
+    bp: BeliefPropagation,
+}
+
+/// One instance's log-likelihood and `F(y) − E[F]`.
+struct Term {
+    log_likelihood: f64,
+    gradient: Vec<f64>,
+}
+
+impl<'a> Likelihood<'a> {
+    /// The settings of the sum-product runs [`new`](Self::new) uses: sequential
+    /// schedule, tolerance 1e-10 on the messages, at most 1,000 iterations, no damping.
+    pub fn default_bp() -> BpParams {
+        BpParams::new(Mode::SumProduct)
+            .tolerance(1e-10)
+            .max_iterations(1000)
+    }
+
+    /// The objective of `kind` over `instances`, whose models must all use `features`,
+    /// with a Gaussian prior of variance `prior_variance` (σ² > 0; `f64::INFINITY` for
+    /// none), belief propagation as [`default_bp`](Self::default_bp).
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] for an empty training set, a model over another
+    /// feature set or a bad prior; labels that do not fit their model; for
+    /// [`LikelihoodKind::Exact`], [`Error::NotApplicable`] naming the first instance
+    /// whose factor graph has a cycle.
+    pub fn new(
+        kind: LikelihoodKind,
+        features: Arc<FeatureSet>,
+        instances: &'a [LabelledInstance],
+        prior_variance: f64,
+    ) -> Result<Self> {
+        Self::with_bp(
+            kind,
+            features,
+            instances,
+            prior_variance,
+            Self::default_bp(),
+        )
+    }
+
+    /// [`new`](Self::new) with other belief-propagation settings (`bp` must be
+    /// sum-product; damping helps BP converge on strongly coupled loopy models).
+    ///
+    /// # Errors
+    /// As [`new`](Self::new), and the settings' own errors.
+    pub fn with_bp(
+        kind: LikelihoodKind,
+        features: Arc<FeatureSet>,
+        instances: &'a [LabelledInstance],
+        prior_variance: f64,
+        bp: BpParams,
+    ) -> Result<Self> {
+        let bp = bp.check()?;
+        if bp.mode() != Mode::SumProduct {
+            return Err(Error::InvalidParameter {
+                name: "bp mode",
+                value: format!("{:?}", bp.mode()),
+                expected: "sum-product: the likelihood needs marginals",
+            });
+        }
+        if instances.is_empty() {
+            return Err(Error::InvalidParameter {
+                name: "instances",
+                value: "none".into(),
+                expected: "at least one labelled instance",
+            });
+        }
+        if prior_variance.is_nan() || prior_variance <= 0.0 {
+            return Err(Error::InvalidParameter {
+                name: "prior_variance",
+                value: prior_variance.to_string(),
+                expected: "σ² > 0, or infinity for no prior",
+            });
+        }
+        let zeros = vec![0.0; features.num_weights()];
+        for (i, instance) in instances.iter().enumerate() {
+            instance.model.feature_set().check_same(&features)?;
+            instance
+                .model
+                .feature_totals(&instance.labels)
+                .map_err(|e| Error::InvalidParameter {
+                    name: "labels",
+                    value: format!("instance {i}: {e}"),
+                    expected: "one state per variable of its model",
+                })?;
+            if kind == LikelihoodKind::Exact && !instance.model.to_factor_graph(&zeros)?.is_forest()
+            {
+                return Err(Error::NotApplicable {
+                    method: "maximum likelihood (exact)",
+                    reason: format!(
+                        "instance {i}: its factor graph has a cycle, where belief \
+                         propagation is not exact; use the Bethe likelihood or \
+                         pseudo-likelihood"
+                    ),
+                });
+            }
+        }
+        Ok(Likelihood {
+            kind,
+            features,
+            instances,
+            prior_variance,
+            bp,
+        })
+    }
+
+    /// Which likelihood.
+    pub fn kind(&self) -> LikelihoodKind {
+        self.kind
+    }
+
+    /// Number of weights.
+    pub fn num_weights(&self) -> usize {
+        self.features.num_weights()
+    }
+
+    /// The log-likelihood `Σ_i log p(y_i | z_i; w)` (no prior, not negated).
+    ///
+    /// # Errors
+    /// As [`value_and_gradient`](Self::value_and_gradient).
+    pub fn log_likelihood(&self, weights: &[f64]) -> Result<f64> {
+        Ok(self.terms(weights)?.0)
+    }
+
+    /// The objective to minimise, `−Σ_i log p(y_i | z_i; w) + ‖w‖² / (2σ²)`, and its
+    /// gradient `Σ_i (E_w[F_i] − F_i(y_i)) + w / σ²`.
+    ///
+    /// # Errors
+    /// Weights of the wrong length or not finite; a non-finite feature; belief
+    /// propagation that did not converge on an instance ([`Error::NotApplicable`]
+    /// naming it, its iterations and residual).
+    pub fn value_and_gradient(&self, weights: &[f64]) -> Result<(f64, Vec<f64>)> {
+        let (ll, mut gradient) = self.terms(weights)?;
+        let mut value = -ll;
+        for (g, &w) in gradient.iter_mut().zip(weights) {
+            *g = -*g;
+            if self.prior_variance.is_finite() {
+                value += w * w / (2.0 * self.prior_variance);
+                *g += w / self.prior_variance;
+            }
+        }
+        Ok((value, gradient))
+    }
+
+    /// The log-likelihood and its gradient `Σ_i (F_i(y_i) − E[F_i])`.
+    fn terms(&self, weights: &[f64]) -> Result<(f64, Vec<f64>)> {
+        self.features.check_weights(weights)?;
+        let terms: Vec<Term> = self
+            .instances
+            .par_iter()
+            .enumerate()
+            .map(|(i, instance)| self.term(i, instance, weights))
+            .collect::<Result<_>>()?;
+        let mut gradient = vec![0.0; weights.len()];
+        let mut ll = 0.0;
+        for t in terms {
+            ll += t.log_likelihood;
+            for (g, x) in gradient.iter_mut().zip(&t.gradient) {
+                *g += x;
+            }
+        }
+        Ok((ll, gradient))
+    }
+
+    fn term(&self, index: usize, instance: &LabelledInstance, weights: &[f64]) -> Result<Term> {
+        let model = &instance.model;
+        let graph = model.to_factor_graph(weights)?;
+        let run = self.bp.on(&graph).propagate(&mut Sequential::default())?;
+        if !run.converged {
+            return Err(Error::NotApplicable {
+                method: self.kind.name(),
+                reason: format!(
+                    "instance {index}: sum-product belief propagation did not converge in \
+                     {} iterations (residual {:.3e}); damping, more iterations or \
+                     pseudo-likelihood",
+                    run.iterations, run.residual
+                ),
+            });
+        }
+        let log_beliefs: Vec<Vec<f64>> = (0..graph.num_variables())
+            .map(|v| normalised(&run.messages.log_belief(&graph, VariableId(v))))
+            .collect();
+        let observed = model.feature_totals(&instance.labels)?;
+        let mut gradient = observed.clone();
+        // −F_B, accumulated: Σ_c Σ b_c (θ_c − log b_c) + Σ_v (d_v − 1) Σ b_v log b_v.
+        let mut log_partition = 0.0;
+        for (v, lb) in log_beliefs.iter().enumerate() {
+            let degree = graph.variable_edges(VariableId(v)).len() as f64;
+            log_partition += (degree - 1.0) * entropy_term(lb);
+        }
+        let mut states = Vec::new();
+        let mut features = Vec::new();
+        let mut log_b = Vec::new();
+        let mut thetas = Vec::new();
+        for c in 0..model.num_cliques() {
+            let clique = model.clique(c).expect("clique index in range");
+            let template = model.clique_template(c).expect("clique index in range");
+            let range = self
+                .features
+                .template(template)
+                .expect("the model's own template")
+                .weights();
+            let w = &weights[range.clone()];
+            let shape = clique.shape();
+            let size: usize = shape.iter().product();
+            let edges = graph.factor_edges(FactorId(c));
+            // log b_c(x) = θ_c(x) + Σ_j (log b_{v_j}(x_j) − log m_{c→v_j}(x_j)) + const.
+            log_b.clear();
+            thetas.clear();
+            states.clear();
+            states.resize(shape.len(), 0);
+            for _ in 0..size {
+                features.clear();
+                features.resize(w.len(), 0.0);
+                clique.features(&states, &mut features);
+                let theta: f64 = w.iter().zip(&features).map(|(a, b)| a * b).sum();
+                let mut value = theta;
+                for (j, e) in edges.clone().enumerate() {
+                    let e = crate::graph::EdgeId(e);
+                    let v = graph.edge_variable(e).0;
+                    value += log_beliefs[v][states[j]] - run.messages.message(&graph, e)[states[j]];
+                }
+                thetas.push(theta);
+                log_b.push(value);
+                crate::factor::increment(&mut states, shape);
+            }
+            let lb = normalised(&log_b);
+            // E[f_c] and the clique's part of −F_B.
+            states.iter_mut().for_each(|s| *s = 0);
+            for (k, &l) in lb.iter().enumerate() {
+                if l > f64::NEG_INFINITY {
+                    let p = l.exp();
+                    log_partition += p * (thetas[k] - l);
+                    features.clear();
+                    features.resize(w.len(), 0.0);
+                    clique.features(&states, &mut features);
+                    for (g, f) in gradient[range.clone()].iter_mut().zip(&features) {
+                        *g -= p * f;
+                    }
+                }
+                crate::factor::increment(&mut states, shape);
+            }
+        }
+        let score: f64 = observed.iter().zip(weights).map(|(f, w)| f * w).sum();
+        Ok(Term {
+            log_likelihood: score - log_partition,
+            gradient,
+        })
+    }
+}
+
+/// `x − log Σ exp(x)`.
+fn normalised(x: &[f64]) -> Vec<f64> {
+    let z = crate::logspace::log_sum_exp(x);
+    x.iter().map(|v| v - z).collect()
+}
+
+/// `Σ p log p` of a normalised log-distribution (0 log 0 = 0).
+fn entropy_term(log_p: &[f64]) -> f64 {
+    log_p
+        .iter()
+        .filter(|l| **l > f64::NEG_INFINITY)
+        .map(|l| l.exp() * l)
+        .sum()
+}
