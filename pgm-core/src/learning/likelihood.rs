@@ -195,6 +195,11 @@ impl<'a> Likelihood<'a> {
         self.features.num_weights()
     }
 
+    /// The feature set.
+    pub fn feature_set(&self) -> &Arc<FeatureSet> {
+        &self.features
+    }
+
     /// The log-likelihood `Σ_i log p(y_i | z_i; w)` (no prior, not negated).
     ///
     /// # Errors

@@ -1,5 +1,7 @@
-//! Learning the weights of log-linear CRFs by maximum pseudo-likelihood with L-BFGS,
-//! as both papers do (CRF-Clustering, section III; joint model, section III-B).
+//! Learning the weights of log-linear CRFs with L-BFGS: by maximum pseudo-likelihood,
+//! as both papers do (CRF-Clustering, section III; joint model, section III-B), by
+//! maximum likelihood with exact marginals on chains and trees, or by the Bethe
+//! likelihood of loopy belief propagation ([`LearningObjective`]).
 //!
 //! **Big picture.** A [`FeatureSet`] names a model's weights, grouped into templates
 //! shared by many cliques. A [`LogLinearModel`] is one instance (say, the CRF over one
@@ -8,7 +10,8 @@
 //! `w · f_c`; [`LogLinearModel::to_factor_graph`] turns it into a
 //! [`FactorGraph`](crate::FactorGraph) for inference. [`PseudoLikelihood`] is the
 //! objective over [`LabelledInstance`]s with its analytic gradient, evaluated in
-//! parallel; a [`Learner`] (built from checked [`LearnerParams`]) minimises it with
+//! parallel; [`Likelihood`] is the conditional likelihood (exact on forests, Bethe on
+//! loops) with its gradient `E[F] − F(y)`; a [`Learner`] (built from checked [`LearnerParams`]) minimises it with
 //! argmin's L-BFGS and reports each iteration to a [`LearningObserver`]; learned
 //! [`Weights`] save to and load from JSON by name.
 //!
@@ -82,6 +85,9 @@ pub use model::{
     CliqueFeatures, DenseFeatures, FeatureSet, FnFeatures, LabelledInstance, LogLinearModel,
     Template, TemplateId, MAX_ABS_WEIGHT,
 };
-pub use optimise::{Learner, LearnerParams, LearningObserver, LearningResult, Progress};
+pub use optimise::{
+    Learner, LearnerParams, LearningObjective, LearningObserver, LearningResult, Objective,
+    Progress,
+};
 pub use pseudo_likelihood::{PseudoLikelihood, DEFAULT_FEATURE_CACHE_BYTES};
 pub use weights::Weights;

@@ -1,5 +1,8 @@
-//! Maximum pseudo-likelihood learning with L-BFGS (argmin's `LBFGS` with a
-//! Moré–Thuente line search), as both papers do ("unconstrained L-BFGS [10]").
+//! Learning with L-BFGS (argmin's `LBFGS` with a Moré–Thuente line search), as both
+//! papers do ("unconstrained L-BFGS [10]"), of the [`Objective`] the parameters name
+//! ([`LearningObjective`]): maximum pseudo-likelihood (the papers' choice, and the
+//! default), maximum likelihood on chains and trees, or the Bethe likelihood of loopy
+//! belief propagation.
 //!
 //! Hyper-parameters are checked once ([`LearnerParams::check`] → [`Learner`]); a
 //! [`LearningObserver`] sees `(iteration, objective, gradient norm)` after every
@@ -9,6 +12,7 @@
 //! iterations, the line search cannot improve any more, the iteration limit, or the
 //! observer. Whichever fired is reported in [`LearningResult::termination`].
 
+use super::likelihood::{Likelihood, LikelihoodKind};
 use super::model::{FeatureSet, LabelledInstance};
 use super::pseudo_likelihood::{PseudoLikelihood, DEFAULT_FEATURE_CACHE_BYTES};
 use super::weights::Weights;
@@ -23,6 +27,91 @@ use argmin::solver::quasinewton::LBFGS;
 use ndarray::Array1;
 use std::ops::ControlFlow;
 use std::sync::{Arc, Mutex};
+
+/// A learning objective to minimise: its value and gradient at any weights.
+pub trait Objective: Sync {
+    /// The feature set the weights belong to.
+    fn feature_set(&self) -> &Arc<FeatureSet>;
+
+    /// The value to minimise and its gradient (one entry per weight).
+    ///
+    /// # Errors
+    /// The objective's own (bad weights, a non-finite feature, inference that failed).
+    fn value_and_gradient(&self, weights: &[f64]) -> Result<(f64, Vec<f64>)>;
+
+    /// Number of weights.
+    fn num_weights(&self) -> usize {
+        self.feature_set().num_weights()
+    }
+}
+
+impl Objective for PseudoLikelihood<'_> {
+    fn feature_set(&self) -> &Arc<FeatureSet> {
+        PseudoLikelihood::feature_set(self)
+    }
+
+    fn value_and_gradient(&self, weights: &[f64]) -> Result<(f64, Vec<f64>)> {
+        PseudoLikelihood::value_and_gradient(self, weights)
+    }
+}
+
+impl Objective for Likelihood<'_> {
+    fn feature_set(&self) -> &Arc<FeatureSet> {
+        Likelihood::feature_set(self)
+    }
+
+    fn value_and_gradient(&self, weights: &[f64]) -> Result<(f64, Vec<f64>)> {
+        Likelihood::value_and_gradient(self, weights)
+    }
+}
+
+/// Which objective [`Learner::learn`] minimises.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum LearningObjective {
+    /// Maximum pseudo-likelihood ([`PseudoLikelihood`]): any graph, no inference.
+    #[default]
+    PseudoLikelihood,
+    /// Maximum likelihood with exact marginals ([`LikelihoodKind::Exact`]): chains and
+    /// trees only; a graph with a cycle is refused.
+    Likelihood,
+    /// The Bethe likelihood of loopy belief propagation ([`LikelihoodKind::Bethe`]):
+    /// any graph, approximate on loops.
+    Bethe,
+}
+
+impl LearningObjective {
+    /// The short name: `pl`, `ml` or `bethe`.
+    pub fn name(self) -> &'static str {
+        match self {
+            LearningObjective::PseudoLikelihood => "pl",
+            LearningObjective::Likelihood => "ml",
+            LearningObjective::Bethe => "bethe",
+        }
+    }
+}
+
+impl std::fmt::Display for LearningObjective {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for LearningObjective {
+    type Err = String;
+
+    /// `pl` (or `pseudo-likelihood`), `ml` (`likelihood`) or `bethe`.
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        match s.trim() {
+            "pl" | "pseudo-likelihood" => Ok(LearningObjective::PseudoLikelihood),
+            "ml" | "likelihood" => Ok(LearningObjective::Likelihood),
+            "bethe" => Ok(LearningObjective::Bethe),
+            other => Err(format!(
+                "{other:?}: expected pl (pseudo-likelihood), ml (maximum likelihood, chains \
+                 and trees) or bethe (loopy belief propagation's likelihood)"
+            )),
+        }
+    }
+}
 
 /// What an observer sees after each L-BFGS iteration.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -66,12 +155,13 @@ pub struct LearnerParams {
     memory: usize,
     initial_weights: Option<Vec<f64>>,
     feature_cache_bytes: usize,
+    objective: LearningObjective,
 }
 
 impl Default for LearnerParams {
     /// σ² = 10, 500 iterations, gradient tolerance 1e-6, relative cost tolerance
     /// 1e-12, L-BFGS memory 10, starting from zero weights, a feature cache of at most
-    /// [`DEFAULT_FEATURE_CACHE_BYTES`].
+    /// [`DEFAULT_FEATURE_CACHE_BYTES`], maximum pseudo-likelihood.
     fn default() -> Self {
         Self {
             prior_variance: 10.0,
@@ -81,6 +171,7 @@ impl Default for LearnerParams {
             memory: 10,
             initial_weights: None,
             feature_cache_bytes: DEFAULT_FEATURE_CACHE_BYTES,
+            objective: LearningObjective::PseudoLikelihood,
         }
     }
 }
@@ -128,6 +219,12 @@ impl LearnerParams {
         self.feature_cache_bytes = bytes;
         self
     }
+
+    /// The objective [`Learner::learn`] minimises (default: pseudo-likelihood).
+    pub fn objective(mut self, objective: LearningObjective) -> Self {
+        self.objective = objective;
+        self
+    }
 }
 
 impl LearnerParams {
@@ -173,7 +270,8 @@ impl LearnerParams {
 }
 
 crate::checked_params! {
-    /// Checked learning parameters: learns weights by maximum pseudo-likelihood.
+    /// Checked learning parameters: learns weights by maximum pseudo-likelihood (or the
+    /// [`LearningObjective`] set).
     ///
     /// ```
     /// use std::sync::Arc;
@@ -231,26 +329,50 @@ pub struct LearningResult {
 }
 
 impl Learner {
-    /// Learns the weights of `features` from `instances`, reporting to `observer`.
+    /// The objective the parameters name.
+    pub fn objective(&self) -> LearningObjective {
+        self.params.objective
+    }
+
+    /// Learns the weights of `features` from `instances` by the parameters'
+    /// [`LearningObjective`], reporting to `observer`.
+    ///
+    /// # Errors
+    /// The objective's (see [`PseudoLikelihood::new`], [`Likelihood::new`]: maximum
+    /// likelihood refuses an instance whose graph has a cycle) and the optimiser's.
     pub fn learn(
         &self,
         features: &Arc<FeatureSet>,
         instances: &[LabelledInstance],
         observer: &mut dyn LearningObserver,
     ) -> Result<LearningResult> {
-        let objective = PseudoLikelihood::with_feature_cache(
-            Arc::clone(features),
-            instances,
-            self.params.prior_variance,
-            self.params.feature_cache_bytes,
-        )?;
-        self.minimise(&objective, observer)
+        let prior = self.params.prior_variance;
+        match self.params.objective {
+            LearningObjective::PseudoLikelihood => {
+                let objective = PseudoLikelihood::with_feature_cache(
+                    Arc::clone(features),
+                    instances,
+                    prior,
+                    self.params.feature_cache_bytes,
+                )?;
+                self.minimise(&objective, observer)
+            }
+            LearningObjective::Likelihood | LearningObjective::Bethe => {
+                let kind = if self.params.objective == LearningObjective::Likelihood {
+                    LikelihoodKind::Exact
+                } else {
+                    LikelihoodKind::Bethe
+                };
+                let objective = Likelihood::new(kind, Arc::clone(features), instances, prior)?;
+                self.minimise(&objective, observer)
+            }
+        }
     }
 
     /// Minimises an already built objective.
     pub fn minimise(
         &self,
-        objective: &PseudoLikelihood<'_>,
+        objective: &dyn Objective,
         observer: &mut dyn LearningObserver,
     ) -> Result<LearningResult> {
         let n = objective.num_weights();
@@ -336,15 +458,15 @@ type Cached = (Array1<f64>, f64, Array1<f64>);
 
 /// The objective as an argmin problem. argmin asks for the cost and the gradient
 /// separately, at the same point; one evaluation computes both and is cached.
-struct ArgminProblem<'a, 'b> {
-    objective: &'a PseudoLikelihood<'b>,
+struct ArgminProblem<'a> {
+    objective: &'a dyn Objective,
     cache: Mutex<Option<Cached>>,
     /// Where an evaluation error is kept for `minimise` to return.
     error: &'a Mutex<Option<Error>>,
     evaluations: &'a Mutex<u64>,
 }
 
-impl ArgminProblem<'_, '_> {
+impl ArgminProblem<'_> {
     fn evaluate(
         &self,
         w: &Array1<f64>,
@@ -383,7 +505,7 @@ fn anyhow_error(message: &str) -> argmin::core::Error {
     argmin::core::Error::msg(message.to_string())
 }
 
-impl CostFunction for ArgminProblem<'_, '_> {
+impl CostFunction for ArgminProblem<'_> {
     type Param = Array1<f64>;
     type Output = f64;
 
@@ -392,7 +514,7 @@ impl CostFunction for ArgminProblem<'_, '_> {
     }
 }
 
-impl Gradient for ArgminProblem<'_, '_> {
+impl Gradient for ArgminProblem<'_> {
     type Param = Array1<f64>;
     type Gradient = Array1<f64>;
 
