@@ -147,6 +147,9 @@ def learn(
     prior_variance: float = 10.0,
     max_iterations: int = 200,
     gradient_tolerance: float = 1e-6,
+    objective: str = "pl",
 ) -> Dict[str, Any]:
-    """Maximum pseudo-likelihood: weights, weight_vector, objective, gradient_norm,
-    iterations, converged, termination. ``instances``: [(model, labels), ...]."""
+    """L-BFGS on ``objective``: "pl" (pseudo-likelihood), "ml" (maximum likelihood,
+    chains and trees) or "bethe" (loopy BP's likelihood). Returns weights,
+    weight_vector, objective, gradient_norm, iterations, evaluations, converged,
+    termination, objective_name. ``instances``: [(model, labels), ...]."""

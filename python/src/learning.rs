@@ -6,7 +6,8 @@
 use crate::{count, counts, float_array, pgm_err, PgmError, PyFactorGraph};
 use numpy::{PyArray1, PyUntypedArrayMethods};
 use pgm_core::learning::{
-    DenseFeatures, FeatureSet, LabelledInstance, LearnerParams, LogLinearModel, TemplateId,
+    DenseFeatures, FeatureSet, LabelledInstance, LearnerParams, LearningObjective, LogLinearModel,
+    TemplateId,
 };
 use pgm_core::{ParamGuard, VariableId};
 use pyo3::prelude::*;
@@ -166,15 +167,17 @@ impl PyLogLinearModel {
 }
 
 /// Learns the weights of `feature_set` from `instances`, a list of `(model, labels)`
-/// pairs (`labels`: the true state of every variable), by maximum pseudo-likelihood
-/// with a Gaussian prior of variance `prior_variance` on each weight (`inf`: none),
-/// minimised by L-BFGS.
+/// pairs (`labels`: the true state of every variable), by the `objective`: `"pl"`
+/// (maximum pseudo-likelihood, any graph), `"ml"` (maximum likelihood with exact
+/// marginals: chains and trees; a model with a cycle is refused) or `"bethe"` (the
+/// Bethe likelihood of loopy belief propagation, any graph), with a Gaussian prior of
+/// variance `prior_variance` on each weight (`inf`: none), minimised by L-BFGS.
 ///
 /// Returns `weights` (a dict name -> value), `weight_vector` (the same, in the feature
-/// set's order), `objective`, `gradient_norm`, `iterations`, `converged` and
-/// `termination`.
+/// set's order), `objective`, `gradient_norm`, `iterations`, `evaluations`,
+/// `converged`, `termination` and `objective_name`.
 #[pyfunction]
-#[pyo3(signature = (feature_set, instances, prior_variance=10.0, max_iterations=200, gradient_tolerance=1e-6))]
+#[pyo3(signature = (feature_set, instances, prior_variance=10.0, max_iterations=200, gradient_tolerance=1e-6, objective="pl"))]
 pub fn learn<'py>(
     py: Python<'py>,
     feature_set: &PyFeatureSet,
@@ -182,7 +185,11 @@ pub fn learn<'py>(
     prior_variance: f64,
     max_iterations: i64,
     gradient_tolerance: f64,
+    objective: &str,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let kind: LearningObjective = objective
+        .parse()
+        .map_err(|e: String| PgmError::new_err(format!("objective: {e}")))?;
     let mut data = Vec::with_capacity(instances.len());
     for (i, item) in instances.iter().enumerate() {
         let (model, labels): (PyRef<'_, PyLogLinearModel>, Vec<i64>) =
@@ -203,6 +210,7 @@ pub fn learn<'py>(
         .prior_variance(prior_variance)
         .max_iterations(count("max_iterations", max_iterations)? as u64)
         .gradient_tolerance(gradient_tolerance)
+        .objective(kind)
         .check()
         .map_err(|e| pgm_err(None, e))?;
     let set = Arc::clone(&feature_set.set);
@@ -222,7 +230,9 @@ pub fn learn<'py>(
     d.set_item("objective", result.objective)?;
     d.set_item("gradient_norm", result.gradient_norm)?;
     d.set_item("iterations", result.iterations)?;
+    d.set_item("evaluations", result.evaluations)?;
     d.set_item("converged", result.converged)?;
     d.set_item("termination", result.termination.clone())?;
+    d.set_item("objective_name", kind.name())?;
     Ok(d)
 }

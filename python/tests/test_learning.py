@@ -72,6 +72,60 @@ def test_a_chain_crf_decodes_its_training_labels():
         assert g.map()["assignment"].tolist() == y.tolist()
 
 
+def test_the_three_objectives_agree_where_they_must():
+    # A chain whose pairwise "same" feature couples the labels: pseudo-likelihood and
+    # maximum likelihood learn different weights; on a chain Bethe is maximum likelihood.
+    fs = pgm.FeatureSet("chain")
+    unary = fs.add_template("obs", ["agree"])
+    pair = fs.add_template("pair", ["same"])
+    rng = np.random.default_rng(5)
+    data = []
+    for _ in range(40):
+        n = 6
+        x = rng.integers(0, 2, size=n)
+        y = np.where(rng.random(n) < 0.8, x, 1 - x)
+        m = pgm.LogLinearModel(fs, [2] * n)
+        for i in range(n):
+            m.add_clique(unary, [i], [[1.0 if s == x[i] else 0.0] for s in range(2)])
+        for i in range(n - 1):
+            m.add_clique(pair, [i, i + 1], [[[1.0], [0.0]], [[0.0], [1.0]]])
+        data.append((m, y.tolist()))
+    results = {o: pgm.learn(fs, data, prior_variance=10.0, objective=o) for o in ["pl", "ml", "bethe"]}
+    for o, r in results.items():
+        assert r["converged"] and r["objective_name"] == o
+    np.testing.assert_allclose(results["bethe"]["weight_vector"], results["ml"]["weight_vector"], atol=1e-6)
+    assert abs(results["ml"]["weights"]["pair.same"] - results["pl"]["weights"]["pair.same"]) > 1e-3
+    # The maximum-likelihood objective by brute force (64 assignments per chain): the
+    # learner's value at its optimum, which pseudo-likelihood's weights do not beat.
+    states = np.array(np.meshgrid(*[[0, 1]] * 6, indexing="ij")).reshape(6, -1).T
+
+    def ml_value(w):
+        total = float(np.dot(w, w)) / (2 * 10.0)
+        for m, y in data:
+            g = m.to_factor_graph(w)
+            scores = np.array([g.log_score(x.tolist()) for x in states])
+            top = scores.max()
+            total += top + math.log(np.exp(scores - top).sum()) - g.log_score(y)
+        return total
+
+    best = ml_value(results["ml"]["weight_vector"])
+    assert best == pytest.approx(results["ml"]["objective"], rel=1e-9)
+    assert best < ml_value(results["pl"]["weight_vector"])
+
+
+def test_maximum_likelihood_refuses_a_loop():
+    fs = pgm.FeatureSet("loop")
+    pair = fs.add_template("pair", ["same"])
+    m = pgm.LogLinearModel(fs, [2, 2, 2])
+    for a, b in [(0, 1), (1, 2), (0, 2)]:
+        m.add_clique(pair, [a, b], [[[1.0], [0.0]], [[0.0], [1.0]]])
+    with pytest.raises(pgm.PgmError, match=r"instance 0: its factor graph has a cycle"):
+        pgm.learn(fs, [(m, [0, 0, 1])], objective="ml")
+    assert pgm.learn(fs, [(m, [0, 0, 1])], objective="bethe")["converged"]
+    with pytest.raises(pgm.PgmError, match=r"objective: \"exact\": expected pl"):
+        pgm.learn(fs, [(m, [0, 0, 1])], objective="exact")
+
+
 @pytest.mark.parametrize(
     "call, message",
     [
