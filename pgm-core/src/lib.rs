@@ -176,6 +176,8 @@ pub mod schedule;
 #[cfg(feature = "proptest-strategies")]
 pub mod strategies;
 pub mod support;
+#[cfg(feature = "testing")]
+pub mod testing;
 pub mod trws;
 pub mod uai;
 
