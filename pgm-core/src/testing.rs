@@ -11,6 +11,13 @@
 //!   some with hard zeros), belief propagation with the schedule converges in both
 //!   modes, to the exact marginals (sum-product) and to an assignment of the exact MAP
 //!   score (max-product): which also shows that every edge's message was passed.
+//! - [`check_continuous_model`]: observed-continuous nodes of the hybrid engine
+//!   ([`ContinuousModel`]) on forests: hybrid inference with exact sweeps and a
+//!   re-solve after each one is coordinate ascent, so the joint log-score it traces
+//!   must never decrease, and the final decoding must be at least as good as the last
+//!   sweep; and incremental updates must equal a fresh start (a model moved from one
+//!   labelling to another, old states taken out, solves to the same potentials as a
+//!   fresh model given the second labelling).
 //! - [`factor_conformance!`](crate::factor_conformance) and
 //!   [`schedule_conformance!`](crate::schedule_conformance) write the `#[test]`.
 //!
@@ -39,6 +46,10 @@
 
 use crate::exact::{tree_map, tree_marginals};
 use crate::factor::{enumerated_message, Factor, Incoming, Mode};
+use crate::hook::Potentials;
+use crate::hybrid::{
+    ContinuousModel, DiscreteSummary, HybridInference, UpdatePolicy, VariableState,
+};
 use crate::{BpParams, FactorGraph, ParamGuard, Schedule, TableFactor, VariableId};
 
 /// What a conformance check found.
@@ -403,6 +414,188 @@ pub fn check_schedule(
                     }
                 }
             }
+        }
+    }
+    Ok(())
+}
+
+/// Checks a continuous model by coordinate ascent, on each of `cases` instances that
+/// `make(case)` builds: a forest-shaped graph, its model (summarising the discrete
+/// variables by MAP labels) and optional initial labels. Hybrid inference runs
+/// max-product with the sequential two-pass schedule (exact on a forest in one sweep)
+/// and re-solves the continuous values after every sweep
+/// ([`UpdatePolicy::EverySweep`]), for at most 40 sweeps. Each traced joint
+/// log-score must be finite or −∞ and at least the previous one (to `1e-9` relative),
+/// and the final decoding's at least the last traced one.
+///
+/// Then, on two more instances of each case: one model is given a labelling `L1`
+/// (each variable's initial label, else `v mod` its states), solved, moved to `L2`
+/// (`L1` rotated by one variable: the same labels in use) through
+/// [`ContinuousModel::update_variable`] with the old states, and solved again; a fresh
+/// model is given `L2` and solved. Every dependent factor refreshed from the two must
+/// have the same log-table (to `1e-9` relative): statistics that keep a stale state
+/// fail here (one-hot beliefs stand for labels when the model summarises by beliefs).
+///
+/// # Errors
+/// The first [`Nonconformance`] found, naming the case and the scores; the engine's
+/// errors (a graph that is not a forest, a model that refuses its factors).
+pub fn check_continuous_model<M: ContinuousModel>(
+    cases: usize,
+    make: impl Fn(usize) -> (FactorGraph, M, Option<Vec<usize>>),
+) -> Result<(), Nonconformance> {
+    let bp = BpParams::new(Mode::MaxProduct)
+        .max_iterations(40)
+        .check()
+        .map_err(|e| Nonconformance {
+            check: "continuous model",
+            detail: e.to_string(),
+        })?;
+    let hybrid = HybridInference::new(bp, UpdatePolicy::EverySweep).trace_scores(true);
+    for case in 0..cases {
+        let (mut graph, mut model, labels) = make(case);
+        if !graph.is_forest() {
+            return fail(
+                "continuous model",
+                format!("case {case}: the graph has a cycle; coordinate ascent is only guaranteed on forests"),
+            );
+        }
+        let result = hybrid
+            .run(
+                &mut graph,
+                &mut model,
+                &mut crate::Sequential::default(),
+                labels.as_deref(),
+            )
+            .map_err(|e| Nonconformance {
+                check: "continuous model",
+                detail: format!("case {case}: {e}"),
+            })?;
+        let s = &result.sweep_scores;
+        if let Some(bad) = s.iter().find(|x| x.is_nan() || **x == f64::INFINITY) {
+            return fail(
+                "continuous model",
+                format!("case {case}: a traced score is {bad}"),
+            );
+        }
+        for (k, w) in s.windows(2).enumerate() {
+            if w[1] < w[0] - 1e-9 * (1.0 + w[0].abs()) {
+                return fail(
+                    "coordinate ascent",
+                    format!(
+                        "case {case}: the joint log-score fell from {} to {} at sweep {} \
+                         (scores {s:?})",
+                        w[0],
+                        w[1],
+                        k + 2
+                    ),
+                );
+            }
+        }
+        if let Some(&last) = s.last() {
+            if result.joint_log_score < last - 1e-9 * (1.0 + last.abs()) {
+                return fail(
+                    "coordinate ascent",
+                    format!(
+                        "case {case}: the final decoding scores {}, below the last sweep's {last}",
+                        result.joint_log_score
+                    ),
+                );
+            }
+        }
+        check_incremental(case, &make)?;
+    }
+    Ok(())
+}
+
+/// Feeds `labels` to `model`, taking `old` out first, in the model's summary.
+fn feed(model: &mut dyn ContinuousModel, labels: &[usize], old: Option<&[usize]>, cards: &[usize]) {
+    let beliefs = model.summary() == DiscreteSummary::Beliefs;
+    let one_hot = |v: usize, l: usize| {
+        let mut b = vec![0.0; cards[v]];
+        b[l] = 1.0;
+        b
+    };
+    for (v, &l) in labels.iter().enumerate() {
+        let (new_b, old_b) = (one_hot(v, l), old.map(|o| one_hot(v, o[v])));
+        let new = if beliefs {
+            VariableState::Belief(&new_b)
+        } else {
+            VariableState::Label(l)
+        };
+        let old = match (old, &old_b) {
+            (Some(_), Some(b)) if beliefs => Some(VariableState::Belief(b)),
+            (Some(o), _) => Some(VariableState::Label(o[v])),
+            _ => None,
+        };
+        model.update_variable(VariableId(v), old, new);
+    }
+}
+
+/// The log-tables of every dependent factor of `model`, refreshed into `graph`.
+fn refreshed(
+    graph: &mut FactorGraph,
+    model: &dyn ContinuousModel,
+) -> Result<Vec<(usize, Vec<f64>)>, crate::Error> {
+    let factors = model.all_dependent_factors(graph);
+    let mut potentials = Potentials::new(graph);
+    for &a in &factors {
+        model.refresh_factor(a, &mut potentials)?;
+    }
+    Ok(factors
+        .iter()
+        .map(|&a| (a.0, graph.factor(a).log_table()))
+        .collect())
+}
+
+fn check_incremental<M: ContinuousModel>(
+    case: usize,
+    make: &impl Fn(usize) -> (FactorGraph, M, Option<Vec<usize>>),
+) -> Result<(), Nonconformance> {
+    let engine = |e: crate::Error| Nonconformance {
+        check: "incremental statistics",
+        detail: format!("case {case}: {e}"),
+    };
+    let (mut moved_graph, mut moved, labels) = make(case);
+    let cards: Vec<usize> = (0..moved_graph.num_variables())
+        .map(|v| moved_graph.cardinality(VariableId(v)))
+        .collect();
+    let n = cards.len();
+    let first: Vec<usize> = labels.unwrap_or_else(|| (0..n).map(|v| v % cards[v]).collect());
+    let second: Vec<usize> = (0..n)
+        .map(|v| {
+            let l = first[(v + 1) % n];
+            if l < cards[v] {
+                l
+            } else {
+                first[v]
+            }
+        })
+        .collect();
+    feed(&mut moved, &first, None, &cards);
+    moved.solve();
+    feed(&mut moved, &second, Some(&first), &cards);
+    moved.solve();
+    let (mut fresh_graph, mut fresh, _) = make(case);
+    feed(&mut fresh, &second, None, &cards);
+    fresh.solve();
+    let a = refreshed(&mut moved_graph, &moved).map_err(engine)?;
+    let b = refreshed(&mut fresh_graph, &fresh).map_err(engine)?;
+    for ((factor, x), (_, y)) in a.iter().zip(&b) {
+        let scale = x
+            .iter()
+            .chain(y)
+            .filter(|v| v.is_finite())
+            .fold(0.0f64, |m, v| m.max(v.abs()));
+        if let Some(k) = (0..x.len().min(y.len())).find(|&k| !close(x[k], y[k], 1e3 * scale)) {
+            return fail(
+                "incremental statistics",
+                format!(
+                    "case {case}: factor {factor} entry {k} is {} after moving the model from \
+                     labels {first:?} to {second:?}, but {} from a fresh model given {second:?}: \
+                     are old states taken out?",
+                    x[k], y[k]
+                ),
+            );
         }
     }
     Ok(())

@@ -1,12 +1,14 @@
-//! The conformance kit (`pgm_core::testing`) on every built-in factor and schedule,
-//! and on broken factors and a broken schedule, which it must catch.
+//! The conformance kit (`pgm_core::testing`) on every built-in factor, schedule and
+//! continuous model, and on broken ones, which it must catch.
 
 use pgm_core::factor::{Factor, Incoming, Mode};
-use pgm_core::testing::{check_factor, check_schedule};
+use pgm_core::hybrid::{ClusterMeans, ContinuousModel, DiscreteSummary, VariableState};
+use pgm_core::testing::{check_continuous_model, check_factor, check_schedule};
 use pgm_core::{
     factor_conformance, schedule_conformance, Flooding, MessagePasser, PottsFactor, Residual,
     Schedule, Sequential, ShiftedIdentityFactor, TableFactor, VariableId,
 };
+use pgm_core::{FactorId, Potentials};
 
 const NEG: f64 = f64::NEG_INFINITY;
 
@@ -155,4 +157,67 @@ fn the_kit_catches_a_schedule_that_skips_edges() {
     let e = check_schedule(|| Box::new(Lazy), 50).unwrap_err();
     assert!(e.check.starts_with("schedule"), "{e}");
     assert!(e.to_string().contains("\"lazy\""), "{e}");
+}
+
+/// Chains of 4-19 observations around 2-4 centres, with initial means and labels that
+/// are deliberately off, as [`check_continuous_model`]'s cases.
+fn means_case(case: usize) -> (Vec<f64>, Vec<f64>, Vec<usize>) {
+    let k = 2 + case % 3;
+    let n = 4 + (case * 7) % 16;
+    let y: Vec<f64> = (0..n)
+        .map(|i| ((i * 5 + case) % k) as f64 * 3.0 + ((i * 13 + case * 3) % 7) as f64 * 0.3 - 1.0)
+        .collect();
+    let means: Vec<f64> = (0..k).map(|l| l as f64 * 1.7 - 0.5).collect();
+    let labels: Vec<usize> = (0..n).map(|i| (i + case) % k).collect();
+    (y, means, labels)
+}
+
+#[test]
+fn cluster_means_passes_coordinate_ascent() {
+    check_continuous_model(40, |case| {
+        let (y, means, labels) = means_case(case);
+        let coupling = [0.0, 0.8, 2.0, -0.5][case % 4];
+        let (graph, model) = ClusterMeans::chain(&y, &means, 1.0, coupling).unwrap();
+        (graph, model, Some(labels))
+    })
+    .unwrap();
+}
+
+/// [`ClusterMeans`] with the classic bug of an incremental model: a variable's old
+/// state is never taken out of the statistics.
+struct Forgetful(ClusterMeans);
+
+impl ContinuousModel for Forgetful {
+    fn summary(&self) -> DiscreteSummary {
+        self.0.summary()
+    }
+    fn update_variable(
+        &mut self,
+        v: VariableId,
+        _old: Option<VariableState<'_>>,
+        new: VariableState<'_>,
+    ) {
+        self.0.update_variable(v, None, new);
+    }
+    fn solve(&mut self) -> f64 {
+        self.0.solve()
+    }
+    fn dependent_factors(&self, v: VariableId) -> &[FactorId] {
+        self.0.dependent_factors(v)
+    }
+    fn refresh_factor(&self, a: FactorId, potentials: &mut Potentials<'_>) -> pgm_core::Result<()> {
+        self.0.refresh_factor(a, potentials)
+    }
+}
+
+#[test]
+fn the_kit_catches_a_model_that_forgets_old_states() {
+    let e = check_continuous_model(40, |case| {
+        let (y, means, labels) = means_case(case);
+        let (graph, model) = ClusterMeans::chain(&y, &means, 1.0, 0.0).unwrap();
+        (graph, Forgetful(model), Some(labels))
+    })
+    .unwrap_err();
+    assert_eq!(e.check, "incremental statistics", "{e}");
+    assert!(e.to_string().contains("are old states taken out?"), "{e}");
 }
