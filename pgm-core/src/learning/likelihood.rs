@@ -23,12 +23,14 @@
 //! convex, and BP may not converge on strongly coupled models (an error naming the
 //! instance; damping or pseudo-likelihood are the remedies).
 
-use super::model::{FeatureSet, LabelledInstance};
+use super::model::{CliqueFeatures, FeatureSet, LabelledInstance};
+use super::pseudo_likelihood::DEFAULT_FEATURE_CACHE_BYTES;
 use crate::error::{Error, Result};
-use crate::graph::{FactorId, VariableId};
-use crate::{BeliefPropagation, BpParams, Mode, ParamGuard, Sequential};
+use crate::graph::{FactorGraph, FactorId, VariableId};
+use crate::{BeliefPropagation, BpParams, Mode, ParamGuard, Sequential, TableFactor};
 use rayon::prelude::*;
-use std::sync::Arc;
+use std::ops::Range;
+use std::sync::{Arc, Mutex};
 
 /// Which likelihood [`Likelihood`] evaluates.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -78,6 +80,62 @@ pub struct Likelihood<'a> {
     instances: &'a [LabelledInstance],
     prior_variance: f64,
     bp: BeliefPropagation,
+    /// `bp` limited to one iteration, for forests.
+    one_pass: BeliefPropagation,
+    /// Per instance: its factor graph (tables refreshed at each evaluation), its
+    /// observed feature totals and, within the cache limit, its sparse features.
+    states: Vec<Mutex<InstanceState>>,
+}
+
+/// What an evaluation of one instance reuses.
+#[derive(Debug)]
+struct InstanceState {
+    graph: FactorGraph,
+    observed: Vec<f64>,
+    /// The nonzero features of every clique's joint states; `None` beyond the cache
+    /// limit, where they are computed again at each evaluation.
+    cache: Option<Vec<SparseClique>>,
+}
+
+/// The nonzero features of one clique: joint state `x`'s are
+/// `entries[starts[x]..starts[x + 1]]`, (feature within the template, value).
+#[derive(Debug)]
+struct SparseClique {
+    starts: Vec<u32>,
+    entries: Vec<(u32, f64)>,
+}
+
+impl SparseClique {
+    fn new(clique: &dyn CliqueFeatures, width: usize) -> Self {
+        let size: usize = clique.shape().iter().product();
+        let mut starts = Vec::with_capacity(size + 1);
+        let mut entries = Vec::new();
+        let mut states = vec![0usize; clique.shape().len()];
+        let mut buffer = vec![0.0; width];
+        starts.push(0);
+        for _ in 0..size {
+            buffer.iter_mut().for_each(|x| *x = 0.0);
+            clique.features(&states, &mut buffer);
+            entries.extend(
+                buffer
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, v)| **v != 0.0)
+                    .map(|(j, v)| (j as u32, *v)),
+            );
+            starts.push(entries.len() as u32);
+            crate::factor::increment(&mut states, clique.shape());
+        }
+        Self { starts, entries }
+    }
+
+    fn bytes(&self) -> usize {
+        self.starts.len() * 4 + self.entries.len() * 16
+    }
+
+    fn state(&self, x: usize) -> &[(u32, f64)] {
+        &self.entries[self.starts[x] as usize..self.starts[x + 1] as usize]
+    }
 }
 
 /// One instance's log-likelihood and `F(y) − E[F]`.
@@ -131,6 +189,7 @@ impl<'a> Likelihood<'a> {
         prior_variance: f64,
         bp: BpParams,
     ) -> Result<Self> {
+        let one_pass = bp.clone().max_iterations(1).check()?;
         let bp = bp.check()?;
         if bp.mode() != Mode::SumProduct {
             return Err(Error::InvalidParameter {
@@ -154,9 +213,11 @@ impl<'a> Likelihood<'a> {
             });
         }
         let zeros = vec![0.0; features.num_weights()];
+        let mut states = Vec::with_capacity(instances.len());
+        let mut cached_bytes = 0usize;
         for (i, instance) in instances.iter().enumerate() {
             instance.model.feature_set().check_same(&features)?;
-            instance
+            let observed = instance
                 .model
                 .feature_totals(&instance.labels)
                 .map_err(|e| Error::InvalidParameter {
@@ -164,8 +225,8 @@ impl<'a> Likelihood<'a> {
                     value: format!("instance {i}: {e}"),
                     expected: "one state per variable of its model",
                 })?;
-            if kind == LikelihoodKind::Exact && !instance.model.to_factor_graph(&zeros)?.is_forest()
-            {
+            let graph = instance.model.to_factor_graph(&zeros)?;
+            if kind == LikelihoodKind::Exact && !graph.is_forest() {
                 return Err(Error::NotApplicable {
                     method: "maximum likelihood (exact)",
                     reason: format!(
@@ -175,6 +236,26 @@ impl<'a> Likelihood<'a> {
                     ),
                 });
             }
+            let mut cache = None;
+            if cached_bytes < DEFAULT_FEATURE_CACHE_BYTES {
+                let model = &instance.model;
+                let cliques: Vec<SparseClique> = (0..model.num_cliques())
+                    .map(|c| {
+                        let clique = model.clique(c).expect("clique index in range");
+                        SparseClique::new(clique, template_range(&features, model, c).len())
+                    })
+                    .collect();
+                let bytes: usize = cliques.iter().map(SparseClique::bytes).sum();
+                if cached_bytes + bytes <= DEFAULT_FEATURE_CACHE_BYTES {
+                    cached_bytes += bytes;
+                    cache = Some(cliques);
+                }
+            }
+            states.push(Mutex::new(InstanceState {
+                graph,
+                observed,
+                cache,
+            }));
         }
         Ok(Likelihood {
             kind,
@@ -182,6 +263,8 @@ impl<'a> Likelihood<'a> {
             instances,
             prior_variance,
             bp,
+            one_pass,
+            states,
         })
     }
 
@@ -235,7 +318,13 @@ impl<'a> Likelihood<'a> {
             .instances
             .par_iter()
             .enumerate()
-            .map(|(i, instance)| self.term(i, instance, weights))
+            .map(|(i, instance)| {
+                let mut state = self.states[i].lock().map_err(|_| Error::NotApplicable {
+                    method: self.kind.name(),
+                    reason: format!("instance {i}: a previous evaluation panicked"),
+                })?;
+                self.term(i, instance, &mut state, weights)
+            })
             .collect::<Result<_>>()?;
         let mut gradient = vec![0.0; weights.len()];
         let mut ll = 0.0;
@@ -248,11 +337,67 @@ impl<'a> Likelihood<'a> {
         Ok((ll, gradient))
     }
 
-    fn term(&self, index: usize, instance: &LabelledInstance, weights: &[f64]) -> Result<Term> {
+    fn term(
+        &self,
+        index: usize,
+        instance: &LabelledInstance,
+        state: &mut InstanceState,
+        weights: &[f64],
+    ) -> Result<Term> {
         let model = &instance.model;
-        let graph = model.to_factor_graph(weights)?;
-        let run = self.bp.on(&graph).propagate(&mut Sequential::default())?;
-        if !run.converged {
+        let InstanceState {
+            graph,
+            observed,
+            cache,
+        } = state;
+        // The log-potentials θ_c = w · f_c, written into the graph's tables.
+        let mut buffer = Vec::new();
+        for c in 0..model.num_cliques() {
+            let w = &weights[template_range(&self.features, model, c)];
+            let table = graph
+                .factor_mut(FactorId(c))
+                .as_any_mut()
+                .and_then(|f| f.downcast_mut::<TableFactor>())
+                .expect("to_factor_graph makes a TableFactor per clique")
+                .table_mut();
+            match cache {
+                Some(cliques) => {
+                    for (x, theta) in table.iter_mut().enumerate() {
+                        *theta = cliques[c]
+                            .state(x)
+                            .iter()
+                            .map(|&(j, v)| w[j as usize] * v)
+                            .sum();
+                    }
+                }
+                None => {
+                    let clique = model.clique(c).expect("clique index in range");
+                    let shape = clique.shape();
+                    let mut states = vec![0usize; shape.len()];
+                    for theta in table.iter_mut() {
+                        buffer.clear();
+                        buffer.resize(w.len(), 0.0);
+                        clique.features(&states, &mut buffer);
+                        if let Some(e) = model.bad_feature(c, &states, &buffer, Some(index), None) {
+                            return Err(e);
+                        }
+                        *theta = w.iter().zip(&buffer).map(|(a, b)| a * b).sum();
+                        crate::factor::increment(&mut states, shape);
+                    }
+                }
+            }
+        }
+        let graph = &*graph;
+        let run = match self.kind {
+            // On a forest the two-pass order is exact in one iteration: the second one
+            // BP would run to see the messages settle is skipped.
+            LikelihoodKind::Exact => self
+                .one_pass
+                .on(graph)
+                .propagate(&mut Sequential::default())?,
+            LikelihoodKind::Bethe => self.bp.on(graph).propagate(&mut Sequential::default())?,
+        };
+        if self.kind == LikelihoodKind::Bethe && !run.converged {
             return Err(Error::NotApplicable {
                 method: self.kind.name(),
                 reason: format!(
@@ -264,9 +409,13 @@ impl<'a> Likelihood<'a> {
             });
         }
         let log_beliefs: Vec<Vec<f64>> = (0..graph.num_variables())
-            .map(|v| normalised(&run.messages.log_belief(&graph, VariableId(v))))
+            .map(|v| normalised(&run.messages.log_belief(graph, VariableId(v))))
             .collect();
-        let observed = model.feature_totals(&instance.labels)?;
+        // A single-variable clique's belief is its variable's.
+        let beliefs: Vec<Vec<f64>> = log_beliefs
+            .iter()
+            .map(|lb| lb.iter().map(|l| l.exp()).collect())
+            .collect();
         let mut gradient = observed.clone();
         // −F_B, accumulated: Σ_c Σ b_c (θ_c − log b_c) + Σ_v (d_v − 1) Σ b_v log b_v.
         let mut log_partition = 0.0;
@@ -275,53 +424,66 @@ impl<'a> Likelihood<'a> {
             log_partition += (degree - 1.0) * entropy_term(lb);
         }
         let mut states = Vec::new();
-        let mut features = Vec::new();
         let mut log_b = Vec::new();
-        let mut thetas = Vec::new();
+        let mut pair_b;
         for c in 0..model.num_cliques() {
-            let clique = model.clique(c).expect("clique index in range");
-            let template = model.clique_template(c).expect("clique index in range");
-            let range = self
-                .features
-                .template(template)
-                .expect("the model's own template")
-                .weights();
-            let w = &weights[range.clone()];
-            let shape = clique.shape();
-            let size: usize = shape.iter().product();
+            let factor = graph.factor(FactorId(c));
+            let shape = factor.shape();
+            let thetas = factor.log_table();
+            let range = template_range(&self.features, model, c);
             let edges = graph.factor_edges(FactorId(c));
-            // log b_c(x) = θ_c(x) + Σ_j (log b_{v_j}(x_j) − log m_{c→v_j}(x_j)) + const.
-            log_b.clear();
-            thetas.clear();
+            // log b_c(x) = θ_c(x) + Σ_j (log b_{v_j}(x_j) − log m_{c→v_j}(x_j)) + const;
+            // a single-variable clique's is its variable's.
+            let single = (edges.len() == 1)
+                .then(|| graph.edge_variable(crate::graph::EdgeId(edges.start)).0);
+            let lb: &[f64] = match single {
+                Some(v) => &log_beliefs[v],
+                None => {
+                    log_b.clear();
+                    states.clear();
+                    states.resize(shape.len(), 0);
+                    for &theta in &thetas {
+                        let mut value = theta;
+                        for (j, e) in edges.clone().enumerate() {
+                            let e = crate::graph::EdgeId(e);
+                            let v = graph.edge_variable(e).0;
+                            value += log_beliefs[v][states[j]]
+                                - run.messages.message(graph, e)[states[j]];
+                        }
+                        log_b.push(value);
+                        crate::factor::increment(&mut states, shape);
+                    }
+                    pair_b = normalised(&log_b);
+                    &pair_b
+                }
+            };
+            // E[f_c] and the clique's part of −F_B.
+            let width = range.len();
+            let gradient = &mut gradient[range];
+            let clique = model.clique(c).expect("clique index in range");
             states.clear();
             states.resize(shape.len(), 0);
-            for _ in 0..size {
-                features.clear();
-                features.resize(w.len(), 0.0);
-                clique.features(&states, &mut features);
-                let theta: f64 = w.iter().zip(&features).map(|(a, b)| a * b).sum();
-                let mut value = theta;
-                for (j, e) in edges.clone().enumerate() {
-                    let e = crate::graph::EdgeId(e);
-                    let v = graph.edge_variable(e).0;
-                    value += log_beliefs[v][states[j]] - run.messages.message(&graph, e)[states[j]];
-                }
-                thetas.push(theta);
-                log_b.push(value);
-                crate::factor::increment(&mut states, shape);
-            }
-            let lb = normalised(&log_b);
-            // E[f_c] and the clique's part of −F_B.
-            states.iter_mut().for_each(|s| *s = 0);
-            for (k, &l) in lb.iter().enumerate() {
+            for (x, &l) in lb.iter().enumerate() {
                 if l > f64::NEG_INFINITY {
-                    let p = l.exp();
-                    log_partition += p * (thetas[k] - l);
-                    features.clear();
-                    features.resize(w.len(), 0.0);
-                    clique.features(&states, &mut features);
-                    for (g, f) in gradient[range.clone()].iter_mut().zip(&features) {
-                        *g -= p * f;
+                    let p = match single {
+                        Some(v) => beliefs[v][x],
+                        None => l.exp(),
+                    };
+                    log_partition += p * (thetas[x] - l);
+                    match cache {
+                        Some(cliques) => {
+                            for &(j, v) in cliques[c].state(x) {
+                                gradient[j as usize] -= p * v;
+                            }
+                        }
+                        None => {
+                            buffer.clear();
+                            buffer.resize(width, 0.0);
+                            clique.features(&states, &mut buffer);
+                            for (g, f) in gradient.iter_mut().zip(&buffer) {
+                                *g -= p * f;
+                            }
+                        }
                     }
                 }
                 crate::factor::increment(&mut states, shape);
@@ -333,6 +495,15 @@ impl<'a> Likelihood<'a> {
             gradient,
         })
     }
+}
+
+/// The weights (indices into the weight vector) of clique `c`'s template.
+fn template_range(features: &FeatureSet, model: &super::LogLinearModel, c: usize) -> Range<usize> {
+    let template = model.clique_template(c).expect("clique index in range");
+    features
+        .template(template)
+        .expect("the model's own template")
+        .weights()
 }
 
 /// `x − log Σ exp(x)`.
