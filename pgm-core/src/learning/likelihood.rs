@@ -350,9 +350,13 @@ impl<'a> Likelihood<'a> {
             observed,
             cache,
         } = state;
-        // The log-potentials θ_c = w · f_c, written into the graph's tables.
+        // The log-potentials θ_c = w · f_c, written into the graph's tables and kept
+        // (flat, clique after clique) for the beliefs.
         let mut buffer = Vec::new();
+        let mut all_thetas = Vec::new();
+        let mut theta_start = Vec::with_capacity(model.num_cliques() + 1);
         for c in 0..model.num_cliques() {
+            theta_start.push(all_thetas.len());
             let w = &weights[template_range(&self.features, model, c)];
             let table = graph
                 .factor_mut(FactorId(c))
@@ -386,7 +390,9 @@ impl<'a> Likelihood<'a> {
                     }
                 }
             }
+            all_thetas.extend_from_slice(table);
         }
+        theta_start.push(all_thetas.len());
         let graph = &*graph;
         let run = match self.kind {
             // On a forest the two-pass order is exact in one iteration: the second one
@@ -429,7 +435,7 @@ impl<'a> Likelihood<'a> {
         for c in 0..model.num_cliques() {
             let factor = graph.factor(FactorId(c));
             let shape = factor.shape();
-            let thetas = factor.log_table();
+            let thetas = &all_thetas[theta_start[c]..theta_start[c + 1]];
             let range = template_range(&self.features, model, c);
             let edges = graph.factor_edges(FactorId(c));
             // log b_c(x) = θ_c(x) + Σ_j (log b_{v_j}(x_j) − log m_{c→v_j}(x_j)) + const;
@@ -442,7 +448,7 @@ impl<'a> Likelihood<'a> {
                     log_b.clear();
                     states.clear();
                     states.resize(shape.len(), 0);
-                    for &theta in &thetas {
+                    for &theta in thetas {
                         let mut value = theta;
                         for (j, e) in edges.clone().enumerate() {
                             let e = crate::graph::EdgeId(e);
