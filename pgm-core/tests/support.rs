@@ -392,30 +392,42 @@ fn odd_cycles_and_complete_graphs_have_no_colouring_even_cycles_do() {
     }
 }
 
+/// Verdicts of the search that name their proof or count: a long feasible even cycle
+/// (many choices before it) and then a triangle, whose triangle alone is proved
+/// infeasible without backtracking into the cycle; K7 with 6 colours, where a small
+/// limit gives no verdict; a constant zero, a proof without branching.
 #[test]
-fn components_are_searched_apart() {
-    // A long feasible even cycle (many choices before it) and then a triangle:
-    // the triangle alone is proved infeasible, without backtracking into the cycle.
+fn search_verdicts_and_their_dead_ends() {
     let mut edges = cycle(40);
     edges.extend([(40, 41), (41, 42), (40, 42)]);
-    let g = colouring(43, 2, &edges, false);
-    assert_eq!(
-        positive_assignment(&g, None, 10),
-        Support::Empty(ZeroProof::Search { dead_ends: 2 })
-    );
+    let mut constant_zero = FactorGraph::with_variables(&[2]).unwrap();
+    constant_zero
+        .add_factor(TableFactor::new(vec![], vec![], vec![INF]).unwrap())
+        .unwrap();
+    let cases = [
+        (
+            colouring(43, 2, &edges, false),
+            10,
+            Support::Empty(ZeroProof::Search { dead_ends: 2 }),
+        ),
+        (
+            colouring(7, 6, &complete(7), false),
+            3,
+            Support::Undecided { dead_ends: 4 },
+        ),
+        (
+            constant_zero,
+            0,
+            Support::Empty(ZeroProof::ConstantZero { factor: 0 }),
+        ),
+    ];
+    for (g, limit, verdict) in cases {
+        assert_eq!(positive_assignment(&g, None, limit), verdict);
+    }
 }
 
 #[test]
-fn a_small_limit_gives_no_verdict() {
-    let g = colouring(7, 6, &complete(7), false);
-    assert!(matches!(
-        positive_assignment(&g, None, 3),
-        Support::Undecided { dead_ends: 4 }
-    ));
-}
-
-#[test]
-fn propagation_and_constant_zeros_are_proofs_without_branching() {
+fn propagation_is_a_proof_without_branching() {
     // x0 = x1 (hard), x0 forced to 0, x1 forced to 1.
     let mut g = FactorGraph::with_variables(&[2, 2]).unwrap();
     g.add_factor(PottsFactor::new(VariableId(0), VariableId(1), 2, 0.0, INF).unwrap())
@@ -428,13 +440,6 @@ fn propagation_and_constant_zeros_are_proofs_without_branching() {
         positive_assignment(&g, None, 0),
         Support::Empty(ZeroProof::Propagation { .. })
     ));
-    let mut g = FactorGraph::with_variables(&[2]).unwrap();
-    g.add_factor(TableFactor::new(vec![], vec![], vec![INF]).unwrap())
-        .unwrap();
-    assert_eq!(
-        positive_assignment(&g, None, 0),
-        Support::Empty(ZeroProof::ConstantZero { factor: 0 })
-    );
 }
 
 #[test]
