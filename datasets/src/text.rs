@@ -8,16 +8,12 @@ use std::path::{Path, PathBuf};
 /// binary or compressed file given as a log) are an [`Error::NotText`] naming the
 /// line and byte offset of the first one.
 pub(crate) fn read_text(path: &Path) -> Result<String> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    String::from_utf8(bytes).map_err(|e| {
-        let offset = e.utf8_error().valid_up_to();
-        let bytes = e.as_bytes();
-        Error::NotText {
-            path: path.to_path_buf(),
-            line: 1 + bytes[..offset].iter().filter(|&&b| b == b'\n').count(),
-            offset,
-            byte: bytes[offset],
-        }
+    let text = pgm_core::fsutil::read_utf8(path).map_err(|e| Error::io(path, e))?;
+    text.map_err(|e| Error::NotText {
+        path: path.to_path_buf(),
+        line: e.line,
+        offset: e.offset,
+        byte: e.byte,
     })
 }
 

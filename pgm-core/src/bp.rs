@@ -25,7 +25,7 @@ use crate::graph::{EdgeId, FactorGraph, FactorId, VariableId};
 use crate::hook::{Potentials, UpdateHook};
 use crate::logspace::{self, Normalisation};
 use crate::observer::{BpProgress, Observe};
-use crate::param::ParamGuard;
+use crate::param::{InvalidParameter, ParamGuard};
 use crate::schedule::{MessagePasser, Schedule, Visit};
 use crate::support::{self, Method, Support, ZeroDecoding, ZeroProbability};
 use rayon::prelude::*;
@@ -277,26 +277,12 @@ impl ParamGuard for BpParams {
     /// negative or not finite, or zero iterations.
     fn check_ref(&self) -> Result<()> {
         if !(0.0..1.0).contains(&self.damping) {
-            return Err(Error::InvalidParameter {
-                name: "damping",
-                value: format!("{:?}", self.damping),
-                expected: "a number in [0, 1)",
-            });
+            return Err(
+                InvalidParameter::new("damping", self.damping, "a number in [0, 1)").into(),
+            );
         }
-        if !(self.tolerance.is_finite() && self.tolerance >= 0.0) {
-            return Err(Error::InvalidParameter {
-                name: "tolerance",
-                value: format!("{:?}", self.tolerance),
-                expected: "a finite number >= 0",
-            });
-        }
-        if self.max_iterations == 0 {
-            return Err(Error::InvalidParameter {
-                name: "max_iterations",
-                value: "0".into(),
-                expected: "at least 1",
-            });
-        }
+        InvalidParameter::tolerance("tolerance", self.tolerance)?;
+        InvalidParameter::at_least_one("max_iterations", self.max_iterations)?;
         Ok(())
     }
 

@@ -40,6 +40,36 @@ pub fn temporary_path(path: &Path) -> Result<PathBuf> {
     Ok(path.with_file_name(temporary_name))
 }
 
+/// Where the bytes of a file given as text stop being UTF-8 (a binary or compressed
+/// file): see [`read_utf8`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct NotUtf8 {
+    /// The line (from 1) of the first byte that is not UTF-8.
+    pub line: usize,
+    /// Its offset in the file.
+    pub offset: usize,
+    /// The byte itself.
+    pub byte: u8,
+}
+
+/// Reads a whole file as UTF-8 text: the I/O error, or the text, or where its first
+/// byte that is not UTF-8 stands (for the caller's own error, naming the file).
+///
+/// # Errors
+/// The I/O error of reading `path`.
+pub fn read_utf8(path: &Path) -> std::io::Result<std::result::Result<String, NotUtf8>> {
+    let bytes = std::fs::read(path)?;
+    Ok(String::from_utf8(bytes).map_err(|e| {
+        let offset = e.utf8_error().valid_up_to();
+        let bytes = e.as_bytes();
+        NotUtf8 {
+            line: 1 + bytes[..offset].iter().filter(|&&b| b == b'\n').count(),
+            offset,
+            byte: bytes[offset],
+        }
+    }))
+}
+
 /// Whether `name` is a temporary file of [`temporary_path`] for the file `of` (of any
 /// process).
 pub fn is_temporary_of(name: &str, of: &str) -> bool {
@@ -227,6 +257,24 @@ pub fn remove_unfinished() -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn read_utf8_names_the_line_and_offset_of_the_first_bad_byte() {
+        let path = std::env::temp_dir().join(format!("pgm-fsutil-utf8-{}", std::process::id()));
+        std::fs::write(&path, b"a\nb\nabc\xff\xfe\n").unwrap();
+        let bad = read_utf8(&path).unwrap();
+        std::fs::write(&path, "a\nb\n").unwrap();
+        let good = read_utf8(&path).unwrap();
+        std::fs::remove_file(&path).unwrap();
+        let at = NotUtf8 {
+            line: 3,
+            offset: 7,
+            byte: 0xff,
+        };
+        assert_eq!(bad, Err(at));
+        assert_eq!(good.as_deref(), Ok("a\nb\n"));
+        assert!(read_utf8(&path).is_err());
+    }
 
     #[test]
     fn temporary_names_belong_to_their_file() {

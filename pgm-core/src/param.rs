@@ -92,6 +92,22 @@ impl InvalidParameter {
         }
     }
 
+    /// `Ok(())` when the count `value` is at least 1 (iterations, sweeps), else the
+    /// error, expecting "at least 1".
+    pub(crate) fn at_least_one(name: &'static str, value: usize) -> Result<(), Self> {
+        if value >= 1 {
+            Ok(())
+        } else {
+            Err(Self::new(name, value, "at least 1"))
+        }
+    }
+
+    /// `Ok(())` for a convergence tolerance (finite, ≥ 0), else the error, expecting
+    /// "a finite number >= 0".
+    pub(crate) fn tolerance(name: &'static str, value: f64) -> Result<(), Self> {
+        Self::non_negative(name, value, "a finite number >= 0")
+    }
+
     /// `Ok(())` when `value` lies in `[0, 1]`, else the error.
     pub fn fraction(name: &'static str, value: f64) -> Result<(), Self> {
         if (0.0..=1.0).contains(&value) {

@@ -726,166 +726,21 @@ impl<'g> Search<'g> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{PottsFactor, TableFactor};
+    use crate::PottsFactor;
 
-    const INF: f64 = f64::NEG_INFINITY;
-
-    /// Hard "not equal" Potts factors with `k` colours on `edges`.
-    fn colouring(n: usize, k: usize, edges: &[(usize, usize)]) -> FactorGraph {
-        let mut g = FactorGraph::with_variables(&vec![k; n]).unwrap();
-        for &(a, b) in edges {
-            g.add_factor(PottsFactor::new(VariableId(a), VariableId(b), k, INF, 0.0).unwrap())
-                .unwrap();
-        }
-        g
-    }
-
-    fn cycle(n: usize) -> Vec<(usize, usize)> {
-        (0..n).map(|i| (i, (i + 1) % n)).collect()
-    }
-
-    fn complete(n: usize) -> Vec<(usize, usize)> {
-        (0..n)
-            .flat_map(|a| (a + 1..n).map(move |b| (a, b)))
-            .collect()
-    }
-
+    /// The search (tested through the public API in `tests/support.rs`) takes the
+    /// components in the graph's breadth-first order.
     #[test]
-    fn odd_cycles_and_complete_graphs_have_no_colouring_even_cycles_do() {
-        for n in [3, 5, 7, 21] {
-            let g = colouring(n, 2, &cycle(n));
-            assert!(
-                matches!(
-                    positive_assignment(&g, None, DEFAULT_SEARCH_LIMIT),
-                    Support::Empty(ZeroProof::Search { .. })
-                ),
-                "odd cycle {n}"
-            );
-            let g = colouring(n + 1, 2, &cycle(n + 1));
-            let Support::Positive(x) = positive_assignment(&g, None, DEFAULT_SEARCH_LIMIT) else {
-                panic!("even cycle {} has a colouring", n + 1);
-            };
-            assert!(g.log_score(&x).unwrap().is_finite());
-            assert_eq!(first_violation(&g, &x), None);
+    fn components_follow_the_bfs_order() {
+        // A long even cycle and then a triangle.
+        let mut g = FactorGraph::with_variables(&[2; 43]).unwrap();
+        let ring = (0..40).map(|i| (i, (i + 1) % 40));
+        for (a, b) in ring.chain([(40, 41), (41, 42), (40, 42)]) {
+            let potts = PottsFactor::new(VariableId(a), VariableId(b), 2, f64::NEG_INFINITY, 0.0);
+            g.add_factor(potts.unwrap()).unwrap();
         }
-        for n in 3..8 {
-            let g = colouring(n, n - 1, &complete(n));
-            assert!(matches!(
-                positive_assignment(&g, None, DEFAULT_SEARCH_LIMIT),
-                Support::Empty(ZeroProof::Search { .. })
-            ));
-            let g = colouring(n, n, &complete(n));
-            assert!(matches!(
-                positive_assignment(&g, None, DEFAULT_SEARCH_LIMIT),
-                Support::Positive(_)
-            ));
-        }
-    }
-
-    #[test]
-    fn components_are_searched_apart() {
-        // A long feasible even cycle (many choices before it) and then a triangle:
-        // the triangle alone is proved infeasible, without backtracking into the cycle.
-        let mut edges = cycle(40);
-        edges.extend([(40, 41), (41, 42), (40, 42)]);
-        let g = colouring(43, 2, &edges);
-        assert_eq!(
-            positive_assignment(&g, None, 10),
-            Support::Empty(ZeroProof::Search { dead_ends: 2 })
-        );
         let order: Vec<usize> = components(&g).concat();
         let bfs: Vec<usize> = g.bfs_order().iter().map(|v| v.0).collect();
         assert_eq!(order, bfs);
-    }
-
-    #[test]
-    fn a_small_limit_gives_no_verdict() {
-        let g = colouring(7, 6, &complete(7));
-        assert!(matches!(
-            positive_assignment(&g, None, 3),
-            Support::Undecided { dead_ends: 4 }
-        ));
-    }
-
-    #[test]
-    fn propagation_and_constant_zeros_are_proofs_without_branching() {
-        // x0 = x1 (hard), x0 forced to 0, x1 forced to 1.
-        let mut g = FactorGraph::with_variables(&[2, 2]).unwrap();
-        g.add_factor(PottsFactor::new(VariableId(0), VariableId(1), 2, 0.0, INF).unwrap())
-            .unwrap();
-        g.add_factor(TableFactor::new(vec![VariableId(0)], vec![2], vec![0.0, INF]).unwrap())
-            .unwrap();
-        g.add_factor(TableFactor::new(vec![VariableId(1)], vec![2], vec![INF, 0.0]).unwrap())
-            .unwrap();
-        assert!(matches!(
-            positive_assignment(&g, None, 0),
-            Support::Empty(ZeroProof::Propagation { .. })
-        ));
-        let mut g = FactorGraph::with_variables(&[2]).unwrap();
-        g.add_factor(TableFactor::new(vec![], vec![], vec![INF]).unwrap())
-            .unwrap();
-        assert_eq!(
-            positive_assignment(&g, None, 0),
-            Support::Empty(ZeroProof::ConstantZero { factor: 0 })
-        );
-    }
-
-    #[test]
-    fn preferences_order_the_states_and_no_hard_zeros_needs_no_search() {
-        let g = colouring(4, 2, &cycle(4));
-        let prefer_one = |v: VariableId| {
-            if v.0 == 0 {
-                vec![0.0, 1.0]
-            } else {
-                vec![0.0, 0.0]
-            }
-        };
-        assert_eq!(
-            positive_assignment(&g, Some(&prefer_one), 0),
-            Support::Positive(vec![1, 0, 1, 0])
-        );
-        let mut g = FactorGraph::with_variables(&[3, 3]).unwrap();
-        g.add_factor(PottsFactor::new(VariableId(0), VariableId(1), 3, 1.0, 0.0).unwrap())
-            .unwrap();
-        assert!(!has_hard_zeros(&g));
-        let prefer = |v: VariableId| vec![0.0, v.0 as f64, 0.5];
-        assert_eq!(
-            positive_assignment(&g, Some(&prefer), 0),
-            Support::Positive(vec![2, 1])
-        );
-    }
-
-    #[test]
-    fn higher_arity_tables_are_revised_exactly() {
-        // x0 + x1 + x2 must be odd (a parity table), and x0 = x1 = x2 (hard): only
-        // (1, 1, 1).
-        let mut g = FactorGraph::with_variables(&[2, 2, 2]).unwrap();
-        let parity = (0..8)
-            .map(|i: usize| if i.count_ones() % 2 == 1 { 0.0 } else { INF })
-            .collect();
-        g.add_factor(
-            TableFactor::new(
-                vec![VariableId(0), VariableId(1), VariableId(2)],
-                vec![2, 2, 2],
-                parity,
-            )
-            .unwrap(),
-        )
-        .unwrap();
-        for (a, b) in [(0, 1), (1, 2)] {
-            g.add_factor(PottsFactor::new(VariableId(a), VariableId(b), 2, 0.0, INF).unwrap())
-                .unwrap();
-        }
-        assert_eq!(
-            positive_assignment(&g, None, 10),
-            Support::Positive(vec![1, 1, 1])
-        );
-        // Now also x0 = 0: none.
-        g.add_factor(TableFactor::new(vec![VariableId(0)], vec![2], vec![0.0, INF]).unwrap())
-            .unwrap();
-        assert!(matches!(
-            positive_assignment(&g, None, 10),
-            Support::Empty(_)
-        ));
     }
 }

@@ -100,6 +100,7 @@ use crate::error::{Error, Result};
 use crate::factor::{Incoming, Mode};
 use crate::graph::{EdgeId, FactorGraph, FactorId, VariableId};
 use crate::observer::{Observe, TrwsProgress};
+use crate::param::InvalidParameter;
 
 use crate::support::{self, Method, Support, ZeroDecoding, ZeroProbability, ZeroProof};
 use std::ops::ControlFlow;
@@ -183,20 +184,8 @@ impl TrwsParams {
     /// # Errors
     /// [`Error::InvalidParameter`] for zero iterations or a tolerance that is negative or not finite.
     fn validate(&self) -> Result<()> {
-        if self.max_iterations == 0 {
-            return Err(Error::InvalidParameter {
-                name: "max_iterations",
-                value: "0".into(),
-                expected: "at least 1",
-            });
-        }
-        if !(self.tolerance.is_finite() && self.tolerance >= 0.0) {
-            return Err(Error::InvalidParameter {
-                name: "tolerance",
-                value: format!("{:?}", self.tolerance),
-                expected: "a finite number >= 0",
-            });
-        }
+        InvalidParameter::at_least_one("max_iterations", self.max_iterations)?;
+        InvalidParameter::tolerance("tolerance", self.tolerance)?;
         Ok(())
     }
 }

@@ -60,22 +60,18 @@ pub struct UaiModel {
 /// Reads a whole text file; bytes that are not UTF-8 (a binary or compressed file) are
 /// a parse error naming the line and byte offset of the first one.
 fn read_text(path: &Path) -> Result<String> {
-    let bytes = std::fs::read(path).map_err(|source| Error::Io {
+    let text = crate::fsutil::read_utf8(path).map_err(|source| Error::Io {
         path: path.to_path_buf(),
         source,
     })?;
-    String::from_utf8(bytes).map_err(|e| {
-        let offset = e.utf8_error().valid_up_to();
-        let bytes = e.as_bytes();
-        Error::Parse {
-            path: path.to_path_buf(),
-            line: 1 + bytes[..offset].iter().filter(|&&b| b == b'\n').count(),
-            message: format!(
-                "byte {offset} (0x{:02x}) is not UTF-8 text: not a UAI file (a binary or \
-                 compressed file?)",
-                bytes[offset]
-            ),
-        }
+    text.map_err(|e| Error::Parse {
+        path: path.to_path_buf(),
+        line: e.line,
+        message: format!(
+            "byte {} (0x{:02x}) is not UTF-8 text: not a UAI file (a binary or compressed \
+             file?)",
+            e.offset, e.byte
+        ),
     })
 }
 

@@ -12,7 +12,10 @@ mod common;
 
 use pgm_core::exact::{brute_force, BruteForceLimit};
 use pgm_core::strategies;
-use pgm_core::support::{first_violation, Method, ZeroProbability, ZeroProof};
+use pgm_core::support::{
+    first_violation, has_hard_zeros, positive_assignment, Method, Support, ZeroProbability,
+    ZeroProof, DEFAULT_SEARCH_LIMIT,
+};
 use pgm_core::{
     BpParams, Error, FactorGraph, Flooding, Mode, ParamGuard, PottsFactor, Sequential, TableFactor,
     TrwsParams, VariableId,
@@ -352,4 +355,148 @@ proptest! {
     ) {
         check_against_brute_force(&spec.build(), &format!("{spec:?}"));
     }
+}
+
+// ---------------------------------------------------------------------------------
+// The search for an assignment of positive probability
+
+#[test]
+fn odd_cycles_and_complete_graphs_have_no_colouring_even_cycles_do() {
+    for n in [3, 5, 7, 21] {
+        let g = colouring(n, 2, &cycle(n), false);
+        assert!(
+            matches!(
+                positive_assignment(&g, None, DEFAULT_SEARCH_LIMIT),
+                Support::Empty(ZeroProof::Search { .. })
+            ),
+            "odd cycle {n}"
+        );
+        let g = colouring(n + 1, 2, &cycle(n + 1), false);
+        let Support::Positive(x) = positive_assignment(&g, None, DEFAULT_SEARCH_LIMIT) else {
+            panic!("even cycle {} has a colouring", n + 1);
+        };
+        assert!(g.log_score(&x).unwrap().is_finite());
+        assert_eq!(first_violation(&g, &x), None);
+    }
+    for n in 3..8 {
+        let g = colouring(n, n - 1, &complete(n), false);
+        assert!(matches!(
+            positive_assignment(&g, None, DEFAULT_SEARCH_LIMIT),
+            Support::Empty(ZeroProof::Search { .. })
+        ));
+        let g = colouring(n, n, &complete(n), false);
+        assert!(matches!(
+            positive_assignment(&g, None, DEFAULT_SEARCH_LIMIT),
+            Support::Positive(_)
+        ));
+    }
+}
+
+/// Verdicts of the search that name their proof or count: a long feasible even cycle
+/// (many choices before it) and then a triangle, whose triangle alone is proved
+/// infeasible without backtracking into the cycle; K7 with 6 colours, where a small
+/// limit gives no verdict; a constant zero, a proof without branching.
+#[test]
+fn search_verdicts_and_their_dead_ends() {
+    let mut edges = cycle(40);
+    edges.extend([(40, 41), (41, 42), (40, 42)]);
+    let mut constant_zero = FactorGraph::with_variables(&[2]).unwrap();
+    constant_zero
+        .add_factor(TableFactor::new(vec![], vec![], vec![INF]).unwrap())
+        .unwrap();
+    let cases = [
+        (
+            colouring(43, 2, &edges, false),
+            10,
+            Support::Empty(ZeroProof::Search { dead_ends: 2 }),
+        ),
+        (
+            colouring(7, 6, &complete(7), false),
+            3,
+            Support::Undecided { dead_ends: 4 },
+        ),
+        (
+            constant_zero,
+            0,
+            Support::Empty(ZeroProof::ConstantZero { factor: 0 }),
+        ),
+    ];
+    for (g, limit, verdict) in cases {
+        assert_eq!(positive_assignment(&g, None, limit), verdict);
+    }
+}
+
+#[test]
+fn propagation_is_a_proof_without_branching() {
+    // x0 = x1 (hard), x0 forced to 0, x1 forced to 1.
+    let mut g = FactorGraph::with_variables(&[2, 2]).unwrap();
+    g.add_factor(PottsFactor::new(VariableId(0), VariableId(1), 2, 0.0, INF).unwrap())
+        .unwrap();
+    g.add_factor(TableFactor::new(vec![VariableId(0)], vec![2], vec![0.0, INF]).unwrap())
+        .unwrap();
+    g.add_factor(TableFactor::new(vec![VariableId(1)], vec![2], vec![INF, 0.0]).unwrap())
+        .unwrap();
+    assert!(matches!(
+        positive_assignment(&g, None, 0),
+        Support::Empty(ZeroProof::Propagation { .. })
+    ));
+}
+
+#[test]
+fn preferences_order_the_states_and_no_hard_zeros_needs_no_search() {
+    let g = colouring(4, 2, &cycle(4), false);
+    let prefer_one = |v: VariableId| {
+        if v.0 == 0 {
+            vec![0.0, 1.0]
+        } else {
+            vec![0.0, 0.0]
+        }
+    };
+    assert_eq!(
+        positive_assignment(&g, Some(&prefer_one), 0),
+        Support::Positive(vec![1, 0, 1, 0])
+    );
+    let mut g = FactorGraph::with_variables(&[3, 3]).unwrap();
+    g.add_factor(PottsFactor::new(VariableId(0), VariableId(1), 3, 1.0, 0.0).unwrap())
+        .unwrap();
+    assert!(!has_hard_zeros(&g));
+    let prefer = |v: VariableId| vec![0.0, v.0 as f64, 0.5];
+    assert_eq!(
+        positive_assignment(&g, Some(&prefer), 0),
+        Support::Positive(vec![2, 1])
+    );
+}
+
+#[test]
+fn higher_arity_tables_are_revised_exactly() {
+    // x0 + x1 + x2 must be odd (a parity table), and x0 = x1 = x2 (hard): only
+    // (1, 1, 1).
+    let mut g = FactorGraph::with_variables(&[2, 2, 2]).unwrap();
+    let parity = (0..8)
+        .map(|i: usize| if i.count_ones() % 2 == 1 { 0.0 } else { INF })
+        .collect();
+    g.add_factor(
+        TableFactor::new(
+            vec![VariableId(0), VariableId(1), VariableId(2)],
+            vec![2, 2, 2],
+            parity,
+        )
+        .unwrap(),
+    )
+    .unwrap();
+    for (a, b) in [(0, 1), (1, 2)] {
+        g.add_factor(PottsFactor::new(VariableId(a), VariableId(b), 2, 0.0, INF).unwrap())
+            .unwrap();
+    }
+    assert_eq!(
+        positive_assignment(&g, None, 10),
+        Support::Positive(vec![1, 1, 1])
+    );
+    // Now also x0 = 0: none.
+    g.add_factor(TableFactor::new(vec![VariableId(0)], vec![2], vec![0.0, INF]).unwrap())
+        .unwrap();
+    assert!(matches!(
+        positive_assignment(&g, None, 10),
+        Support::Empty(_)
+    ));
 }

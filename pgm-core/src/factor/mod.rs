@@ -313,6 +313,22 @@ pub(crate) fn check_scope_shape(
         })
 }
 
+/// Row-major strides of `shape` (last position fastest) for entries of `unit`
+/// consecutive values: `strides[j] = unit · Π_{l > j} shape[l]`.
+pub(crate) fn row_major_strides(shape: &[usize], unit: usize) -> Vec<usize> {
+    let mut strides = vec![unit; shape.len()];
+    for j in (0..shape.len().saturating_sub(1)).rev() {
+        strides[j] = strides[j + 1] * shape[j + 1];
+    }
+    strides
+}
+
+/// The offset `Σ states[j] · strides[j]` of a joint state (see [`row_major_strides`]).
+#[inline]
+pub(crate) fn strided_index(states: &[usize], strides: &[usize]) -> usize {
+    states.iter().zip(strides).map(|(s, st)| s * st).sum()
+}
+
 /// Checks that every log-potential is finite or −∞.
 pub(crate) fn check_log_values(values: &[f64]) -> crate::Result<()> {
     for (index, &value) in values.iter().enumerate() {

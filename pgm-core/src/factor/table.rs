@@ -39,10 +39,7 @@ impl TableFactor {
             });
         }
         check_log_values(&log_table)?;
-        let mut strides = vec![1usize; shape.len()];
-        for j in (0..shape.len().saturating_sub(1)).rev() {
-            strides[j] = strides[j + 1] * shape[j + 1];
-        }
+        let strides = super::row_major_strides(&shape, 1);
         Ok(Self {
             scope,
             shape,
@@ -94,7 +91,7 @@ impl TableFactor {
     /// Row-major index of a joint state.
     #[inline]
     pub fn index(&self, states: &[usize]) -> usize {
-        states.iter().zip(&self.strides).map(|(s, st)| s * st).sum()
+        super::strided_index(states, &self.strides)
     }
 }
 

@@ -376,10 +376,8 @@ impl HybridChainParams {
     /// `ParamGuard::check_ref`: checks every value; the error names the first
     /// invalid one.
     fn validate(&self) -> Result<()> {
-        if self.max_sweeps == 0 {
-            return Err(InvalidParameter::new("max_sweeps", self.max_sweeps, "at least 1").into());
-        }
-        InvalidParameter::non_negative("tolerance", self.tolerance, "a finite number >= 0")?;
+        InvalidParameter::at_least_one("max_sweeps", self.max_sweeps)?;
+        InvalidParameter::tolerance("tolerance", self.tolerance)?;
         Ok(())
     }
 }

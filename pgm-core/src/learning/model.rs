@@ -355,10 +355,7 @@ impl DenseFeatures {
                 actual: table.len(),
             });
         }
-        let mut strides = vec![width; shape.len()];
-        for j in (0..shape.len().saturating_sub(1)).rev() {
-            strides[j] = strides[j + 1] * shape[j + 1];
-        }
+        let strides = crate::factor::row_major_strides(&shape, width);
         Ok(Self {
             scope,
             shape,
@@ -390,7 +387,7 @@ impl CliqueFeatures for DenseFeatures {
 
     #[inline]
     fn features(&self, states: &[usize], out: &mut [f64]) {
-        let start: usize = states.iter().zip(&self.strides).map(|(s, d)| s * d).sum();
+        let start = crate::factor::strided_index(states, &self.strides);
         out.copy_from_slice(&self.table[start..start + self.width]);
     }
 
