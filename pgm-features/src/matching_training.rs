@@ -10,14 +10,18 @@
 //!    positive when it is an outlier.
 //! 2. **Weights** on the second half: the pseudo-likelihood of each pair's true states
 //!    under the model's CRF with the boosters of step 1 is maximised (L-BFGS, at most
-//!    3000 iterations, a Gaussian prior on each weight).
+//!    3000 iterations, a Gaussian prior on each weight), or the objective
+//!    [`TrainingOptions::objective`] names: the likelihood with exact chain marginals
+//!    (the association chain is a chain) or the Bethe likelihood.
 
 use crate::boosting::{Booster, BoosterParams, TrainingSet};
 use crate::matching_features::{AssociationBoosters, AssociationProblem};
 use crate::shape_features::{ASSOCIATION_FEATURES, OUTLIER_FEATURES};
 use crate::weight_file::ModelWeights;
 use crate::ModelResult;
-use pgm_core::learning::{LabelledInstance, LearnerParams, LearningObserver, LearningResult};
+use pgm_core::learning::{
+    LabelledInstance, LearnerParams, LearningObjective, LearningObserver, LearningResult,
+};
 use pgm_core::param::InvalidParameter;
 use pgm_core::ParamGuard;
 use pgm_scan::ScanPair;
@@ -37,6 +41,8 @@ pub struct TrainingOptions {
     pub stumps: usize,
     /// Variance of the Gaussian prior on each weight (10).
     pub prior_variance: f64,
+    /// What the weights maximise (pseudo-likelihood, as the papers).
+    pub objective: LearningObjective,
 }
 
 impl TrainingOptions {
@@ -74,6 +80,7 @@ impl Default for TrainingOptions {
             band: 8,
             stumps: 50,
             prior_variance: 10.0,
+            objective: LearningObjective::PseudoLikelihood,
         }
     }
 }
@@ -261,6 +268,7 @@ pub fn train_boosted<W: BoostedTraining>(
     let learner = LearnerParams::default()
         .prior_variance(options.prior_variance)
         .max_iterations(3000)
+        .objective(options.objective)
         .check()?;
     let learning = learner.learn(&W::feature_set(), &instances, observer)?;
     Ok((

@@ -11,6 +11,7 @@ use super::cluster::CrfArgs;
 use super::{CliError, CliResult};
 use clap::{Args, Subcommand, ValueEnum};
 use pgm::methods::{association_source, load_weights, WeightKind};
+use pgm_core::learning::LearningObjective;
 use pgm_crf_clustering::learning::ClusteringTrainer;
 use pgm_crf_matching::learning::{MatchingTrainer, TrainingOptions};
 use pgm_datasets::sim::{simulate_pairs, Preset, SimConfig};
@@ -65,6 +66,16 @@ pub struct TrainingDataArgs {
     /// Variance of the Gaussian prior on each weight.
     #[arg(long, default_value_t = TrainingOptions::default().prior_variance)]
     pub prior_variance: f64,
+    /// What the weights maximise: `pl` (pseudo-likelihood, as the papers), `ml` (the
+    /// likelihood with exact marginals: chains and trees, refused on a model with a
+    /// cycle) or `bethe` (the Bethe likelihood of loopy belief propagation).
+    #[arg(long, default_value = "pl", value_parser = parse_objective)]
+    pub objective: LearningObjective,
+}
+
+/// `--objective`.
+fn parse_objective(text: &str) -> Result<LearningObjective, String> {
+    text.parse()
 }
 
 /// `pgm train joint`: the options of `pgm train matching`, and where the association
@@ -182,6 +193,7 @@ impl TrainMatchingArgs {
             candidates: self.candidates,
             stumps: self.stumps,
             prior_variance: self.data.prior_variance,
+            objective: self.data.objective,
             ..TrainingOptions::default()
         })
     }
@@ -287,6 +299,7 @@ fn train<T: ModelTrainer>(
     summary.insert("iterations".into(), learning.iterations.into());
     summary.insert("converged".into(), learning.converged.into());
     summary.insert("objective".into(), learning.objective.into());
+    summary.insert("learning_objective".into(), data.objective.name().into());
     let named: serde_json::Value =
         serde_json::from_str(&file.weights.to_json()).map_err(CliError::from_display)?;
     summary.insert("weights".into(), named["weights"].clone());
