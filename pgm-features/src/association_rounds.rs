@@ -17,8 +17,9 @@ use crate::matching_features::{
     AssociationBoosters, AssociationProblem, AssociationTables, StateSpace,
 };
 use crate::Result;
-use pgm_core::hybrid::chain::HybridChainResult;
+use pgm_core::hybrid::chain::{ChainUpdate, HybridChainParams, HybridChainResult};
 use pgm_core::param::InvalidParameter;
+use pgm_scan::association::{segment_motions, SegmentIcp, SegmentMotions};
 use pgm_scan::registration::IcpStatus;
 use pgm_scan::{Association, Pose2, ScanPair, SurfacePair};
 
@@ -96,6 +97,46 @@ pub fn problem_with_hypotheses<T: Send>(
     let problem = problem?;
     debug_assert_eq!(problem.len(), n, "one node per valid current return");
     Ok((problem, hypotheses))
+}
+
+/// Hypotheses given to a model's run in place of segment-wise ICP's (the
+/// `…_with_hypotheses` entry points of CRF-Matching and the joint model): a copy of
+/// `hypotheses` once they fit `pair`, as `given` for [`hypotheses_or_segment_icp`].
+///
+/// # Errors
+/// [`pgm_scan::Error::BadPair`], naming the pair, when `hypotheses` do not fit it
+/// ([`SegmentMotions::check_for`]).
+pub fn given_hypotheses(
+    pair: &ScanPair,
+    hypotheses: &SegmentMotions,
+) -> pgm_scan::Result<Option<SegmentMotions>> {
+    hypotheses.check_for(pair)?;
+    Ok(Some(hypotheses.clone()))
+}
+
+/// The motion hypotheses a model's run starts from: `given` ones
+/// ([`given_hypotheses`]), else segment-wise ICP's on `pair` with `icp`.
+///
+/// # Errors
+/// Segment-wise ICP's ([`segment_motions`]), naming the pair.
+pub fn hypotheses_or_segment_icp(
+    pair: &ScanPair,
+    given: Option<SegmentMotions>,
+    icp: &SegmentIcp,
+) -> pgm_scan::Result<SegmentMotions> {
+    match given {
+        Some(given) => Ok(given),
+        None => segment_motions(pair, icp),
+    }
+}
+
+/// The chain solver of a model's rounds with its sweep limit, motion tolerance and
+/// update schedule (unchecked, for a model to set more before checking).
+pub fn round_solver(max_sweeps: usize, tolerance: f64, update: ChainUpdate) -> HybridChainParams {
+    HybridChainParams::default()
+        .max_sweeps(max_sweeps)
+        .tolerance(tolerance)
+        .update(update)
 }
 
 /// Whether a round has settled: no motion of `after` moved by more than

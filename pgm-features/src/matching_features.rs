@@ -518,6 +518,43 @@ impl NodeTruth {
     }
 }
 
+/// Motion groups numbered by first appearance, as the learning of CRF-Matching and
+/// of the joint model reads them from labels: group 0 is `first` (its key and
+/// motion), and every other key becomes the next group where it first appears, with
+/// the motion it appears with. Returns each item's group and every group's motion.
+///
+/// ```
+/// use pgm_features::matching_features::groups_by_first_appearance;
+/// use pgm_scan::Pose2;
+///
+/// let (a, b) = (Pose2::new(1.0, 0.0, 0.0), Pose2::new(2.0, 0.0, 0.0));
+/// let (group_of, motions) = groups_by_first_appearance(
+///     (0, Pose2::identity()),
+///     [(5, a), (0, b), (5, b), (3, b)],
+/// );
+/// assert_eq!(group_of, [1, 0, 1, 2]);
+/// assert_eq!(motions, [Pose2::identity(), a, b]);
+/// ```
+pub fn groups_by_first_appearance(
+    first: (u32, Pose2),
+    items: impl IntoIterator<Item = (u32, Pose2)>,
+) -> (Vec<usize>, Vec<Pose2>) {
+    let mut keys = vec![first.0];
+    let mut motions = vec![first.1];
+    let group_of = items
+        .into_iter()
+        .map(|(key, motion)| match keys.iter().position(|&k| k == key) {
+            Some(g) => g,
+            None => {
+                keys.push(key);
+                motions.push(motion);
+                keys.len() - 1
+            }
+        })
+        .collect();
+    (group_of, motions)
+}
+
 /// Fewest nodes one rayon task takes in the node-wise loops (candidates, the data
 /// booster's and the outlier booster's margins): smaller tasks cost more in
 /// scheduling than they compute.

@@ -26,7 +26,7 @@ use crate::Result;
 use pgm_core::hybrid::chain::chain_instance;
 use pgm_core::learning::{LabelledInstance, LearningObserver};
 use pgm_features::boosting::TrainingSet;
-use pgm_features::matching_features::{AssociationProblem, StateSpace};
+use pgm_features::matching_features::{groups_by_first_appearance, AssociationProblem, StateSpace};
 use pgm_features::matching_training::{train_boosted, BoostedTraining, TrainingPair};
 pub use pgm_features::matching_training::{TrainingOptions, TrainingReport};
 use pgm_features::training::{ModelTrainer, Trained};
@@ -41,27 +41,19 @@ struct TrueStates {
     motions: Vec<Pose2>,
 }
 
-/// Motion groups from labels: group 0 for label 0, one group per other label.
+/// Motion groups from labels: group 0 for label 0 (the motion of its first node, the
+/// identity without one), one group per other label
+/// ([`groups_by_first_appearance`]).
 fn groups(labels: &[u32], motions: &[Pose2]) -> (Vec<usize>, Vec<Pose2>) {
-    let mut ids: Vec<u32> = vec![0];
-    let mut group_motions = vec![motions
+    let background = motions
         .iter()
         .zip(labels)
         .find(|(_, &l)| l == 0)
-        .map_or(Pose2::identity(), |(m, _)| *m)];
-    let group_of = labels
-        .iter()
-        .zip(motions)
-        .map(|(&l, m)| match ids.iter().position(|&x| x == l) {
-            Some(g) => g,
-            None => {
-                ids.push(l);
-                group_motions.push(*m);
-                ids.len() - 1
-            }
-        })
-        .collect();
-    (group_of, group_motions)
+        .map_or(Pose2::identity(), |(m, _)| *m);
+    groups_by_first_appearance(
+        (0, background),
+        labels.iter().copied().zip(motions.iter().copied()),
+    )
 }
 
 /// The candidates (reference indices, sorted) of every return of `pair` under its true

@@ -20,15 +20,14 @@
 use crate::model::MatchingModel;
 use crate::weights::MatchingWeights;
 use crate::{Error, Result};
-use pgm_core::hybrid::chain::{ChainUpdate, HybridChainParams};
+use pgm_core::hybrid::chain::ChainUpdate;
 use pgm_core::param::{InvalidParameter, ParamGuard};
 use pgm_features::association_rounds::{
-    check_rounds, last_round, polish_ego, problem_with_hypotheses,
+    check_rounds, given_hypotheses, hypotheses_or_segment_icp, last_round, polish_ego,
+    problem_with_hypotheses, round_solver,
 };
 use pgm_features::matching_features::StateSpace;
-use pgm_scan::association::{
-    segment_motions, AssociationSource, SegmentIcp, SegmentMotions, SegmentParams,
-};
+use pgm_scan::association::{AssociationSource, SegmentIcp, SegmentMotions, SegmentParams};
 use pgm_scan::methods::{EgoMotionEstimate, ScanMatcher};
 use pgm_scan::{Association, PointAssociations, Pose2, ScanPair};
 use serde::Serialize;
@@ -238,18 +237,15 @@ impl Matcher {
         pair: &ScanPair,
         hypotheses: &SegmentMotions,
     ) -> Result<Matching> {
-        hypotheses.check_for(pair)?;
-        self.run(pair, Some(hypotheses.clone()))
+        self.run(pair, given_hypotheses(pair, hypotheses)?)
     }
 
     /// Both entry points: `given` hypotheses, else segment-wise ICP's.
     fn run(&self, pair: &ScanPair, given: Option<SegmentMotions>) -> Result<Matching> {
         let p = &self.params;
-        let (problem, hypotheses) =
-            problem_with_hypotheses(pair, &p.weights.boosters, |_| match given {
-                Some(given) => Ok(given),
-                None => segment_motions(pair, &self.segment_icp),
-            })?;
+        let (problem, hypotheses) = problem_with_hypotheses(pair, &p.weights.boosters, |_| {
+            hypotheses_or_segment_icp(pair, given, &self.segment_icp)
+        })?;
         let n = problem.len();
         let beams = pair.current.len();
         let Some(hypotheses) = hypotheses else {
@@ -282,11 +278,7 @@ impl Matcher {
                 }
             }
         }
-        let solver = HybridChainParams::default()
-            .max_sweeps(p.max_sweeps)
-            .tolerance(p.tolerance)
-            .update(p.update)
-            .check()?;
+        let solver = round_solver(p.max_sweeps, p.tolerance, p.update).check()?;
         // MAP reference index of every node (None: outlier) carried between rounds.
         let mut chosen: Vec<Option<usize>> = vec![None; n];
         let mut sweeps = 0;

@@ -34,14 +34,15 @@
 use crate::model::{node_motions, JointModel, ASSOCIATION_CHAIN, CLUSTERING_CHAIN};
 use crate::weights::JointWeights;
 use crate::{Error, Result};
-use pgm_core::hybrid::chain::{ChainUpdate, Convergence, HybridChainParams};
+use pgm_core::hybrid::chain::{ChainUpdate, Convergence};
 use pgm_core::param::{InvalidParameter, ParamGuard};
 use pgm_features::association_rounds::{
-    check_rounds, last_round, polish_ego, problem_with_hypotheses,
+    check_rounds, given_hypotheses, hypotheses_or_segment_icp, last_round, polish_ego,
+    problem_with_hypotheses, round_solver,
 };
 use pgm_features::joint_clustering_features::MAX_MOTION_CLUSTERS;
 use pgm_features::matching_features::StateSpace;
-use pgm_scan::association::{segment_motions, SegmentIcp, SegmentMotions, SegmentParams};
+use pgm_scan::association::{SegmentIcp, SegmentMotions, SegmentParams};
 use pgm_scan::{Association, Pose2, ScanPair};
 use serde::Serialize;
 
@@ -273,10 +274,7 @@ impl Joint {
         given: Option<SegmentMotions>,
     ) -> Result<(Vec<Pose2>, Vec<usize>)> {
         let p = &self.params;
-        let h = match given {
-            Some(h) => h,
-            None => segment_motions(pair, &self.segment_icp)?,
-        };
+        let h = hypotheses_or_segment_icp(pair, given, &self.segment_icp)?;
         let mut size = vec![0usize; h.moved.len()];
         let mut motion = vec![h.ego; h.moved.len()];
         for i in 0..n {
@@ -341,8 +339,7 @@ impl Joint {
         pair: &ScanPair,
         hypotheses: &SegmentMotions,
     ) -> Result<JointResult> {
-        hypotheses.check_for(pair)?;
-        self.run(pair, Some(hypotheses.clone()))
+        self.run(pair, given_hypotheses(pair, hypotheses)?)
     }
 
     /// Both entry points: `given` hypotheses, else segment-wise ICP's.
@@ -370,10 +367,7 @@ impl Joint {
         let (mut motions, mut clusters) = initial?;
         let outlier_cluster = motions.len();
         let background = 0;
-        let solver = HybridChainParams::default()
-            .max_sweeps(p.max_sweeps)
-            .tolerance(p.tolerance)
-            .update(p.update)
+        let solver = round_solver(p.max_sweeps, p.tolerance, p.update)
             .convergence(p.convergence)
             .check()?;
         let mut chosen: Vec<Option<usize>> = vec![None; n];

@@ -27,7 +27,9 @@ use crate::Result;
 use pgm_core::hybrid::chain::{chain_instance, HybridChainModel};
 use pgm_core::learning::{LabelledInstance, LearningObserver};
 use pgm_features::boosting::TrainingSet;
-use pgm_features::matching_features::{AssociationProblem, StateSpace, ASSOCIATION_WEIGHTS};
+use pgm_features::matching_features::{
+    groups_by_first_appearance, AssociationProblem, StateSpace, ASSOCIATION_WEIGHTS,
+};
 use pgm_features::matching_training::{train_boosted, BoostedTraining, TrainingPair};
 pub use pgm_features::matching_training::{TrainingOptions, TrainingReport};
 use pgm_features::training::{ModelTrainer, Trained};
@@ -52,24 +54,19 @@ fn truth_of(
     let truth = problem.node_truth(pair)?;
     // Motion clusters by first appearance: 0 the background (and labels without a
     // true motion), then one per moving object.
-    let mut ids: Vec<u32> = vec![0];
-    let mut motions = vec![truth.ego];
-    let object: Vec<usize> = truth
-        .labels
-        .iter()
-        .zip(&truth.object_motions)
-        .map(|(&l, motion)| match motion {
-            None => 0,
-            Some(m) => match ids.iter().position(|&x| x == l) {
-                Some(c) => c,
-                None => {
-                    ids.push(l);
-                    motions.push(*m);
-                    ids.len() - 1
-                }
-            },
-        })
-        .collect();
+    // ([`groups_by_first_appearance`]; a return without a true motion is read as the
+    // background's).
+    let (object, motions) = groups_by_first_appearance(
+        (0, truth.ego),
+        truth
+            .labels
+            .iter()
+            .zip(&truth.object_motions)
+            .map(|(&l, motion)| match motion {
+                None => (0, truth.ego),
+                Some(m) => (l, *m),
+            }),
+    );
     let n = object.len();
     let own: Vec<Pose2> = object.iter().map(|&c| motions[c]).collect();
     let mut candidates = problem.candidates(
