@@ -1084,3 +1084,87 @@ fn objectives_on(true_weights: &[f64]) {
         );
     }
 }
+
+/// Several templates on the same pair of variables share one factor: a chain with two
+/// pairwise cliques on every edge is still a chain for maximum likelihood, and equals
+/// brute force; the same cliques with one scope reversed close a cycle and are refused.
+#[test]
+fn cliques_over_the_same_variables_share_a_factor() {
+    let mut features = FeatureSet::new("double", 1);
+    let unary = features.add_template("unary", &["a", "b", "c"]).unwrap();
+    let same = features.add_template("same", &["same"]).unwrap();
+    let step = features.add_template("step", &["up", "down"]).unwrap();
+    let features = Arc::new(features);
+    let build = |reverse_last: bool, labels: Vec<usize>| {
+        let mut model = LogLinearModel::new(Arc::clone(&features), &[3; 4]).unwrap();
+        for i in 0..4 {
+            let table = (0..9)
+                .map(|k| ((k * 7 + i) % 5) as f64 * 0.3 - 0.6)
+                .collect();
+            model
+                .add_clique(
+                    unary,
+                    DenseFeatures::new(vec![VariableId(i)], vec![3], 3, table).unwrap(),
+                )
+                .unwrap();
+        }
+        for i in 1..4 {
+            let agree = (0..9)
+                .map(|k| f64::from(u8::from(k / 3 == k % 3)))
+                .collect();
+            model
+                .add_clique(
+                    same,
+                    DenseFeatures::new(
+                        vec![VariableId(i - 1), VariableId(i)],
+                        vec![3, 3],
+                        1,
+                        agree,
+                    )
+                    .unwrap(),
+                )
+                .unwrap();
+            let scope = if reverse_last && i == 3 {
+                vec![VariableId(i), VariableId(i - 1)]
+            } else {
+                vec![VariableId(i - 1), VariableId(i)]
+            };
+            let steps = (0..9)
+                .flat_map(|k| {
+                    [
+                        f64::from(u8::from(k % 3 > k / 3)),
+                        f64::from(u8::from(k % 3 < k / 3)),
+                    ]
+                })
+                .collect();
+            model
+                .add_clique(
+                    step,
+                    DenseFeatures::new(scope, vec![3, 3], 2, steps).unwrap(),
+                )
+                .unwrap();
+        }
+        LabelledInstance::new(model, labels)
+    };
+    let data = vec![
+        build(false, vec![0, 1, 1, 2]),
+        build(false, vec![2, 2, 1, 0]),
+    ];
+    let weights = [0.4, -0.2, 0.7, 0.9, 0.3, -0.5];
+    let objective =
+        Likelihood::new(LikelihoodKind::Exact, Arc::clone(&features), &data, 2.0).unwrap();
+    let expected = brute_force_objective(&data, &weights, 2.0);
+    let (value, _) = objective.value_and_gradient(&weights).unwrap();
+    assert!(
+        (value - expected).abs() < 1e-9 * expected.abs(),
+        "{value} vs {expected}"
+    );
+    let (k, g, fd, error) = worst_gradient_error(&objective, &weights, 1e-5);
+    assert!(
+        error < 1e-5,
+        "weight {k}: analytic {g} vs finite difference {fd}"
+    );
+    let reversed = vec![build(true, vec![0, 1, 1, 2])];
+    let e = Likelihood::new(LikelihoodKind::Exact, features, &reversed, 2.0).unwrap_err();
+    assert!(e.to_string().contains("cycle"), "{e}");
+}

@@ -173,6 +173,7 @@ impl TrainClusteringArgs {
             params: options.crf,
             sources,
             prior_variance: self.data.prior_variance,
+            objective: self.data.objective,
         })
     }
 }

@@ -24,7 +24,9 @@ use crate::params::ClusteringParams;
 use crate::weights::{feature_set, ClusteringWeights};
 use crate::{Error, Result};
 use pgm_core::hybrid::chain::{add_feature_cliques, chain_instance, FeatureTable};
-use pgm_core::learning::{LabelledInstance, LearnerParams, LearningObserver, LearningResult};
+use pgm_core::learning::{
+    LabelledInstance, LearnerParams, LearningObjective, LearningObserver, LearningResult,
+};
 use pgm_core::{ParamGuard, VariableId};
 use pgm_features::training::{ModelTrainer, Trained};
 use pgm_scan::{AssociationSource, PointAssociations, Pose2, ScanPair};
@@ -155,6 +157,27 @@ pub fn learn(
     prior_variance: f64,
     observer: &mut dyn LearningObserver,
 ) -> Result<(ClusteringWeights, LearningResult)> {
+    learn_with(
+        instances,
+        prior_variance,
+        LearningObjective::PseudoLikelihood,
+        observer,
+    )
+}
+
+/// [`learn`] by `objective`: pseudo-likelihood, the likelihood with exact marginals
+/// (only when every instance is a chain or tree: with `knn` > 1 the neighbour edges
+/// close cycles, and it is refused), or the Bethe likelihood.
+///
+/// # Errors
+/// As [`learn`], and the objective's (a cycle for maximum likelihood, belief
+/// propagation that does not converge for Bethe).
+pub fn learn_with(
+    instances: &[LabelledInstance],
+    prior_variance: f64,
+    objective: LearningObjective,
+    observer: &mut dyn LearningObserver,
+) -> Result<(ClusteringWeights, LearningResult)> {
     let moving = instances
         .iter()
         .filter(|i| i.labels.iter().any(|&l| l != i.labels[0]))
@@ -173,6 +196,7 @@ pub fn learn(
     let learner = LearnerParams::default()
         .prior_variance(prior_variance)
         .max_iterations(500)
+        .objective(objective)
         .check()?;
     let result = learner.learn(&features, instances, observer)?;
     let weights = ClusteringWeights::from_weights(&result.weights);
@@ -196,6 +220,8 @@ pub struct ClusteringTrainer {
     pub sources: Vec<Arc<dyn AssociationSource>>,
     /// Variance of the Gaussian prior on each weight.
     pub prior_variance: f64,
+    /// What the weights maximise (pseudo-likelihood, as the paper).
+    pub objective: LearningObjective,
 }
 
 impl ModelTrainer for ClusteringTrainer {
@@ -222,7 +248,8 @@ impl ModelTrainer for ClusteringTrainer {
                 expected: "pairs whose returns have ground-truth labels",
             });
         }
-        let (weights, learning) = learn(&instances, self.prior_variance, observer)?;
+        let (weights, learning) =
+            learn_with(&instances, self.prior_variance, self.objective, observer)?;
         Ok(Trained {
             weights,
             counts: vec![("instances", instances.len()), ("pairs", pairs.len())],

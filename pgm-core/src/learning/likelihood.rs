@@ -16,7 +16,9 @@
 //! with `log Z ≈ −F_B` (Yedidia, Freeman & Weiss, "Constructing free-energy
 //! approximations and generalized belief propagation algorithms", IEEE Trans. IT
 //! 51(7), 2005). On a forest BP converges to the exact marginals and `−F_B = log Z`
-//! exactly: that is [`LikelihoodKind::Exact`], which refuses a graph with a cycle. On a
+//! exactly: that is [`LikelihoodKind::Exact`], which refuses a graph with a cycle
+//! (cliques over the same variables in the same order share one factor first, so
+//! several templates on one pair do not count as a cycle). On a
 //! loopy graph ([`LikelihoodKind::Bethe`]) the beliefs are BP's fixed point and `−F_B`
 //! its approximation of `log Z`; at a fixed point its gradient is exactly the beliefs'
 //! expectation, so the objective and its gradient agree, but it is neither a bound nor
@@ -90,7 +92,10 @@ pub struct Likelihood<'a> {
 /// What an evaluation of one instance reuses.
 #[derive(Debug)]
 struct InstanceState {
+    /// One factor per distinct clique scope ([`merged_graph`]).
     graph: FactorGraph,
+    /// The cliques of each factor.
+    groups: Vec<Vec<usize>>,
     observed: Vec<f64>,
     /// The nonzero features of every clique's joint states; `None` beyond the cache
     /// limit, where they are computed again at each evaluation.
@@ -225,14 +230,16 @@ impl<'a> Likelihood<'a> {
                     value: format!("instance {i}: {e}"),
                     expected: "one state per variable of its model",
                 })?;
-            let graph = instance.model.to_factor_graph(&zeros)?;
+            // Checks the features and log-potentials at zero weights.
+            instance.model.to_factor_graph(&zeros)?;
+            let (graph, groups) = merged_graph(&instance.model)?;
             if kind == LikelihoodKind::Exact && !graph.is_forest() {
                 return Err(Error::NotApplicable {
                     method: "maximum likelihood (exact)",
                     reason: format!(
-                        "instance {i}: its factor graph has a cycle, where belief \
-                         propagation is not exact; use the Bethe likelihood or \
-                         pseudo-likelihood"
+                        "instance {i}: its factor graph has a cycle (cliques over the \
+                         same variables counted once), where belief propagation is not \
+                         exact; use the Bethe likelihood or pseudo-likelihood"
                     ),
                 });
             }
@@ -253,6 +260,7 @@ impl<'a> Likelihood<'a> {
             }
             states.push(Mutex::new(InstanceState {
                 graph,
+                groups,
                 observed,
                 cache,
             }));
@@ -347,46 +355,52 @@ impl<'a> Likelihood<'a> {
         let model = &instance.model;
         let InstanceState {
             graph,
+            groups,
             observed,
             cache,
         } = state;
-        // The log-potentials θ_c = w · f_c, written into the graph's tables and kept
-        // (flat, clique after clique) for the beliefs.
+        // Each factor's log-potentials: the sum of its cliques' θ_c = w · f_c, written
+        // into the graph's table and kept (flat, factor after factor) for the beliefs.
         let mut buffer = Vec::new();
         let mut all_thetas = Vec::new();
-        let mut theta_start = Vec::with_capacity(model.num_cliques() + 1);
-        for c in 0..model.num_cliques() {
+        let mut theta_start = Vec::with_capacity(groups.len() + 1);
+        for (f, group) in groups.iter().enumerate() {
             theta_start.push(all_thetas.len());
-            let w = &weights[template_range(&self.features, model, c)];
             let table = graph
-                .factor_mut(FactorId(c))
+                .factor_mut(FactorId(f))
                 .as_any_mut()
                 .and_then(|f| f.downcast_mut::<TableFactor>())
-                .expect("to_factor_graph makes a TableFactor per clique")
+                .expect("a TableFactor per group of cliques")
                 .table_mut();
-            match cache {
-                Some(cliques) => {
-                    for (x, theta) in table.iter_mut().enumerate() {
-                        *theta = cliques[c]
-                            .state(x)
-                            .iter()
-                            .map(|&(j, v)| w[j as usize] * v)
-                            .sum();
-                    }
-                }
-                None => {
-                    let clique = model.clique(c).expect("clique index in range");
-                    let shape = clique.shape();
-                    let mut states = vec![0usize; shape.len()];
-                    for theta in table.iter_mut() {
-                        buffer.clear();
-                        buffer.resize(w.len(), 0.0);
-                        clique.features(&states, &mut buffer);
-                        if let Some(e) = model.bad_feature(c, &states, &buffer, Some(index), None) {
-                            return Err(e);
+            table.iter_mut().for_each(|t| *t = 0.0);
+            for &c in group {
+                let w = &weights[template_range(&self.features, model, c)];
+                match cache {
+                    Some(cliques) => {
+                        for (x, theta) in table.iter_mut().enumerate() {
+                            *theta += cliques[c]
+                                .state(x)
+                                .iter()
+                                .map(|&(j, v)| w[j as usize] * v)
+                                .sum::<f64>();
                         }
-                        *theta = w.iter().zip(&buffer).map(|(a, b)| a * b).sum();
-                        crate::factor::increment(&mut states, shape);
+                    }
+                    None => {
+                        let clique = model.clique(c).expect("clique index in range");
+                        let shape = clique.shape();
+                        let mut states = vec![0usize; shape.len()];
+                        for theta in table.iter_mut() {
+                            buffer.clear();
+                            buffer.resize(w.len(), 0.0);
+                            clique.features(&states, &mut buffer);
+                            if let Some(e) =
+                                model.bad_feature(c, &states, &buffer, Some(index), None)
+                            {
+                                return Err(e);
+                            }
+                            *theta += w.iter().zip(&buffer).map(|(a, b)| a * b).sum::<f64>();
+                            crate::factor::increment(&mut states, shape);
+                        }
                     }
                 }
             }
@@ -417,13 +431,13 @@ impl<'a> Likelihood<'a> {
         let log_beliefs: Vec<Vec<f64>> = (0..graph.num_variables())
             .map(|v| normalised(&run.messages.log_belief(graph, VariableId(v))))
             .collect();
-        // A single-variable clique's belief is its variable's.
+        // A single-variable factor's belief is its variable's.
         let beliefs: Vec<Vec<f64>> = log_beliefs
             .iter()
             .map(|lb| lb.iter().map(|l| l.exp()).collect())
             .collect();
         let mut gradient = observed.clone();
-        // −F_B, accumulated: Σ_c Σ b_c (θ_c − log b_c) + Σ_v (d_v − 1) Σ b_v log b_v.
+        // −F_B, accumulated: Σ_a Σ b_a (θ_a − log b_a) + Σ_v (d_v − 1) Σ b_v log b_v.
         let mut log_partition = 0.0;
         for (v, lb) in log_beliefs.iter().enumerate() {
             let degree = graph.variable_edges(VariableId(v)).len() as f64;
@@ -432,14 +446,14 @@ impl<'a> Likelihood<'a> {
         let mut states = Vec::new();
         let mut log_b = Vec::new();
         let mut pair_b;
-        for c in 0..model.num_cliques() {
-            let factor = graph.factor(FactorId(c));
+        let mut probabilities = Vec::new();
+        for (f, group) in groups.iter().enumerate() {
+            let factor = graph.factor(FactorId(f));
             let shape = factor.shape();
-            let thetas = &all_thetas[theta_start[c]..theta_start[c + 1]];
-            let range = template_range(&self.features, model, c);
-            let edges = graph.factor_edges(FactorId(c));
-            // log b_c(x) = θ_c(x) + Σ_j (log b_{v_j}(x_j) − log m_{c→v_j}(x_j)) + const;
-            // a single-variable clique's is its variable's.
+            let thetas = &all_thetas[theta_start[f]..theta_start[f + 1]];
+            let edges = graph.factor_edges(FactorId(f));
+            // log b_a(x) = θ_a(x) + Σ_j (log b_{v_j}(x_j) − log m_{a→v_j}(x_j)) + const;
+            // a single-variable factor's is its variable's.
             let single = (edges.len() == 1)
                 .then(|| graph.edge_variable(crate::graph::EdgeId(edges.start)).0);
             let lb: &[f64] = match single {
@@ -463,12 +477,8 @@ impl<'a> Likelihood<'a> {
                     &pair_b
                 }
             };
-            // E[f_c] and the clique's part of −F_B.
-            let width = range.len();
-            let gradient = &mut gradient[range];
-            let clique = model.clique(c).expect("clique index in range");
-            states.clear();
-            states.resize(shape.len(), 0);
+            // The factor's part of −F_B, and its probabilities.
+            probabilities.clear();
             for (x, &l) in lb.iter().enumerate() {
                 if l > f64::NEG_INFINITY {
                     let p = match single {
@@ -476,23 +486,41 @@ impl<'a> Likelihood<'a> {
                         None => l.exp(),
                     };
                     log_partition += p * (thetas[x] - l);
-                    match cache {
-                        Some(cliques) => {
+                    probabilities.push(p);
+                } else {
+                    probabilities.push(0.0);
+                }
+            }
+            // E[f_c] of each of its cliques.
+            for &c in group {
+                let range = template_range(&self.features, model, c);
+                let width = range.len();
+                let gradient = &mut gradient[range];
+                match cache {
+                    Some(cliques) => {
+                        for (x, &p) in probabilities.iter().enumerate() {
                             for &(j, v) in cliques[c].state(x) {
                                 gradient[j as usize] -= p * v;
                             }
                         }
-                        None => {
-                            buffer.clear();
-                            buffer.resize(width, 0.0);
-                            clique.features(&states, &mut buffer);
-                            for (g, f) in gradient.iter_mut().zip(&buffer) {
-                                *g -= p * f;
+                    }
+                    None => {
+                        let clique = model.clique(c).expect("clique index in range");
+                        states.clear();
+                        states.resize(shape.len(), 0);
+                        for &p in &probabilities {
+                            if p > 0.0 {
+                                buffer.clear();
+                                buffer.resize(width, 0.0);
+                                clique.features(&states, &mut buffer);
+                                for (g, f) in gradient.iter_mut().zip(&buffer) {
+                                    *g -= p * f;
+                                }
                             }
+                            crate::factor::increment(&mut states, shape);
                         }
                     }
                 }
-                crate::factor::increment(&mut states, shape);
             }
         }
         let score: f64 = observed.iter().zip(weights).map(|(f, w)| f * w).sum();
@@ -501,6 +529,31 @@ impl<'a> Likelihood<'a> {
             gradient,
         })
     }
+}
+
+/// The factor graph of `model` with one zero [`TableFactor`] per distinct scope (the
+/// cliques over the same variables in the same order share it, so that several
+/// templates on one pair of variables do not close a cycle), and each factor's cliques.
+fn merged_graph(model: &super::LogLinearModel) -> Result<(FactorGraph, Vec<Vec<usize>>)> {
+    let mut graph = FactorGraph::with_variables(model.cardinalities())?;
+    let mut groups: Vec<Vec<usize>> = Vec::new();
+    let mut by_scope: std::collections::HashMap<Vec<VariableId>, usize> =
+        std::collections::HashMap::new();
+    for c in 0..model.num_cliques() {
+        let clique = model.clique(c).expect("clique index in range");
+        let scope = clique.scope().to_vec();
+        match by_scope.get(&scope) {
+            Some(&f) => groups[f].push(c),
+            None => {
+                let shape = clique.shape().to_vec();
+                let size = shape.iter().product();
+                graph.add_factor(TableFactor::new(scope.clone(), shape, vec![0.0; size])?)?;
+                by_scope.insert(scope, groups.len());
+                groups.push(vec![c]);
+            }
+        }
+    }
+    Ok((graph, groups))
 }
 
 /// The weights (indices into the weight vector) of clique `c`'s template.
