@@ -235,3 +235,69 @@ fn huge_weights_are_refused_by_every_loader() {
         }
     }
 }
+
+/// `--objective`: CRF-Matching learns by maximum likelihood on its chains (the JSON
+/// says which objective, and the weights differ from pseudo-likelihood's); a loopy
+/// CRF-Clustering (`--knn 2`) is refused by `ml` with the reason; an unknown objective
+/// is refused naming it; nothing is written by a refused run.
+#[test]
+fn every_trainer_takes_an_objective() {
+    let dir = temp_dir("train-objective");
+    let (pl_out, ml_out) = (path(&dir, "pl.json"), path(&dir, "ml.json"));
+    let train = |objective: &str, out: &str| {
+        ok_json(&[
+            "train",
+            "matching",
+            "--simulate",
+            "6",
+            "--seed",
+            "1000",
+            "--stumps",
+            "10",
+            "--objective",
+            objective,
+            "--out",
+            out,
+        ])
+    };
+    let pl = train("pl", &pl_out);
+    let ml = train("ml", &ml_out);
+    assert_eq!(pl["learning_objective"], "pl");
+    assert_eq!(ml["learning_objective"], "ml");
+    assert_eq!(ml["converged"], true);
+    assert_ne!(
+        pl["weights"]["sequence.next"],
+        ml["weights"]["sequence.next"]
+    );
+    let loopy = path(&dir, "loopy.json");
+    refused(
+        &[
+            "train",
+            "clustering",
+            "--simulate",
+            "4",
+            "--knn",
+            "2",
+            "--objective",
+            "ml",
+            "--out",
+            &loopy,
+        ],
+        &["maximum likelihood", "cycle", "Bethe"],
+    );
+    refused(
+        &[
+            "train",
+            "joint",
+            "--simulate",
+            "2",
+            "--objective",
+            "exact",
+            "--out",
+            &loopy,
+        ],
+        &["--objective", "\"exact\"", "pl", "bethe"],
+    );
+    assert!(!Path::new(&loopy).exists());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
