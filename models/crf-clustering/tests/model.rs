@@ -383,3 +383,39 @@ fn thousands_of_segments_merge_without_a_quadratic_matrix() {
     assert!(labels[..3000].iter().all(|&l| l == 0));
     assert!(labels[3000..].iter().all(|&l| l == 1));
 }
+
+/// CRF-Clustering's continuous nodes (one rigid motion per cluster, solved from the
+/// labelled points) through the core's conformance kit: on its chain graphs (no extra
+/// neighbour edges), with and without the outlier state, hybrid inference is
+/// coordinate ascent, and moving points between clusters through the incremental
+/// statistics equals a fresh start.
+#[test]
+fn the_clustering_model_passes_the_continuous_model_kit() {
+    use pgm_crf_clustering::model::{build_edges, ClusteringModel};
+    pgm_core::testing::check_continuous_model(12, |case| {
+        let ego = Pose2::new(0.6 - 0.05 * case as f64, 0.05, 0.02);
+        let object = Pose2::new(-0.4 + 0.1 * case as f64, 0.3, -0.1);
+        let (input, is_object) = scene(ego, object);
+        let edges = build_edges(&input.points, 0);
+        let outlier = (case % 2 == 1).then_some(1.0);
+        let mut model = ClusteringModel::new(
+            &input.points,
+            &input.partners,
+            &input.variances,
+            &edges,
+            vec![ego, Pose2::default()],
+            &ClusteringWeights::default(),
+            outlier,
+        )
+        .expect("model");
+        let graph = model.build_graph().expect("graph");
+        // The truth with every seventh point in the other cluster.
+        let labels = is_object
+            .iter()
+            .enumerate()
+            .map(|(i, &o)| usize::from(o) ^ usize::from(i % 7 == 0))
+            .collect();
+        (graph, model, Some(labels))
+    })
+    .unwrap();
+}
