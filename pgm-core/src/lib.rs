@@ -139,7 +139,9 @@
 //!
 //! **Current state.** Inference (belief propagation with every schedule, TRW-S with
 //! its bound), observers, hooks, exact references and UAI I/O are complete; hybrid
-//! continuous nodes and pseudo-likelihood learning build on them.
+//! continuous nodes and learning (pseudo-likelihood, maximum likelihood on forests,
+//! the Bethe likelihood) build on them; the `testing` feature adds the conformance kit
+//! (`pgm_core::testing`) for factors, schedules and continuous nodes of one's own.
 
 /// Runs code generic over a small state count fixed at compile time, so that its short
 /// loops over states unroll: `with_small_states!(k, K => fixed, other)` evaluates
