@@ -30,6 +30,8 @@ Errors are raised as :class:`PgmError` (a ``ValueError``) with the message the
 [1, 1]
 """
 
+from importlib.metadata import PackageNotFoundError, version as _version
+
 from ._native import (
     FactorGraph,
     FeatureSet,
@@ -46,6 +48,11 @@ from ._native import (
     read_people,
     read_relations,
 )
+
+try:
+    __version__ = _version("pgm")
+except PackageNotFoundError:  # the sources, not an installed package
+    __version__ = "0.0.0+unknown"
 
 __all__ = [
     "FactorGraph",

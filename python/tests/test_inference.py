@@ -306,3 +306,9 @@ def test_certified_trws_map_equals_pgmpy_on_loopy_graphs(seed):
         assert t["log_score"] == pytest.approx(best_score, abs=1e-9)
     else:
         assert t["bound"] >= best_score - 1e-9
+
+
+def test_the_package_states_its_version():
+    import importlib.metadata
+    assert pgm.__version__ == importlib.metadata.version("pgm")
+    assert pgm.__version__.count(".") >= 2
