@@ -678,8 +678,8 @@ fn state_name(state: TrackState) -> &'static str {
     }
 }
 
-/// The MCAP file of a tracked sequence (`pgm track --mcap`): for every scan (`scans[i]`
-/// reported as `reports[i]`, named `names[i]` in errors), on
+/// The MCAP file of a tracked sequence (`pgm track --mcap`): for every
+/// `(name, scan, report)` of `scans` (the name is for errors), on
 /// - [`topics::SCAN`]: the scan in frame [`SENSOR_FRAME`];
 /// - [`topics::TF`]: the sensor's pose ([`ScanReport::pose`]) in [`WORLD_FRAME`], the
 ///   sensor frame of its sequence's first scan (each sequence starts there again);
@@ -696,16 +696,14 @@ fn state_name(state: TrackState) -> &'static str {
 /// # Errors
 /// [`RecordingError::Value`] naming the scan and field a message cannot hold (see
 /// [`Recording::laser_scan`]); the writer's.
-pub fn track_recording(
-    names: &[String],
-    scans: &[Scan],
-    reports: &[ScanReport],
+pub fn track_recording<'a>(
+    scans: impl IntoIterator<Item = (&'a str, &'a Scan, &'a ScanReport)>,
 ) -> Result<Vec<u8>, RecordingError> {
     let mut rec = Recording::new()?;
     // Each track's reported centres so far (fixed frame), for the current sequence.
     let mut paths: BTreeMap<u64, Vec<Vector3>> = BTreeMap::new();
     let mut sequence = None;
-    for ((name, scan), report) in names.iter().zip(scans).zip(reports) {
+    for (name, scan, report) in scans {
         let time = rec.laser_scan(topics::SCAN, SENSOR_FRAME, scan, name)?;
         rec.frame_transform(time, WORLD_FRAME, SENSOR_FRAME, &report.pose)?;
         if sequence != Some(report.sequence) {

@@ -348,10 +348,11 @@ pub fn run(args: TrackArgs) -> CliResult {
         staged.stage(path, svg.as_bytes(), "drew")?;
     }
     if let Some(path) = &args.mcap {
-        let names: Vec<String> = reports.iter().map(|r| r.scan.clone()).collect();
-        let scan_reports: Vec<pgm_tracking::ScanReport> =
-            reports.iter().map(|r| r.report.clone()).collect();
-        let bytes = pgm::foxglove::track_recording(&names, &kept_scans, &scan_reports)
+        let scans = reports
+            .iter()
+            .zip(&kept_scans)
+            .map(|(r, scan)| (r.scan.as_str(), scan, &r.report));
+        let bytes = pgm::foxglove::track_recording(scans)
             .map_err(|e| CliError(format!("--mcap {}: {e}", path.display())))?;
         staged.stage(path, &bytes, "recorded")?;
     }
