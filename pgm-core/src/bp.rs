@@ -29,6 +29,9 @@ use crate::param::{InvalidParameter, ParamGuard};
 use crate::schedule::{MessagePasser, Schedule, Visit};
 use crate::support::{self, Method, Support, ZeroDecoding, ZeroProbability};
 use rayon::prelude::*;
+
+mod plan;
+use plan::FloodPlan;
 use std::ops::ControlFlow;
 use std::time::{Duration, Instant};
 
@@ -368,6 +371,7 @@ impl BeliefPropagation {
         schedule.prepare(graph.get())?;
         let start = Instant::now();
         let scratch = Scratch::for_graph(graph.get());
+        let potentials_fixed = hook.is_none();
         let mut passer = Passer {
             graph,
             hook,
@@ -381,6 +385,8 @@ impl BeliefPropagation {
                 messages,
                 candidates: Vec::new(),
                 flood_buffer: Vec::new(),
+                flood_plan: None,
+                potentials_fixed,
                 scratch,
                 residual: 0.0,
                 contradictions: 0,
@@ -685,6 +691,12 @@ struct PassState {
     messages: Messages,
     candidates: Vec<f64>,
     flood_buffer: Vec<f64>,
+    /// Flooding's compiled plan: `None` until the first flood, then the plan if the
+    /// graph has one. Runs whose potentials may change (with a hook) never build one.
+    flood_plan: Option<Option<FloodPlan>>,
+    /// Whether the potentials stay fixed for the whole run (no hook), so that a plan
+    /// may copy them.
+    potentials_fixed: bool,
     scratch: Scratch,
     /// Largest undamped change of a message committed in this iteration.
     residual: f64,
@@ -1159,11 +1171,30 @@ impl PassState {
         let old = &self.messages.values;
         let (mode, how, damping) = (self.mode, self.normalisation, self.damping);
         let sizes = (self.scratch.incoming.len(), self.scratch.out.len());
+        if self.flood_plan.is_none() {
+            self.flood_plan = Some(
+                self.potentials_fixed
+                    .then(|| FloodPlan::build(graph, mode))
+                    .flatten(),
+            );
+        }
+        let plan = self.flood_plan.as_ref().and_then(Option::as_ref);
         let (residual, contradictions) = chunks
             .into_par_iter()
             .map(|(variables, out)| {
                 let mut scratch = Scratch::with_sizes(sizes.0, sizes.1);
                 let base = graph.variable_message_range(order[variables.start]).start;
+                if let Some(plan) = plan {
+                    return plan.flood(
+                        graph,
+                        variables,
+                        old,
+                        out,
+                        base,
+                        (mode, how, damping),
+                        &mut scratch,
+                    );
+                }
                 let mut residual = 0.0f64;
                 let mut contradictions = 0usize;
                 for &v in &order[variables] {

@@ -187,7 +187,9 @@ pub use bp::{
     decode_map, BeliefPropagation, BpParams, BpResult, BpRun, Messages, Propagation, Termination,
 };
 pub use error::{Error, Result};
-pub use factor::{Factor, Incoming, Mode, PottsFactor, ShiftedIdentityFactor, TableFactor};
+pub use factor::{
+    Factor, Incoming, MessageKernel, Mode, PottsFactor, ShiftedIdentityFactor, TableFactor,
+};
 pub use graph::{EdgeId, FactorGraph, FactorId, VariableId};
 pub use hook::{Potentials, UpdateHook};
 pub use learning::{FeatureSet, Learner, LearnerParams, LogLinearModel, PseudoLikelihood, Weights};

@@ -85,6 +85,13 @@ impl Factor for PottsFactor {
         "potts"
     }
 
+    fn message_kernel(&self) -> Option<super::MessageKernel<'_>> {
+        Some(super::MessageKernel::Potts {
+            same: self.same,
+            different: self.different,
+        })
+    }
+
     fn has_hard_zeros(&self) -> bool {
         self.same == f64::NEG_INFINITY || (self.different == f64::NEG_INFINITY && self.shape[0] > 1)
     }
@@ -185,7 +192,7 @@ impl Factor for ShiftedIdentityFactor {
 /// target but the first maximiser of `q` sees the maximum as its best other state;
 /// that one sees the second largest entry. Branch-free loops.
 #[inline(always)]
-fn potts_max_small(q: &[f64], out: &mut [f64], same: f64, different: f64) {
+pub(crate) fn potts_max_small(q: &[f64], out: &mut [f64], same: f64, different: f64) {
     let (mut best, mut best_at, mut second) = (q[0], 0usize, f64::NEG_INFINITY);
     for (x, &v) in q.iter().enumerate().skip(1) {
         let above = v > best;

@@ -12,7 +12,9 @@
 mod diagonal;
 mod table;
 
+pub(crate) use diagonal::potts_max_small;
 pub use diagonal::{PottsFactor, ShiftedIdentityFactor};
+pub(crate) use table::table_max_fixed;
 pub use table::TableFactor;
 
 use crate::graph::VariableId;
@@ -133,6 +135,38 @@ pub trait Factor: Send + Sync + Debug {
     fn as_any_mut(&mut self) -> Option<&mut dyn std::any::Any> {
         None
     }
+
+    /// The closed form of this factor's max-product messages, if it has one the engine
+    /// knows ([`MessageKernel`]): flooding then evaluates the messages in place,
+    /// without a call through the trait object per message. The default, `None`, keeps
+    /// every message on [`message`](Self::message). A factor that returns a kernel must
+    /// send exactly the kernel's messages (the conformance kit,
+    /// `pgm_core::testing::check_factor`, compares them).
+    fn message_kernel(&self) -> Option<MessageKernel<'_>> {
+        None
+    }
+}
+
+/// A factor's messages in a closed form the engine evaluates itself
+/// ([`Factor::message_kernel`]). Potentials are log-values (finite or −∞).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum MessageKernel<'a> {
+    /// A single-variable factor: its message is its log-table (length the variable's
+    /// cardinality), in either mode.
+    Unary(&'a [f64]),
+    /// A pairwise Potts factor over two variables of equal cardinality `k`:
+    /// log-potential `same` on equal states, `different` otherwise. The max-product
+    /// message to either position is `out[y] = max(q[y] + same, different + max_{x≠y} q[x])`.
+    Potts {
+        /// Log-potential of equal states.
+        same: f64,
+        /// Log-potential of different states.
+        different: f64,
+    },
+    /// A dense pairwise log-table `t[a · k1 + b]` (row-major, shape `[k0, k1]`); the
+    /// max-product message to position 0 is `out[a] = max_b t[a, b] + q1[b]`, to
+    /// position 1 `out[b] = max_a q0[a] + t[a, b]`.
+    Table(&'a [f64]),
 }
 
 /// Advances a row-major multi-index (last position fastest); wraps to all zeros.

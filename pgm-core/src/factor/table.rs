@@ -121,6 +121,14 @@ impl Factor for TableFactor {
         "table"
     }
 
+    fn message_kernel(&self) -> Option<super::MessageKernel<'_>> {
+        match self.shape.len() {
+            1 => Some(super::MessageKernel::Unary(&self.log_table)),
+            2 => Some(super::MessageKernel::Table(&self.log_table)),
+            _ => None,
+        }
+    }
+
     fn as_any_mut(&mut self) -> Option<&mut dyn std::any::Any> {
         Some(self)
     }
@@ -238,6 +246,20 @@ fn pairwise_max_fixed<const K: usize>(
     if t.len() != K * K || q.len() != K || out.len() != K {
         return false;
     }
+    table_max_fixed::<K>(t, target, q, out);
+    true
+}
+
+/// The loops of [`pairwise_max_fixed`] on slices of the right sizes (`t` at least
+/// `K²`, `q` and `out` at least `K` long): the message of a `K × K` table to scope
+/// position `target` from the other position's incoming message `q`.
+#[inline(always)]
+pub(crate) fn table_max_fixed<const K: usize>(
+    t: &[f64],
+    target: usize,
+    q: &[f64],
+    out: &mut [f64],
+) {
     let (t, q, out) = (&t[..K * K], &q[..K], &mut out[..K]);
     if target == 1 {
         let mut acc = [f64::NEG_INFINITY; K];
@@ -258,7 +280,6 @@ fn pairwise_max_fixed<const K: usize>(
             out[a] = m;
         }
     }
-    true
 }
 
 /// Messages of tables of arity three and more: one walk over the table.
