@@ -1007,6 +1007,41 @@ fn commit(old: &mut [f64], new: &[f64], damping: f64, how: Normalisation) -> f64
 }
 
 impl PassState {
+    /// Builds the run's message plan on first use (see [`FloodPlan`]).
+    #[inline]
+    fn prepare_plan(&mut self, graph: &FactorGraph) {
+        if self.flood_plan.is_none() {
+            self.flood_plan = Some(
+                self.potentials_fixed
+                    .then(|| FloodPlan::build(graph, self.mode))
+                    .flatten(),
+            );
+        }
+    }
+
+    /// The unnormalised message of edge `e` from the current messages, by the plan
+    /// when the run has one.
+    #[inline]
+    fn raw_message(&mut self, graph: &FactorGraph, e: EdgeId) -> (usize, usize) {
+        self.prepare_plan(graph);
+        match self.flood_plan.as_ref().and_then(Option::as_ref) {
+            Some(plan) => plan.raw_message(
+                graph,
+                &self.messages.values,
+                e.0,
+                self.mode,
+                &mut self.scratch,
+            ),
+            None => raw_message(
+                graph,
+                &self.messages.values,
+                e.0,
+                self.mode,
+                &mut self.scratch,
+            ),
+        }
+    }
+
     /// Updates the messages of factor `a` to every scope position except `except`.
     fn update_factor_except(&mut self, graph: &FactorGraph, a: FactorId, except: Option<usize>) {
         if graph.factor_edges(a).len() == 2 {
@@ -1031,13 +1066,7 @@ impl PassState {
     }
 
     fn update_edge(&mut self, graph: &FactorGraph, e: EdgeId) {
-        let (k, start) = raw_message(
-            graph,
-            &self.messages.values,
-            e.0,
-            self.mode,
-            &mut self.scratch,
-        );
+        let (k, start) = self.raw_message(graph, e);
         let (r, ok) = commit_raw(
             &mut self.messages.values[start..start + k],
             &mut self.scratch.out[..k],
@@ -1079,13 +1108,7 @@ impl PassState {
         if self.candidates.len() != self.messages.values.len() {
             self.candidates = self.messages.values.clone();
         }
-        let (k, start) = raw_message(
-            graph,
-            &self.messages.values,
-            e.0,
-            self.mode,
-            &mut self.scratch,
-        );
+        let (k, start) = self.raw_message(graph, e);
         let out = &mut self.scratch.out[..k];
         let current = &self.messages.values[start..start + k];
         let candidate = &mut self.candidates[start..start + k];
@@ -1168,16 +1191,10 @@ impl PassState {
             rest = tail;
             first = last;
         }
+        self.prepare_plan(graph);
         let old = &self.messages.values;
         let (mode, how, damping) = (self.mode, self.normalisation, self.damping);
         let sizes = (self.scratch.incoming.len(), self.scratch.out.len());
-        if self.flood_plan.is_none() {
-            self.flood_plan = Some(
-                self.potentials_fixed
-                    .then(|| FloodPlan::build(graph, mode))
-                    .flatten(),
-            );
-        }
         let plan = self.flood_plan.as_ref().and_then(Option::as_ref);
         let (residual, contradictions) = chunks
             .into_par_iter()

@@ -1,4 +1,4 @@
-//! Flooding's compiled plan: every message of an iteration as one flat step, in the
+//! The compiled message plan: every message of an iteration as one flat step, in the
 //! order of the message buffer, with the closed-form messages of the built-in factors
 //! ([`MessageKernel`]) evaluated in place.
 //!
@@ -57,7 +57,9 @@ struct Step {
     edge: u32,
 }
 
-/// Every message of a flooding iteration, in buffer order (see the module docs).
+/// Every message of an iteration, in buffer order (see the module docs). Flooding
+/// walks the steps in order; edge updates (sequential and residual schedules) look
+/// their step up.
 #[derive(Debug)]
 pub(super) struct FloodPlan {
     steps: Vec<Step>,
@@ -66,6 +68,8 @@ pub(super) struct FloodPlan {
     first_step: Vec<usize>,
     /// Copied potentials: unary tables, Potts parameters, small pairwise tables.
     arena: Vec<f64>,
+    /// For each edge, its step.
+    step_of_edge: Vec<u32>,
 }
 
 /// Largest number of states with unrolled loops (the engine's `with_small_states!`).
@@ -87,6 +91,7 @@ impl FloodPlan {
         // Each factor's parameters are copied once, where the flood first meets them.
         let mut copied = vec![u32::MAX; graph.num_factors()];
         let mut fast = 0usize;
+        let mut step_of_edge = vec![0u32; graph.num_edges()];
         for &v in order {
             first_step.push(steps.len());
             for &e in graph.variable_edges(v) {
@@ -143,6 +148,7 @@ impl FloodPlan {
                     }
                     fast += 1;
                 }
+                step_of_edge[e.0] = steps.len() as u32;
                 steps.push(step);
             }
         }
@@ -154,6 +160,7 @@ impl FloodPlan {
             steps,
             first_step,
             arena,
+            step_of_edge,
         })
     }
 
@@ -176,26 +183,7 @@ impl FloodPlan {
         let mut residual = 0.0f64;
         let mut contradictions = 0usize;
         for s in steps {
-            let (k, start) = match s.kind {
-                Kind::General => raw_message(graph, old, s.edge as usize, mode, scratch),
-                Kind::Unary => {
-                    let k = s.k as usize;
-                    let t = &self.arena[s.data as usize..s.data as usize + k];
-                    // `+ 0.0` keeps this short copy out of a library memcpy call.
-                    for (o, &x) in scratch.out[..k].iter_mut().zip(t) {
-                        *o = x + 0.0;
-                    }
-                    (k, s.target as usize)
-                }
-                Kind::Potts | Kind::Table => {
-                    with_small_states!(
-                        s.k as usize,
-                        K => self.pair::<K>(s, old, &mut scratch.out),
-                        unreachable!("pairwise steps have 2 to {LARGEST_FIXED} states"),
-                    );
-                    (s.k as usize, s.target as usize)
-                }
-            };
+            let (k, start) = self.raw(s, graph, old, mode, scratch);
             let (r, ok) = commit_raw_into(
                 &old[start..start + k],
                 &mut out[start - base..start - base + k],
@@ -207,6 +195,52 @@ impl FloodPlan {
             residual = residual.max(r);
         }
         (residual, contradictions)
+    }
+
+    /// The unnormalised message of edge `e` from `messages`, into `scratch.out[..k]`,
+    /// as [`raw_message`] computes it; returns `k` and where the edge's message starts.
+    #[inline]
+    pub(super) fn raw_message(
+        &self,
+        graph: &FactorGraph,
+        messages: &[f64],
+        e: usize,
+        mode: Mode,
+        scratch: &mut Scratch,
+    ) -> (usize, usize) {
+        let s = &self.steps[self.step_of_edge[e] as usize];
+        self.raw(s, graph, messages, mode, scratch)
+    }
+
+    #[inline(always)]
+    fn raw(
+        &self,
+        s: &Step,
+        graph: &FactorGraph,
+        old: &[f64],
+        mode: Mode,
+        scratch: &mut Scratch,
+    ) -> (usize, usize) {
+        match s.kind {
+            Kind::General => raw_message(graph, old, s.edge as usize, mode, scratch),
+            Kind::Unary => {
+                let k = s.k as usize;
+                let t = &self.arena[s.data as usize..s.data as usize + k];
+                // `+ 0.0` keeps this short copy out of a library memcpy call.
+                for (o, &x) in scratch.out[..k].iter_mut().zip(t) {
+                    *o = x + 0.0;
+                }
+                (k, s.target as usize)
+            }
+            Kind::Potts | Kind::Table => {
+                with_small_states!(
+                    s.k as usize,
+                    K => self.pair::<K>(s, old, &mut scratch.out),
+                    unreachable!("pairwise steps have 2 to {LARGEST_FIXED} states"),
+                );
+                (s.k as usize, s.target as usize)
+            }
+        }
     }
 
     /// A pairwise step with `K` states on both sides: the leave-one-out sum of the
