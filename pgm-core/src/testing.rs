@@ -6,7 +6,8 @@
 //!   [`Factor::message`] equal to brute-force enumeration for every target position,
 //!   in both modes, every output entry written, for incoming messages that are
 //!   uniform, random, partly −∞ (hard zeros), all −∞ at one position (a contradiction,
-//!   whose message must be all −∞), and of magnitude 10⁸ (log-space stability).
+//!   whose message must be all −∞), and of magnitude 10⁸ (log-space stability); and a
+//!   [`Factor::message_kernel`], if the factor gives one, describing exactly its table.
 //! - [`check_schedule`]: on random trees of 2-9 variables (unary and pairwise tables,
 //!   some with hard zeros), belief propagation with the schedule converges in both
 //!   modes, to the exact marginals (sum-product) and to an assignment of the exact MAP
@@ -45,7 +46,7 @@
 //! ```
 
 use crate::exact::{tree_map, tree_marginals};
-use crate::factor::{enumerated_message, Factor, Incoming, Mode};
+use crate::factor::{enumerated_message, Factor, Incoming, MessageKernel, Mode};
 use crate::hook::Potentials;
 use crate::hybrid::{
     ContinuousModel, DiscreteSummary, HybridInference, UpdatePolicy, VariableState,
@@ -105,6 +106,51 @@ fn increment(states: &mut [usize], shape: &[usize]) {
 fn close(a: f64, b: f64, scale: f64) -> bool {
     (a == f64::NEG_INFINITY && b == f64::NEG_INFINITY)
         || (a.is_finite() && b.is_finite() && (a - b).abs() <= 1e-9 + 1e-12 * scale)
+}
+
+/// A factor's [`Factor::message_kernel`] must describe its own table: the engine
+/// evaluates the kernel instead of calling [`Factor::message`].
+fn check_kernel<F: Factor + ?Sized>(
+    factor: &F,
+    shape: &[usize],
+    table: &[f64],
+) -> Result<(), Nonconformance> {
+    let same_values = |kernel: &[f64]| {
+        kernel.len() == table.len()
+            && kernel
+                .iter()
+                .zip(table)
+                .all(|(a, b)| a.to_bits() == b.to_bits() || a == b)
+    };
+    match factor.message_kernel() {
+        None => Ok(()),
+        Some(MessageKernel::Unary(t)) if shape.len() == 1 && same_values(t) => Ok(()),
+        Some(MessageKernel::Table(t)) if shape.len() == 2 && same_values(t) => Ok(()),
+        Some(MessageKernel::Potts { same, different })
+            if shape.len() == 2 && shape[0] == shape[1] =>
+        {
+            let k = shape[0];
+            match (0..table.len()).find(|&i| {
+                let want = if i / k == i % k { same } else { different };
+                table[i] != want
+            }) {
+                None => Ok(()),
+                Some(i) => fail(
+                    "message_kernel",
+                    format!(
+                        "Potts {{ same: {same}, different: {different} }}, but the table's \
+                         entry {i} ({:?}) is {}",
+                        [i / k, i % k],
+                        table[i]
+                    ),
+                ),
+            }
+        }
+        Some(kernel) => fail(
+            "message_kernel",
+            format!("{kernel:?} does not describe a factor of shape {shape:?} and its table"),
+        ),
+    }
 }
 
 /// Checks `factor` as the engine relies on it (see the module docs).
@@ -182,6 +228,7 @@ pub fn check_factor<F: Factor + ?Sized>(factor: &F) -> Result<(), Nonconformance
             ),
         );
     }
+    check_kernel(factor, shape, &table)?;
     // Messages against enumeration.
     let mut offsets = vec![0usize];
     for &k in shape {

@@ -1,7 +1,7 @@
 //! The conformance kit (`pgm_core::testing`) on every built-in factor, schedule and
 //! continuous model, and on broken ones, which it must catch.
 
-use pgm_core::factor::{Factor, Incoming, Mode};
+use pgm_core::factor::{Factor, Incoming, MessageKernel, Mode};
 use pgm_core::hybrid::{ClusterMeans, ContinuousModel, DiscreteSummary, VariableState};
 use pgm_core::testing::{check_continuous_model, check_factor, check_schedule};
 use pgm_core::{
@@ -108,6 +108,18 @@ impl Factor for Broken {
     fn has_hard_zeros(&self) -> bool {
         self.fault == "says hard zeros"
     }
+    fn message_kernel(&self) -> Option<MessageKernel<'_>> {
+        match self.fault {
+            // Claims to be Potts: the engine would evaluate the wrong messages.
+            "claims potts" => Some(MessageKernel::Potts {
+                same: 1.0,
+                different: 0.0,
+            }),
+            // Claims a table of the wrong size.
+            "claims table" => Some(MessageKernel::Table(&[0.0, 1.0])),
+            _ => None,
+        }
+    }
 }
 
 #[test]
@@ -118,6 +130,8 @@ fn the_kit_catches_broken_factors() {
         ("unwritten", "message", "NaN"),
         ("naive", "message", "large"),
         ("says hard zeros", "has_hard_zeros", "says true"),
+        ("claims potts", "message_kernel", "Potts"),
+        ("claims table", "message_kernel", "Table"),
     ] {
         let broken = Broken {
             scope: [v(0), v(1)],
