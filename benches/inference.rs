@@ -6,6 +6,14 @@
 //! the distribution of `gen_models.py potts --n 100 --k 5`: unary log-potentials
 //! N(0, 1), log-potential 1 for equal labels (our own seeded draws).
 //!
+//! The `uai_file` group runs what `pgm map FILE --schedule flooding` runs, on the
+//! generator's own file: `UaiModel::read`, `to_factor_graph`, `specialise_factors`
+//! (Potts tables become O(K) Potts factors) and `BeliefPropagation::run` with decoding,
+//! 10 iterations on one thread; and the same without `specialise_factors` (the dense
+//! 5×5 tables). The file is `$PGM_BENCH_UAI`, or else written by `python3
+//! ../shared/tools/gen_models.py potts --n 100 --k 5 --seed 1` into a temporary
+//! directory; without either the group is skipped with a message.
+//!
 //! Run: `cargo bench --bench inference`. Grid figures are for 10 iterations from
 //! uniform messages (divide by 10 for one iteration).
 
@@ -220,5 +228,75 @@ fn chains(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, grid, chains);
+/// The generator's UAI file: `$PGM_BENCH_UAI`, or written by `gen_models.py` from
+/// `../shared/tools` into a temporary directory.
+fn generator_file() -> Result<std::path::PathBuf, String> {
+    if let Some(path) = std::env::var_os("PGM_BENCH_UAI") {
+        return Ok(path.into());
+    }
+    let tool =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/tools/gen_models.py");
+    if !tool.exists() {
+        return Err(format!(
+            "{} not found and PGM_BENCH_UAI not set",
+            tool.display()
+        ));
+    }
+    let dir = std::env::temp_dir().join(format!("pgm-bench-uai-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let out = dir.join("potts");
+    let status = std::process::Command::new("python3")
+        .arg(&tool)
+        .args([
+            "potts", "--n", "100", "--k", "5", "--seed", "1", "--no-fg", "--out",
+        ])
+        .arg(&out)
+        .stdout(std::process::Stdio::null())
+        .status()
+        .map_err(|e| format!("python3 {}: {e}", tool.display()))?;
+    if !status.success() {
+        return Err(format!("python3 {} failed: {status}", tool.display()));
+    }
+    Ok(out.with_extension("uai"))
+}
+
+fn uai_file(c: &mut Criterion) {
+    let path = match generator_file() {
+        Ok(path) => path,
+        Err(why) => {
+            eprintln!("uai_file: skipped ({why})");
+            return;
+        }
+    };
+    let model = pgm_core::uai::UaiModel::read(&path).unwrap();
+    let one = pool(1);
+    let bp = max_product(10);
+    let mut group = c.benchmark_group("uai_file_potts_100x100_k5_max_product_10_iterations");
+    group
+        .sample_size(20)
+        .measurement_time(Duration::from_secs(8));
+    for (name, specialise) in [
+        ("as_pgm_map_runs_it_flooding_1_thread", true),
+        ("dense_tables_flooding_1_thread", false),
+    ] {
+        let mut graph = model.to_factor_graph().unwrap();
+        if specialise {
+            assert!(
+                graph.specialise_factors() > 0,
+                "{}: no Potts tables",
+                path.display()
+            );
+        }
+        group.bench_function(name, |b| {
+            b.iter(|| {
+                let r = one.install(|| bp.run(&graph, &mut Flooding)).unwrap();
+                assert_eq!(r.iterations, 10);
+                std::hint::black_box(r);
+            })
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, grid, chains, uai_file);
 criterion_main!(benches);
