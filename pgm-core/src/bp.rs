@@ -1008,20 +1008,26 @@ fn commit(old: &mut [f64], new: &[f64], damping: f64, how: Normalisation) -> f64
 
 impl PassState {
     /// Builds the run's message plan on first use (see [`FloodPlan`]).
-    #[inline]
+    #[inline(always)]
     fn prepare_plan(&mut self, graph: &FactorGraph) {
         if self.flood_plan.is_none() {
-            self.flood_plan = Some(
-                self.potentials_fixed
-                    .then(|| FloodPlan::build(graph, self.mode))
-                    .flatten(),
-            );
+            self.build_plan(graph);
         }
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn build_plan(&mut self, graph: &FactorGraph) {
+        self.flood_plan = Some(
+            self.potentials_fixed
+                .then(|| FloodPlan::build(graph, self.mode))
+                .flatten(),
+        );
     }
 
     /// The unnormalised message of edge `e` from the current messages, by the plan
     /// when the run has one.
-    #[inline]
+    #[inline(always)]
     fn raw_message(&mut self, graph: &FactorGraph, e: EdgeId) -> (usize, usize) {
         self.prepare_plan(graph);
         match self.flood_plan.as_ref().and_then(Option::as_ref) {
