@@ -963,7 +963,7 @@ fn commit_raw(old: &mut [f64], raw: &mut [f64], damping: f64, how: Normalisation
 
 /// [`commit_raw`] for flooding: the message moves from `old` (the previous
 /// iteration's buffer) to `dst` (the next one's).
-#[inline]
+#[inline(always)]
 fn commit_raw_into(
     old: &[f64],
     dst: &mut [f64],
