@@ -98,6 +98,8 @@ struct Instance {
     states: u32,
     ups: u32,
     edges: u32,
+    /// The number of states of every variable, when they all have the same; 0 if not.
+    uniform: u32,
 }
 
 /// The per-pass scores shared by all chunks.
@@ -414,7 +416,12 @@ impl ChainBuilder {
         for (o, x) in self.observed.iter_mut().zip(observed) {
             *o += x;
         }
+        let uniform = match order.first() {
+            Some(&v) if order.iter().all(|&u| cards[u] == cards[v]) => cards[v] as u32,
+            _ => 0,
+        };
         self.instances.push(Instance {
+            uniform,
             index,
             nodes_start,
             nodes_end: self.nodes.len() as u32,
@@ -499,6 +506,18 @@ fn poisoned() -> Error {
     Error::NotApplicable {
         method: "maximum likelihood",
         reason: "a previous evaluation panicked".into(),
+    }
+}
+
+/// The number of states of a variable with `k`: `K`, known when compiling, when it
+/// is not 0.
+#[inline(always)]
+fn states<const K: usize>(k: u32) -> usize {
+    if K == 0 {
+        k as usize
+    } else {
+        debug_assert_eq!(k as usize, K);
+        K
     }
 }
 
@@ -620,19 +639,41 @@ impl ChainPath {
         *log_likelihood = 0.0;
         fallbacks.clear();
         for i in instances.clone() {
-            match self.instance(&self.instances[i], shared, scratch) {
-                Some(ll) => {
-                    *log_likelihood += ll;
-                    self.accumulate(&self.instances[i], scratch, expected, table_expected);
-                }
-                None => fallbacks.push(i),
+            let inst = &self.instances[i];
+            // Instances whose variables all have K states get loops of K iterations
+            // the compiler unrolls; K = 0 reads each variable's own number.
+            macro_rules! run {
+                ($k:literal) => {
+                    match self.instance::<$k>(inst, shared, scratch) {
+                        Some(ll) => {
+                            *log_likelihood += ll;
+                            self.accumulate::<$k>(inst, scratch, expected, table_expected);
+                        }
+                        None => fallbacks.push(i),
+                    }
+                };
+            }
+            match inst.uniform {
+                2 => run!(2),
+                3 => run!(3),
+                4 => run!(4),
+                5 => run!(5),
+                6 => run!(6),
+                7 => run!(7),
+                8 => run!(8),
+                _ => run!(0),
             }
         }
     }
 
     /// One instance's `log p(y)`, its node marginals in `scratch.marginal` and edge
     /// marginals in `scratch.edge`; `None` where the general path must take over.
-    fn instance(&self, inst: &Instance, shared: &Shared, s: &mut Scratch) -> Option<f64> {
+    fn instance<const K: usize>(
+        &self,
+        inst: &Instance,
+        shared: &Shared,
+        s: &mut Scratch,
+    ) -> Option<f64> {
         let nodes = &self.nodes[inst.nodes_start as usize..inst.nodes_end as usize];
         let Scratch {
             phi,
@@ -650,7 +691,7 @@ impl ChainPath {
         let mut score = 0.0;
         // Node potentials.
         for node in nodes {
-            let (b, k) = (node.buf as usize, node.k as usize);
+            let (b, k) = (node.buf as usize, states::<K>(node.k));
             let theta = &mut phi[b..b + k];
             theta.iter_mut().for_each(|x| *x = 0.0);
             for r in &self.node_refs[node.refs_start as usize..node.refs_end as usize] {
@@ -681,7 +722,7 @@ impl ChainPath {
         }
         // Upward: a_v = φ_v Π m_{c→v}, scaled; m_{v→parent}.
         for node in nodes.iter().rev() {
-            let (b, k) = (node.buf as usize, node.k as usize);
+            let (b, k) = (node.buf as usize, states::<K>(node.k));
             let a = &mut ahat[b..b + k];
             let sum: f64 = a.iter().sum();
             if !(sum > 0.0 && sum.is_finite()) {
@@ -702,7 +743,7 @@ impl ChainPath {
                 continue;
             }
             let parent = &nodes[node.parent as usize];
-            let (pb, kp) = (parent.buf as usize, parent.k as usize);
+            let (pb, kp) = (parent.buf as usize, states::<K>(parent.k));
             let table = &self.tables[node.table as usize];
             let psi = &shared.psi
                 [table.offset as usize..(table.offset + table.rows * table.cols) as usize];
@@ -732,7 +773,7 @@ impl ChainPath {
         // Downward: outside vectors (in `phi`: φ_v times the parent's message), node
         // and edge marginals.
         for node in nodes {
-            let (b, k) = (node.buf as usize, node.k as usize);
+            let (b, k) = (node.buf as usize, states::<K>(node.k));
             if node.parent == NONE {
                 marginal[b..b + k].copy_from_slice(&ahat[b..b + k]);
             }
@@ -758,7 +799,7 @@ impl ChainPath {
             }
             for i in 0..m {
                 let c = &nodes[node.first_child as usize + i];
-                let (cb, kc) = (c.buf as usize, c.k as usize);
+                let (cb, kc) = (c.buf as usize, states::<K>(c.k));
                 let (phi_left, phi_right) = phi.split_at_mut(cb);
                 // The parent's outside vector times its other children's messages.
                 let ex: &[f64] = if m == 1 {
@@ -841,7 +882,7 @@ impl ChainPath {
     }
 
     /// Adds an evaluated instance's marginals to the expected counts.
-    fn accumulate(
+    fn accumulate<const K: usize>(
         &self,
         inst: &Instance,
         s: &Scratch,
@@ -850,7 +891,7 @@ impl ChainPath {
     ) {
         let nodes = &self.nodes[inst.nodes_start as usize..inst.nodes_end as usize];
         for node in nodes {
-            let (b, k) = (node.buf as usize, node.k as usize);
+            let (b, k) = (node.buf as usize, states::<K>(node.k));
             let p = &s.marginal[b..b + k];
             for r in &self.node_refs[node.refs_start as usize..node.refs_end as usize] {
                 let e = &mut expected[r.offset as usize..r.offset as usize + k];
