@@ -1056,4 +1056,30 @@ mod tests {
             }
         }
     }
+
+    /// Potentials whose supports meet only 800 nats below their maxima underflow in
+    /// probability space: the instance is handed back, and the result is still exact.
+    #[test]
+    fn an_underflowing_instance_is_handed_back() {
+        let mut features = FeatureSet::new("far", 1);
+        let unary = features.add_template("unary", &["low"]).unwrap();
+        let pair = features.add_template("pair", &["low"]).unwrap();
+        let features = Arc::new(features);
+        let mut model = LogLinearModel::new(Arc::clone(&features), &[2, 2]).unwrap();
+        let low = DenseFeatures::new(vec![VariableId(1)], vec![2], 1, vec![0.0, -800.0]).unwrap();
+        model.add_clique(unary, low).unwrap();
+        let table = vec![-800.0, 0.0, -800.0, 0.0];
+        let edge =
+            DenseFeatures::new(vec![VariableId(0), VariableId(1)], vec![2, 2], 1, table).unwrap();
+        model.add_clique(pair, edge).unwrap();
+        let data = vec![LabelledInstance::new(model, vec![0, 0])];
+        let objective =
+            Likelihood::new(LikelihoodKind::Exact, features, &data, f64::INFINITY).unwrap();
+        assert_eq!(objective.chain_instances(), 1);
+        assert_eq!(objective.chain_fallbacks(&[1.0, 1.0]), 1);
+        assert_eq!(objective.chain_fallbacks(&[0.01, 0.01]), 0);
+        let (value, _) = objective.value_and_gradient(&[1.0, 1.0]).unwrap();
+        // The general path sums terms of ±800 (−F_B = Σ b (θ − log b)): 1e-9 absolute.
+        assert!((value - 4f64.ln()).abs() < 1e-9, "{value}");
+    }
 }
