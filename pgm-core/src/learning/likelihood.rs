@@ -24,6 +24,24 @@
 //! expectation, so the objective and its gradient agree, but it is neither a bound nor
 //! convex, and BP may not converge on strongly coupled models (an error naming the
 //! instance; damping or pseudo-likelihood are the remedies).
+//!
+//! **The chain fast path.** For [`LikelihoodKind::Exact`], an instance whose cliques are
+//! all unary or pairwise (a linear chain, or any forest of pairwise cliques) is not
+//! run through the general path above but through scaled forward-backward in
+//! probability space, the way CRFsuite's `crf1d` does it (Sutton & McCallum, "An
+//! Introduction to Conditional Random Fields", Found. Trends ML 4(4), 2012, §4.1): its
+//! features are interned once as sparse patterns shared by cliques (CRFsuite's
+//! attribute × label features), each pass computes every pattern's scores and every
+//! distinct edge's `exp(θ − max θ)` once, per variable `exp(θ_v − max θ_v)`, an upward
+//! and a downward sweep scaled at every variable (`log Z` is the sum of the logs of the
+//! scaling factors and maxima), and the expected counts through the patterns. It
+//! reuses its buffers (no allocation per pass but the result) and splits the instances
+//! into one chunk per rayon thread. The result is the same function as the general
+//! path's to rounding (tests hold them within 1e-10 relative); an instance whose
+//! potentials leave `exp`'s range (a scaling factor or edge normaliser underflowing to
+//! zero, or a non-finite score) is handed back to the general log-space path for that
+//! evaluation, so hard zeros and extreme weights stay exact. The Bethe likelihood
+//! always takes the general path.
 
 use super::chain::{Added, ChainBuilder, ChainPath};
 use super::model::{CliqueFeatures, FeatureSet, LabelledInstance};
@@ -39,7 +57,8 @@ use std::sync::{Arc, Mutex};
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum LikelihoodKind {
     /// The exact likelihood: every instance's factor graph must be a forest (chains and
-    /// trees), where belief propagation is exact.
+    /// trees), where belief propagation is exact. Instances of unary and pairwise
+    /// cliques take the scaled forward-backward fast path (module docs).
     Exact,
     /// The Bethe approximation from loopy belief propagation's fixed point, for any
     /// graph.
