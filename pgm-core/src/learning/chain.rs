@@ -34,10 +34,12 @@
 //! with its own accumulators.
 //!
 //! **Hard zeros and range.** Every node and edge is scaled by its maximum, so scores
-//! of any magnitude stay in range. An instance whose scores are not finite, or whose
-//! scaling factor or edge normaliser underflows to zero (e.g. two potentials whose
-//! supports do not meet within `exp`'s range), is reported back and evaluated by the
-//! general log-space path, which is exact there.
+//! of any magnitude stay in range, and a score of −∞ (a hard zero) is an exact zero
+//! of `exp`. An instance whose scaling factor or edge normaliser underflows to zero
+//! (two potentials whose supports meet only beyond `exp`'s range, as in a line
+//! search's first long step) is swept again in log space, the same recursions with
+//! log-sum-exp ([`ChainPath::instance_log`]); one whose scores are not finite even
+//! there (+∞, NaN) is reported back and evaluated by the general path.
 
 use super::model::LabelledInstance;
 use crate::error::{Error, Result};
@@ -521,6 +523,33 @@ fn states<const K: usize>(k: u32) -> usize {
     }
 }
 
+/// `log Σ_x exp(a_x)` (−∞ for no finite entry).
+fn log_sum_exp(a: &[f64]) -> f64 {
+    log_sum_over(a.len(), |x| a[x])
+}
+
+/// `log Σ_{x < n} exp(f(x))`, two passes (−∞ when every term is −∞).
+#[inline]
+fn log_sum_over(n: usize, f: impl Fn(usize) -> f64) -> f64 {
+    let m = (0..n).map(&f).fold(f64::NEG_INFINITY, f64::max);
+    if m == f64::NEG_INFINITY || !m.is_finite() {
+        return m;
+    }
+    m + (0..n).map(|x| (f(x) - m).exp()).sum::<f64>().ln()
+}
+
+/// Entry `(x_v, x_c)` of an edge's table between a variable `v` of `kv` states and
+/// its neighbour `c` of `kc` states: the table is `(v, c)` row-major when
+/// `v_first`, `(c, v)` otherwise.
+#[inline(always)]
+fn edge_entry(table: &[f64], v_first: bool, kc: usize, kv: usize, xv: usize, xc: usize) -> f64 {
+    if v_first {
+        table[xv * kc + xc]
+    } else {
+        table[xc * kv + xv]
+    }
+}
+
 /// The largest entry, NaN ignored (−∞ for an empty or all-NaN slice).
 fn max_of(x: &[f64]) -> f64 {
     x.iter()
@@ -643,15 +672,18 @@ impl ChainPath {
             // Instances whose variables all have K states get loops of K iterations
             // the compiler unrolls; K = 0 reads each variable's own number.
             macro_rules! run {
-                ($k:literal) => {
-                    match self.instance::<$k>(inst, shared, scratch) {
+                ($k:literal) => {{
+                    let ll = self
+                        .instance::<$k>(inst, shared, scratch)
+                        .or_else(|| self.instance_log(inst, shared, scratch));
+                    match ll {
                         Some(ll) => {
                             *log_likelihood += ll;
                             self.accumulate::<$k>(inst, scratch, expected, table_expected);
                         }
                         None => fallbacks.push(i),
                     }
-                };
+                }};
             }
             match inst.uniform {
                 2 => run!(2),
@@ -881,6 +913,163 @@ impl ChainPath {
         Some(score - log_z)
     }
 
+    /// [`instance`](Self::instance) in log space, for an instance whose potentials
+    /// leave `exp`'s range: the same sweeps on log-potentials with log-sum-exp, `exp`
+    /// taken only of normalised marginals. `None` where even that fails (every state
+    /// of some variable impossible, or a non-finite score): the general path's.
+    fn instance_log(&self, inst: &Instance, shared: &Shared, s: &mut Scratch) -> Option<f64> {
+        let nodes = &self.nodes[inst.nodes_start as usize..inst.nodes_end as usize];
+        let Scratch {
+            phi,
+            ahat,
+            up,
+            marginal,
+            edge,
+            excl,
+            prefix,
+            suffix,
+        } = s;
+        let mut log_z = 0.0;
+        let mut score = 0.0;
+        // θ_v in `phi` (later the outside log-vectors) and in `ahat`.
+        for node in nodes {
+            let (b, k) = (node.buf as usize, node.k as usize);
+            let theta = &mut phi[b..b + k];
+            theta.iter_mut().for_each(|x| *x = 0.0);
+            for r in &self.node_refs[node.refs_start as usize..node.refs_end as usize] {
+                let sc = &shared.scores[r.offset as usize..r.offset as usize + k];
+                for (x, s) in theta.iter_mut().zip(sc) {
+                    *x += r.alpha * s;
+                }
+            }
+            score += theta[node.label as usize];
+            ahat[b..b + k].copy_from_slice(theta);
+            if node.parent != NONE {
+                let table = &self.tables[node.table as usize];
+                let yp = nodes[node.parent as usize].label as usize;
+                let y = node.label as usize;
+                let x = if node.parent_first {
+                    yp * table.cols as usize + y
+                } else {
+                    y * table.cols as usize + yp
+                };
+                score += shared.theta[table.offset as usize + x];
+            }
+        }
+        if !score.is_finite() {
+            return None;
+        }
+        // Upward: log a_v = θ_v + Σ log m_{c→v}, normalised; log m_{v→parent}.
+        for node in nodes.iter().rev() {
+            let (b, k) = (node.buf as usize, node.k as usize);
+            let a = &mut ahat[b..b + k];
+            let l = log_sum_exp(a);
+            if !l.is_finite() {
+                return None;
+            }
+            a.iter_mut().for_each(|x| *x -= l);
+            log_z += l;
+            if node.parent == NONE {
+                continue;
+            }
+            let parent = &nodes[node.parent as usize];
+            let (pb, kp) = (parent.buf as usize, parent.k as usize);
+            let table = &self.tables[node.table as usize];
+            let theta = &shared.theta
+                [table.offset as usize..(table.offset + table.rows * table.cols) as usize];
+            let (left, right) = ahat.split_at_mut(b);
+            let a = &right[..k];
+            let m = &mut up[node.up as usize..node.up as usize + kp];
+            for (xp, mx) in m.iter_mut().enumerate() {
+                *mx = log_sum_over(k, |x| {
+                    a[x] + edge_entry(theta, node.parent_first, k, kp, xp, x)
+                });
+            }
+            for (pa, mx) in left[pb..pb + kp].iter_mut().zip(m.iter()) {
+                *pa += mx;
+            }
+        }
+        // Downward: outside log-vectors in `phi`, marginals.
+        for node in nodes {
+            let (b, k) = (node.buf as usize, node.k as usize);
+            if node.parent == NONE {
+                for (p, a) in marginal[b..b + k].iter_mut().zip(&ahat[b..b + k]) {
+                    *p = a.exp();
+                }
+            }
+            let m = node.children as usize;
+            if m == 0 {
+                continue;
+            }
+            if m > 1 {
+                suffix[m * k..(m + 1) * k].iter_mut().for_each(|x| *x = 0.0);
+                for i in (0..m).rev() {
+                    let c = &nodes[node.first_child as usize + i];
+                    let (head, tail) = suffix.split_at_mut((i + 1) * k);
+                    for ((s, t), u) in head[i * k..]
+                        .iter_mut()
+                        .zip(&tail[..k])
+                        .zip(&up[c.up as usize..c.up as usize + k])
+                    {
+                        *s = t + u;
+                    }
+                }
+                prefix[..k].copy_from_slice(&phi[b..b + k]);
+            }
+            for i in 0..m {
+                let c = &nodes[node.first_child as usize + i];
+                let (cb, kc) = (c.buf as usize, c.k as usize);
+                let (phi_left, phi_right) = phi.split_at_mut(cb);
+                let ex: &[f64] = if m == 1 {
+                    &phi_left[b..b + k]
+                } else {
+                    for ((e, p), s) in excl[..k]
+                        .iter_mut()
+                        .zip(&prefix[..k])
+                        .zip(&suffix[(i + 1) * k..(i + 2) * k])
+                    {
+                        *e = p + s;
+                    }
+                    for (p, u) in prefix[..k]
+                        .iter_mut()
+                        .zip(&up[c.up as usize..c.up as usize + k])
+                    {
+                        *p += u;
+                    }
+                    &excl[..k]
+                };
+                let table = &self.tables[c.table as usize];
+                let theta = &shared.theta
+                    [table.offset as usize..(table.offset + table.rows * table.cols) as usize];
+                let down = &mut marginal[cb..cb + kc];
+                for (xc, d) in down.iter_mut().enumerate() {
+                    *d = log_sum_over(k, |xv| {
+                        ex[xv] + edge_entry(theta, c.parent_first, kc, k, xv, xc)
+                    });
+                }
+                let ac = &ahat[cb..cb + kc];
+                let lz = log_sum_over(kc, |xc| down[xc] + ac[xc]);
+                if !lz.is_finite() {
+                    return None;
+                }
+                let em = &mut edge[c.edge as usize..c.edge as usize + k * kc];
+                for (x, o) in em.iter_mut().enumerate() {
+                    let (xv, xc) = if c.parent_first {
+                        (x / kc, x % kc)
+                    } else {
+                        (x % k, x / k)
+                    };
+                    *o = (ex[xv] + theta[x] + ac[xc] - lz).exp();
+                }
+                for ((p, d), a) in phi_right[..kc].iter_mut().zip(down.iter_mut()).zip(ac) {
+                    *p += *d;
+                    *d = (*d + a - lz).exp();
+                }
+            }
+        }
+        Some(score - log_z)
+    }
+
     /// Adds an evaluated instance's marginals to the expected counts.
     fn accumulate<const K: usize>(
         &self,
@@ -1058,28 +1247,66 @@ mod tests {
     }
 
     /// Potentials whose supports meet only 800 nats below their maxima underflow in
-    /// probability space: the instance is handed back, and the result is still exact.
+    /// probability space: the log-space sweep takes the instance, exactly; a score of
+    /// −∞ (a hard zero) is exact in probability space; one of +∞ hands the instance
+    /// back to the general path.
     #[test]
-    fn an_underflowing_instance_is_handed_back() {
+    fn out_of_range_instances_go_to_log_space_or_back() {
         let mut features = FeatureSet::new("far", 1);
         let unary = features.add_template("unary", &["low"]).unwrap();
         let pair = features.add_template("pair", &["low"]).unwrap();
         let features = Arc::new(features);
-        let mut model = LogLinearModel::new(Arc::clone(&features), &[2, 2]).unwrap();
-        let low = DenseFeatures::new(vec![VariableId(1)], vec![2], 1, vec![0.0, -800.0]).unwrap();
-        model.add_clique(unary, low).unwrap();
-        let table = vec![-800.0, 0.0, -800.0, 0.0];
-        let edge =
-            DenseFeatures::new(vec![VariableId(0), VariableId(1)], vec![2, 2], 1, table).unwrap();
-        model.add_clique(pair, edge).unwrap();
-        let data = vec![LabelledInstance::new(model, vec![0, 0])];
-        let objective =
-            Likelihood::new(LikelihoodKind::Exact, features, &data, f64::INFINITY).unwrap();
-        assert_eq!(objective.chain_instances(), 1);
-        assert_eq!(objective.chain_fallbacks(&[1.0, 1.0]), 1);
-        assert_eq!(objective.chain_fallbacks(&[0.01, 0.01]), 0);
-        let (value, _) = objective.value_and_gradient(&[1.0, 1.0]).unwrap();
+        let build = |low: f64| {
+            let mut model = LogLinearModel::new(Arc::clone(&features), &[2, 2]).unwrap();
+            let unary_table = vec![0.0, low];
+            let node = DenseFeatures::new(vec![VariableId(1)], vec![2], 1, unary_table).unwrap();
+            model.add_clique(unary, node).unwrap();
+            let table = vec![low, 0.0, low, 0.0];
+            let edge = DenseFeatures::new(vec![VariableId(0), VariableId(1)], vec![2, 2], 1, table)
+                .unwrap();
+            model.add_clique(pair, edge).unwrap();
+            vec![LabelledInstance::new(model, vec![0, 0])]
+        };
+        let data = build(-800.0);
+        let objective = |fast: bool| {
+            Likelihood::build(
+                LikelihoodKind::Exact,
+                Arc::clone(&features),
+                &data,
+                f64::INFINITY,
+                Likelihood::default_bp(),
+                fast,
+            )
+            .unwrap()
+        };
+        let (fast, general) = (objective(true), objective(false));
+        assert_eq!(fast.chain_instances(), 1);
+        assert_eq!(fast.chain_fallbacks(&[1.0, 1.0]), 0);
+        // Every joint state scores −800: −log p = log 4.
+        let (value, gradient) = fast.value_and_gradient(&[1.0, 1.0]).unwrap();
+        assert!((value - 4f64.ln()).abs() < 1e-12, "{value}");
+        // E[f] = (−400, −400), F(y) = (0, −800).
+        assert!((gradient[0] + 400.0).abs() < 1e-9, "{gradient:?}");
+        assert!((gradient[1] - 400.0).abs() < 1e-9, "{gradient:?}");
         // The general path sums terms of ±800 (−F_B = Σ b (θ − log b)): 1e-9 absolute.
-        assert!((value - 4f64.ln()).abs() < 1e-9, "{value}");
+        let (expected, expected_gradient) = general.value_and_gradient(&[1.0, 1.0]).unwrap();
+        assert!((value - expected).abs() < 1e-9, "{value} vs {expected}");
+        for (g, e) in gradient.iter().zip(&expected_gradient) {
+            assert!((g - e).abs() < 1e-9, "{g} vs {e}");
+        }
+        let data = build(-1e300);
+        let huge =
+            Likelihood::new(LikelihoodKind::Exact, Arc::clone(&features), &data, 1.0).unwrap();
+        // θ_1 = (0, −∞): a hard zero, exact in probability space (x_1 = 0, x_0 uniform).
+        assert_eq!(huge.chain_fallbacks(&[1e12, 0.0]), 0);
+        let log_likelihood = huge.log_likelihood(&[1e12, 0.0]).unwrap();
+        assert!(
+            (log_likelihood + 2f64.ln()).abs() < 1e-12,
+            "{log_likelihood}"
+        );
+        let (_, gradient) = huge.value_and_gradient(&[1e12, 0.0]).unwrap();
+        assert_eq!(gradient, vec![1e12, 0.0]); // the prior's w / σ² alone
+                                               // θ_1 = (0, +∞): handed back.
+        assert_eq!(huge.chain_fallbacks(&[-1e12, 0.0]), 1);
     }
 }

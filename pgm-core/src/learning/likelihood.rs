@@ -37,10 +37,11 @@
 //! scaling factors and maxima), and the expected counts through the patterns. It
 //! reuses its buffers (no allocation per pass but the result) and splits the instances
 //! into one chunk per rayon thread. The result is the same function as the general
-//! path's to rounding (tests hold them within 1e-10 relative); an instance whose
-//! potentials leave `exp`'s range (a scaling factor or edge normaliser underflowing to
-//! zero, or a non-finite score) is handed back to the general log-space path for that
-//! evaluation, so hard zeros and extreme weights stay exact. The Bethe likelihood
+//! path's to rounding (tests hold them within 1e-10 relative). A score of −∞ (a hard
+//! zero) is exact in probability space; an instance whose potentials leave `exp`'s
+//! range (a scaling factor or edge normaliser underflowing to zero) is swept in log
+//! space instead, and one with a score of +∞ or NaN is handed back to the general
+//! path for that evaluation, so extreme weights stay exact. The Bethe likelihood
 //! always takes the general path.
 
 use super::chain::{Added, ChainBuilder, ChainPath};
