@@ -1,13 +1,16 @@
 //! Pseudo-likelihood learning at the scale of the papers: 30 weights learned from 30
 //! instances of 361-variable chains (one per laser beam) with 5 states each, labels
 //! drawn exactly from a model with known weights. Measures the whole `Learner::learn`
-//! call (validation pass plus L-BFGS to convergence, default parameters).
+//! call (validation pass plus L-BFGS to convergence, default parameters), and one pass
+//! (objective and gradient) of the exact likelihood over the same chains, which takes
+//! its fast path for chains (scaled forward-backward), and of the Bethe likelihood
+//! (the general log-space belief-propagation path) for comparison.
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use pgm_core::exact::ChainSampler;
 use pgm_core::learning::{
-    CliqueFeatures, FeatureSet, FnFeatures, LabelledInstance, LearnerParams, LogLinearModel,
-    TemplateId,
+    CliqueFeatures, FeatureSet, FnFeatures, LabelledInstance, LearnerParams, Likelihood,
+    LikelihoodKind, LogLinearModel, TemplateId,
 };
 use pgm_core::{ParamGuard, VariableId};
 use rand::{Rng, SeedableRng};
@@ -118,6 +121,16 @@ fn learning(c: &mut Criterion) {
     group.bench_function("pseudo_likelihood_30w_30x361x5", |b| {
         b.iter(|| black_box(learner.learn(&features, &data, &mut ()).unwrap()))
     });
+    let weights = result.weights.values();
+    for (name, kind) in [
+        ("likelihood_pass_chain_30x361x5", LikelihoodKind::Exact),
+        ("bethe_pass_general_30x361x5", LikelihoodKind::Bethe),
+    ] {
+        let objective = Likelihood::new(kind, Arc::clone(&features), &data, 10.0).unwrap();
+        group.bench_function(name, |b| {
+            b.iter(|| black_box(objective.value_and_gradient(weights).unwrap()))
+        });
+    }
     group.finish();
 }
 

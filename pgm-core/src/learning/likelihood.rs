@@ -24,7 +24,27 @@
 //! expectation, so the objective and its gradient agree, but it is neither a bound nor
 //! convex, and BP may not converge on strongly coupled models (an error naming the
 //! instance; damping or pseudo-likelihood are the remedies).
+//!
+//! **The chain fast path.** For [`LikelihoodKind::Exact`], an instance whose cliques are
+//! all unary or pairwise (a linear chain, or any forest of pairwise cliques) is not
+//! run through the general path above but through scaled forward-backward in
+//! probability space, the way CRFsuite's `crf1d` does it (Sutton & McCallum, "An
+//! Introduction to Conditional Random Fields", Found. Trends ML 4(4), 2012, §4.1): its
+//! features are interned once as sparse patterns shared by cliques (CRFsuite's
+//! attribute × label features), each pass computes every pattern's scores and every
+//! distinct edge's `exp(θ − max θ)` once, per variable `exp(θ_v − max θ_v)`, an upward
+//! and a downward sweep scaled at every variable (`log Z` is the sum of the logs of the
+//! scaling factors and maxima), and the expected counts through the patterns. It
+//! reuses its buffers (no allocation per pass but the result) and splits the instances
+//! into one chunk per rayon thread. The result is the same function as the general
+//! path's to rounding (tests hold them within 1e-10 relative). A score of −∞ (a hard
+//! zero) is exact in probability space; an instance whose potentials leave `exp`'s
+//! range (a scaling factor or edge normaliser underflowing to zero) is swept in log
+//! space instead, and one with a score of +∞ or NaN is handed back to the general
+//! path for that evaluation, so extreme weights stay exact. The Bethe likelihood
+//! always takes the general path.
 
+use super::chain::{Added, ChainBuilder, ChainPath};
 use super::model::{CliqueFeatures, FeatureSet, LabelledInstance};
 use super::pseudo_likelihood::DEFAULT_FEATURE_CACHE_BYTES;
 use crate::error::{Error, Result};
@@ -38,7 +58,8 @@ use std::sync::{Arc, Mutex};
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum LikelihoodKind {
     /// The exact likelihood: every instance's factor graph must be a forest (chains and
-    /// trees), where belief propagation is exact.
+    /// trees), where belief propagation is exact. Instances of unary and pairwise
+    /// cliques take the scaled forward-backward fast path (module docs).
     Exact,
     /// The Bethe approximation from loopy belief propagation's fixed point, for any
     /// graph.
@@ -84,9 +105,16 @@ pub struct Likelihood<'a> {
     bp: BeliefPropagation,
     /// `bp` limited to one iteration, for forests.
     one_pass: BeliefPropagation,
-    /// Per instance: its factor graph (tables refreshed at each evaluation), its
-    /// observed feature totals and, within the cache limit, its sparse features.
-    states: Vec<Mutex<InstanceState>>,
+    /// The instances on the general path, each with its factor graph (tables refreshed
+    /// at each evaluation), its observed feature totals and, within the cache limit,
+    /// its sparse features.
+    general: Vec<(usize, Mutex<InstanceState>)>,
+    /// The exact likelihood's fast path over the instances of unary and pairwise
+    /// cliques ([`super::chain`]).
+    chain: Option<ChainPath>,
+    /// Per instance of the fast path, its general-path state, built the first time the
+    /// fast path hands the instance back.
+    fallback: Vec<Mutex<Option<InstanceState>>>,
 }
 
 /// What an evaluation of one instance reuses.
@@ -194,6 +222,20 @@ impl<'a> Likelihood<'a> {
         prior_variance: f64,
         bp: BpParams,
     ) -> Result<Self> {
+        Self::build(kind, features, instances, prior_variance, bp, true)
+    }
+
+    /// [`with_bp`](Self::with_bp), with the fast path for instances of unary and
+    /// pairwise cliques on forests ([`super::chain`]) used by [`LikelihoodKind::Exact`]
+    /// when `chain_path` (the general path alone otherwise, for comparison).
+    pub(crate) fn build(
+        kind: LikelihoodKind,
+        features: Arc<FeatureSet>,
+        instances: &'a [LabelledInstance],
+        prior_variance: f64,
+        bp: BpParams,
+        chain_path: bool,
+    ) -> Result<Self> {
         let one_pass = bp.clone().max_iterations(1).check()?;
         let bp = bp.check()?;
         if bp.mode() != Mode::SumProduct {
@@ -218,8 +260,17 @@ impl<'a> Likelihood<'a> {
             });
         }
         let zeros = vec![0.0; features.num_weights()];
-        let mut states = Vec::with_capacity(instances.len());
+        let mut general = Vec::new();
+        let mut chain = ChainBuilder::new(features.num_weights());
         let mut cached_bytes = 0usize;
+        let cycle = |i: usize| Error::NotApplicable {
+            method: "maximum likelihood (exact)",
+            reason: format!(
+                "instance {i}: its factor graph has a cycle (cliques over the \
+                 same variables counted once), where belief propagation is not \
+                 exact; use the Bethe likelihood or pseudo-likelihood"
+            ),
+        };
         for (i, instance) in instances.iter().enumerate() {
             instance.model.feature_set().check_same(&features)?;
             let observed = instance
@@ -230,18 +281,18 @@ impl<'a> Likelihood<'a> {
                     value: format!("instance {i}: {e}"),
                     expected: "one state per variable of its model",
                 })?;
+            if chain_path && kind == LikelihoodKind::Exact {
+                match chain.add(i, instance, &observed)? {
+                    Added::Yes => continue,
+                    Added::Cycle => return Err(cycle(i)),
+                    Added::NotPairwise => {}
+                }
+            }
             // Checks the features and log-potentials at zero weights.
             instance.model.to_factor_graph(&zeros)?;
             let (graph, groups) = merged_graph(&instance.model)?;
             if kind == LikelihoodKind::Exact && !graph.is_forest() {
-                return Err(Error::NotApplicable {
-                    method: "maximum likelihood (exact)",
-                    reason: format!(
-                        "instance {i}: its factor graph has a cycle (cliques over the \
-                         same variables counted once), where belief propagation is not \
-                         exact; use the Bethe likelihood or pseudo-likelihood"
-                    ),
-                });
+                return Err(cycle(i));
             }
             let mut cache = None;
             if cached_bytes < DEFAULT_FEATURE_CACHE_BYTES {
@@ -258,13 +309,22 @@ impl<'a> Likelihood<'a> {
                     cache = Some(cliques);
                 }
             }
-            states.push(Mutex::new(InstanceState {
-                graph,
-                groups,
-                observed,
-                cache,
-            }));
+            general.push((
+                i,
+                Mutex::new(InstanceState {
+                    graph,
+                    groups,
+                    observed,
+                    cache,
+                }),
+            ));
         }
+        let (chain, fallback) = if chain.len() > 0 {
+            let fallback = (0..chain.len()).map(|_| Mutex::new(None)).collect();
+            (Some(chain.finish(rayon::current_num_threads())), fallback)
+        } else {
+            (None, Vec::new())
+        };
         Ok(Likelihood {
             kind,
             features,
@@ -272,7 +332,27 @@ impl<'a> Likelihood<'a> {
             prior_variance,
             bp,
             one_pass,
-            states,
+            general,
+            chain,
+            fallback,
+        })
+    }
+
+    /// Number of instances on the fast path of unary and pairwise cliques on forests.
+    #[cfg(test)]
+    pub(crate) fn chain_instances(&self) -> usize {
+        self.fallback.len()
+    }
+
+    /// How many instances the fast path hands back to the general path at `weights`.
+    #[cfg(test)]
+    pub(crate) fn chain_fallbacks(&self, weights: &[f64]) -> usize {
+        let mut gradient = vec![0.0; weights.len()];
+        self.chain.as_ref().map_or(0, |c| {
+            c.evaluate(weights, &mut gradient)
+                .expect("an evaluation")
+                .1
+                .len()
         })
     }
 
@@ -322,20 +402,56 @@ impl<'a> Likelihood<'a> {
     /// The log-likelihood and its gradient `Σ_i (F_i(y_i) − E[F_i])`.
     fn terms(&self, weights: &[f64]) -> Result<(f64, Vec<f64>)> {
         self.features.check_weights(weights)?;
-        let terms: Vec<Term> = self
-            .instances
-            .par_iter()
-            .enumerate()
-            .map(|(i, instance)| {
-                let mut state = self.states[i].lock().map_err(|_| Error::NotApplicable {
-                    method: self.kind.name(),
-                    reason: format!("instance {i}: a previous evaluation panicked"),
-                })?;
-                self.term(i, instance, &mut state, weights)
-            })
-            .collect::<Result<_>>()?;
         let mut gradient = vec![0.0; weights.len()];
         let mut ll = 0.0;
+        let poisoned = |i: usize| Error::NotApplicable {
+            method: self.kind.name(),
+            reason: format!("instance {i}: a previous evaluation panicked"),
+        };
+        if let Some(chain) = &self.chain {
+            let (chain_ll, fallbacks) = chain.evaluate(weights, &mut gradient)?;
+            ll += chain_ll;
+            // The instances the fast path handed back, by the general path; their
+            // observed totals are already in the gradient.
+            let terms: Vec<Term> = fallbacks
+                .par_iter()
+                .map(|&position| {
+                    let i = chain.instance_index(position);
+                    let instance = &self.instances[i];
+                    let mut slot = self.fallback[position].lock().map_err(|_| poisoned(i))?;
+                    if slot.is_none() {
+                        let (graph, groups) = merged_graph(&instance.model)?;
+                        let observed = instance.model.feature_totals(&instance.labels)?;
+                        *slot = Some(InstanceState {
+                            graph,
+                            groups,
+                            observed,
+                            cache: None,
+                        });
+                    }
+                    let state = slot.as_mut().expect("built above");
+                    let mut term = self.term(i, instance, state, weights)?;
+                    for (g, o) in term.gradient.iter_mut().zip(&state.observed) {
+                        *g -= o;
+                    }
+                    Ok(term)
+                })
+                .collect::<Result<_>>()?;
+            for t in terms {
+                ll += t.log_likelihood;
+                for (g, x) in gradient.iter_mut().zip(&t.gradient) {
+                    *g += x;
+                }
+            }
+        }
+        let terms: Vec<Term> = self
+            .general
+            .par_iter()
+            .map(|(i, state)| {
+                let mut state = state.lock().map_err(|_| poisoned(*i))?;
+                self.term(*i, &self.instances[*i], &mut state, weights)
+            })
+            .collect::<Result<_>>()?;
         for t in terms {
             ll += t.log_likelihood;
             for (g, x) in gradient.iter_mut().zip(&t.gradient) {

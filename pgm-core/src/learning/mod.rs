@@ -74,6 +74,7 @@
 //! assert_eq!(exact.map, vec![0, 0, 1, 1, 1]);
 //! ```
 
+mod chain;
 mod likelihood;
 mod model;
 mod optimise;

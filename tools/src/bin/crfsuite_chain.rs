@@ -10,12 +10,15 @@
 //!
 //! ```text
 //! crfsuite_chain --data train.crfsuite.txt --c2 0.1 [--weights crfsuite.json] [--max-iterations N]
+//! crfsuite_chain --data train.crfsuite.txt --c2 0.1 --time-passes N
 //! ```
 //!
 //! Item file: one item a line, `LABEL<TAB>ATTR[:VALUE]<TAB>…`, a blank line between
 //! sequences (CRFsuite's format, without escapes). `--weights`: CRFsuite's learned
 //! weights as JSON (`{"state": [[attr, label, w], …], "transitions": [[from, to, w], …]}`),
-//! evaluated under our objective. Prints one JSON object.
+//! evaluated under our objective. `--time-passes N`: no learning, only N passes
+//! (objective and gradient) at zero weights, timed one by one (median and minimum).
+//! Prints one JSON object.
 
 use pgm_core::learning::{
     FeatureSet, FnFeatures, LabelledInstance, LearnerParams, LearningObjective, Likelihood,
@@ -68,6 +71,8 @@ struct Options {
     c2: f64,
     weights: Option<String>,
     max_iterations: u64,
+    /// Only time this many passes at zero weights (no learning).
+    time_passes: Option<usize>,
 }
 
 fn options() -> Result<Options, String> {
@@ -77,6 +82,7 @@ fn options() -> Result<Options, String> {
         c2: 1.0,
         weights: None,
         max_iterations: 1000,
+        time_passes: None,
     };
     while let Some(flag) = args.next() {
         let mut value = || {
@@ -87,6 +93,13 @@ fn options() -> Result<Options, String> {
             "--data" => o.data = value()?,
             "--c2" => o.c2 = value()?.parse().map_err(|e| format!("--c2: {e}"))?,
             "--weights" => o.weights = Some(value()?),
+            "--time-passes" => {
+                o.time_passes = Some(
+                    value()?
+                        .parse()
+                        .map_err(|e| format!("--time-passes: {e}"))?,
+                )
+            }
             "--max-iterations" => {
                 o.max_iterations = value()?
                     .parse()
@@ -190,6 +203,39 @@ fn run() -> Result<(), String> {
     }
     let built = started.elapsed().as_secs_f64();
     let prior_variance = 1.0 / (2.0 * o.c2);
+    if let Some(passes) = o.time_passes {
+        let t = Instant::now();
+        let objective = Likelihood::new(
+            LikelihoodKind::Exact,
+            Arc::clone(&features),
+            &data,
+            prior_variance,
+        )
+        .map_err(|e| e.to_string())?;
+        let objective_seconds = t.elapsed().as_secs_f64();
+        let zeros = vec![0.0; features.num_weights()];
+        let mut times = Vec::with_capacity(passes);
+        let mut value = 0.0;
+        for _ in 0..passes.max(1) {
+            let t = Instant::now();
+            value = objective
+                .value_and_gradient(&zeros)
+                .map_err(|e| e.to_string())?
+                .0;
+            times.push(t.elapsed().as_secs_f64());
+        }
+        times.sort_by(f64::total_cmp);
+        let out = serde_json::json!({
+            "items": items,
+            "objective_seconds": objective_seconds,
+            "passes": times.len(),
+            "pass_seconds_median": times[times.len() / 2],
+            "pass_seconds_min": times[0],
+            "objective_at_zero": value,
+        });
+        println!("{out}");
+        return Ok(());
+    }
     let learner = LearnerParams::default()
         .prior_variance(prior_variance)
         .objective(LearningObjective::Likelihood)
