@@ -158,7 +158,10 @@ fn build(spec: &Spec) -> FactorGraph {
     g
 }
 
-fn schedules() -> Vec<(&'static str, fn() -> Box<dyn Schedule>)> {
+/// Makes a fresh schedule for a run.
+type MakeSchedule = fn() -> Box<dyn Schedule>;
+
+fn schedules() -> Vec<(&'static str, MakeSchedule)> {
     vec![
         ("flooding", || Box::new(Flooding)),
         ("sequential", || Box::new(Sequential::default())),
