@@ -296,6 +296,30 @@ impl Icp {
         })
     }
 
+    /// ICP against the same reference scan with other `params`, without building the
+    /// search structures again where they do not depend on the parameters: the k-d
+    /// tree is shared as is, and the grid too when the final correspondence distance
+    /// (which sets its cells) is the same. The same as `Icp::new(reference, params)`
+    /// on the scan this one was built on.
+    ///
+    /// # Errors
+    /// As [`IcpParams::check`].
+    pub fn with_params(&self, params: IcpParams) -> Result<Self> {
+        let params = *params.check()?.params();
+        let grid = if params.final_max_distance == self.params.final_max_distance {
+            self.grid.clone()
+        } else {
+            CellGrid::new(&self.reference_points, 2.0 * params.final_max_distance)
+        };
+        Ok(Self {
+            params,
+            tree: self.tree.clone(),
+            grid,
+            reference_beams: self.reference_beams.clone(),
+            reference_points: self.reference_points.clone(),
+        })
+    }
+
     /// The parameters.
     pub fn params(&self) -> &IcpParams {
         &self.params
@@ -735,7 +759,7 @@ impl CellGrid {
         let mut occupied;
         let mut halvings = 0;
         loop {
-            let key_of = |p: &[f64; 2]| cell_key((p[0] / cell).floor(), (p[1] / cell).floor());
+            let key_of = |p: &[f64; 2]| cell_key(floor(p[0] / cell), floor(p[1] / cell));
             order = source
                 .iter()
                 .enumerate()
@@ -806,16 +830,36 @@ impl CellGrid {
         debug_assert!(bound <= self.max_bound);
         let fx = q[0] / self.cell;
         let fy = q[1] / self.cell;
-        let (ix, iy) = (fx.floor(), fy.floor());
-        let nx = if fx - ix < 0.5 { ix - 1.0 } else { ix + 1.0 };
-        let ny = if fy - iy < 0.5 { iy - 1.0 } else { iy + 1.0 };
+        let (ix, iy) = (floor(fx), floor(fy));
+        let (nx, gx) = if fx - ix < 0.5 {
+            (ix - 1.0, fx - ix)
+        } else {
+            (ix + 1.0, ix + 1.0 - fx)
+        };
+        let (ny, gy) = if fy - iy < 0.5 {
+            (iy - 1.0, fy - iy)
+        } else {
+            (iy + 1.0, iy + 1.0 - fy)
+        };
+        // The gaps (m) from `q` to the neighbouring column and row of cells, less a
+        // slack far above rounding: every point of a neighbouring cell lies at least
+        // that far from `q` along the gap's axis, so a cell whose gap (squared, both
+        // gaps for the diagonal cell) is not below the best squared distance so far
+        // holds no point that could win (wins are strictly closer), and is not read.
+        // The cells read are read in the same order, so the answer is the same as
+        // reading all four.
+        let gap = |g: f64| (g * self.cell - GAP_SLACK).max(0.0);
+        let (gx, gy) = (gap(gx), gap(gy));
         let mut best = (usize::MAX, bound);
-        for key in [
-            cell_key(ix, iy),
-            cell_key(nx, iy),
-            cell_key(ix, ny),
-            cell_key(nx, ny),
+        for (key, reach) in [
+            (cell_key(ix, iy), 0.0),
+            (cell_key(nx, iy), gx * gx),
+            (cell_key(ix, ny), gy * gy),
+            (cell_key(nx, ny), gx * gx + gy * gy),
         ] {
+            if reach >= best.1 {
+                continue;
+            }
             let (a, b) = self.range(key);
             for k in a..b {
                 let p = self.points[k];
@@ -826,6 +870,24 @@ impl CellGrid {
             }
         }
         (best.0 != usize::MAX).then(|| (self.items[best.0] as usize, best.1))
+    }
+}
+
+/// Slack (m) taken off the gaps between a query and the neighbouring cells in
+/// [`CellGrid::nearest_within`]: many orders of magnitude above the rounding of
+/// coordinates of a laser's reach, far below any distance that matters.
+const GAP_SLACK: f64 = 1e-9;
+
+/// `⌊x⌋` without a call into libm (the baseline x86-64 target has no rounding
+/// instruction, and `f64::floor` is a function call there): exact, the same value as
+/// `x.floor()` for every `x` except that `-0.0` gives `0.0` (the same cell).
+#[inline]
+fn floor(x: f64) -> f64 {
+    if x.abs() < 4.5e15 {
+        let t = x as i64;
+        (t - i64::from((t as f64) > x)) as f64
+    } else {
+        x.floor()
     }
 }
 
