@@ -261,6 +261,9 @@ pub struct Icp {
     /// Beam index of each tree item.
     reference_beams: Vec<usize>,
     reference_points: Vec<[f64; 2]>,
+    /// Per reference return, the squared distance to the nearest other one (see
+    /// [`Icp::isolation`]); computed on the first alignment.
+    isolation: std::sync::OnceLock<Vec<f64>>,
 }
 
 impl std::fmt::Debug for Icp {
@@ -293,6 +296,25 @@ impl Icp {
             grid,
             reference_beams,
             reference_points,
+            isolation: std::sync::OnceLock::new(),
+        })
+    }
+
+    /// Per reference return (tree item), the squared distance to the nearest other
+    /// reference return (0 for a duplicate, infinite for a lone return). A query
+    /// closer to a return than half that distance has that return as its strict
+    /// nearest neighbour (triangle inequality), which lets ICP confirm a previous
+    /// partner without a search (see [`Icp::align_from`]).
+    fn isolation(&self) -> &[f64] {
+        self.isolation.get_or_init(|| {
+            let mut found = Vec::with_capacity(2);
+            self.reference_points
+                .iter()
+                .map(|&p| {
+                    self.tree.k_nearest_within(p, 2, f64::INFINITY, &mut found);
+                    found.get(1).map_or(f64::INFINITY, |x| x.1)
+                })
+                .collect()
         })
     }
 
@@ -317,6 +339,7 @@ impl Icp {
             grid,
             reference_beams: self.reference_beams.clone(),
             reference_points: self.reference_points.clone(),
+            isolation: self.isolation.clone(),
         })
     }
 
@@ -459,6 +482,7 @@ impl Icp {
         // bounds the search (the nearest is at most that far), which prunes most of
         // the tree once the estimate settles. The result is still the exact nearest.
         let mut previous = vec![NO_PARTNER; points.len()];
+        let isolation = self.isolation();
         while iterations < p.max_iterations {
             iterations += 1;
             let limit = max_distance * max_distance;
@@ -476,6 +500,14 @@ impl Icp {
                 if *partner != NO_PARTNER {
                     let g = self.reference_points[*partner];
                     let d2 = (g[0] - q[0]) * (g[0] - q[0]) + (g[1] - q[1]) * (g[1] - q[1]);
+                    // Closer to the previous partner than half its distance to any
+                    // other reference return (with a relative margin far above
+                    // rounding): the partner is the strict nearest, which the search
+                    // below would return.
+                    if d2 < limit && 4.0 * d2 * (1.0 + ISOLATION_MARGIN) < isolation[*partner] {
+                        stats.add(s, &Point2::new(g[0], g[1]), 1.0);
+                        continue;
+                    }
                     // Slightly above d2 so that the previous partner itself qualifies.
                     bound = bound.min(d2 * (1.0 + 1e-12) + f64::MIN_POSITIVE);
                 }
@@ -872,6 +904,10 @@ impl CellGrid {
         (best.0 != usize::MAX).then(|| (self.items[best.0] as usize, best.1))
     }
 }
+
+/// Relative margin of the isolation test of [`Icp::align_from`] (a previous partner
+/// confirmed without a search): far above the rounding of squared distances.
+const ISOLATION_MARGIN: f64 = 1e-6;
 
 /// Slack (m) taken off the gaps between a query and the neighbouring cells in
 /// [`CellGrid::nearest_within`]: many orders of magnitude above the rounding of
