@@ -923,18 +923,24 @@ impl<'a> AssociationTables<'a> {
         for k in 0..self.candidates[i].len() {
             let d = cache.distance[o + k];
             let score = self.data_rest[o + k] + cache.score[o + k];
-            sink.add(k, base + index::DATA_SCORE, score);
             let d2 = d * d;
-            sink.add(k, base + index::REGISTERED_SQUARED, d2);
-            sink.add(
+            sink.add_each(
                 k,
-                base + index::REGISTERED_NORMALISED,
-                d2 * inverse_variance,
+                [
+                    (base + index::DATA_SCORE, score),
+                    (base + index::REGISTERED_SQUARED, d2),
+                    (base + index::REGISTERED_NORMALISED, d2 * inverse_variance),
+                ],
             );
         }
         let out = self.candidates[i].len();
-        sink.add(out, base + index::OUTLIER_SCORE, self.outlier[i]);
-        sink.add(out, base + index::OUTLIER_BIAS, 1.0);
+        sink.add_each(
+            out,
+            [
+                (base + index::OUTLIER_SCORE, self.outlier[i]),
+                (base + index::OUTLIER_BIAS, 1.0),
+            ],
+        );
     }
 
     /// Writes the features of the pair `(i, i + 1)` under node `i`'s `motion` (its
@@ -954,80 +960,91 @@ impl<'a> AssociationTables<'a> {
         };
         match &self.pattern {
             None => {
+                // Row by row, each candidate's reference steps looked up once.
                 let columns = cj.len() + 1;
-                for a in 0..=ci.len() {
-                    for b in 0..=cj.len() {
-                        self.write_pair_entry(ci, cj, &pair, (a, b), a * columns + b, base, sink);
+                let width = 2 * self.band + 1;
+                let leave = base + outlier_transition(false, true);
+                for (a, &j) in ci.iter().enumerate() {
+                    let row = a * columns;
+                    let steps = &self.band_steps[j * width..(j + 1) * width];
+                    for (b, &k) in cj.iter().enumerate() {
+                        let d = k as isize - j as isize;
+                        let sequence = base + sequence_feature(d, pair.band);
+                        if (d - 1).abs() <= pair.band {
+                            let (reference_step, norm) = steps[(d - 1 + pair.band) as usize];
+                            write_geometry(
+                                &pair,
+                                reference_step,
+                                norm,
+                                row + b,
+                                sequence,
+                                base,
+                                sink,
+                            );
+                        } else {
+                            sink.add(row + b, sequence, 1.0);
+                        }
                     }
+                    sink.add(row + cj.len(), leave, 1.0);
+                }
+                let row = ci.len() * columns;
+                for b in 0..=cj.len() {
+                    sink.add(row + b, base + outlier_transition(true, b == cj.len()), 1.0);
                 }
             }
             Some(pattern) => {
                 // Every pair shares the pattern and its reference steps.
                 for (entry, e) in self.pattern_entries.iter().enumerate() {
-                    sink.add(entry, base + e.feature, 1.0);
-                    if let Some((reference_step, norm)) = e.step {
-                        write_geometry(&pair, reference_step, norm, entry, base, sink);
+                    match e.step {
+                        Some((reference_step, norm)) => write_geometry(
+                            &pair,
+                            reference_step,
+                            norm,
+                            entry,
+                            base + e.feature,
+                            base,
+                            sink,
+                        ),
+                        None => sink.add(entry, base + e.feature, 1.0),
                     }
                 }
                 sink.add(pattern.default_entry(), base + index::SEQUENCE_FAR, 1.0);
             }
         }
     }
-
-    /// The features of states `(a, b)`: `a` of `ci` (or the outlier state `ci.len()`)
-    /// and `b` of `cj` (or `cj.len()`), into `entry`.
-    #[allow(clippy::too_many_arguments)]
-    #[inline]
-    fn write_pair_entry<S: FeatureSink>(
-        &self,
-        ci: &[usize],
-        cj: &[usize],
-        pair: &PairGeometry,
-        (a, b): (usize, usize),
-        entry: usize,
-        base: usize,
-        sink: &mut S,
-    ) {
-        let (outlier_a, outlier_b) = (a == ci.len(), b == cj.len());
-        if outlier_a || outlier_b {
-            sink.add(entry, base + outlier_transition(outlier_a, outlier_b), 1.0);
-            return;
-        }
-        let (j, k) = (ci[a], cj[b]);
-        let d = k as isize - j as isize;
-        sink.add(entry, base + sequence_feature(d, pair.band), 1.0);
-        if (d - 1).abs() <= pair.band {
-            let width = 2 * self.band + 1;
-            let (reference_step, norm) = self.band_steps[j * width + (d - 1 + pair.band) as usize];
-            write_geometry(pair, reference_step, norm, entry, base, sink);
-        }
-    }
 }
 
-/// The pairwise distance and translation features of a pair of candidates whose
-/// reference step is `reference_step` (of length `norm`).
+/// The sequence feature `sequence` (an absolute weight index, value 1) and then
+/// the pairwise distance and translation features of one entry (a pair of candidates
+/// whose reference step is `reference_step`, of length `norm`), added in that order in one go
+/// ([`FeatureSink::add_each`]).
 #[inline]
 fn write_geometry<S: FeatureSink>(
     pair: &PairGeometry,
     reference_step: nalgebra::Vector2<f64>,
     norm: f64,
     entry: usize,
+    sequence: usize,
     base: usize,
     sink: &mut S,
 ) {
     let dd = (norm - pair.length).powi(2);
-    sink.add(entry, base + index::DISTANCE_SQUARED, dd);
-    sink.add(
-        entry,
-        base + index::DISTANCE_NORMALISED,
-        dd * pair.inverse_variance,
-    );
     let dt = (reference_step - pair.turned).norm_squared();
-    sink.add(entry, base + index::TRANSLATION_SQUARED, dt);
-    sink.add(
+    sink.add_each(
         entry,
-        base + index::TRANSLATION_NORMALISED,
-        dt * pair.inverse_variance,
+        [
+            (sequence, 1.0),
+            (base + index::DISTANCE_SQUARED, dd),
+            (
+                base + index::DISTANCE_NORMALISED,
+                dd * pair.inverse_variance,
+            ),
+            (base + index::TRANSLATION_SQUARED, dt),
+            (
+                base + index::TRANSLATION_NORMALISED,
+                dt * pair.inverse_variance,
+            ),
+        ],
     );
 }
 

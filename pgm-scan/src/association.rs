@@ -45,6 +45,7 @@ use crate::scan::{segment_by_gap, segment_ranges};
 use crate::{Error, Pose2, Result};
 use nalgebra::Point2;
 use pgm_core::param::{InvalidParameter, ParamGuard};
+use rayon::prelude::*;
 
 /// The associations of one pair and, when the source estimated one, its ego-motion.
 #[derive(Clone, Debug, PartialEq)]
@@ -744,7 +745,8 @@ fn segment_motions_with(
         min_correspondences: 0,
         ..nearest.icp
     };
-    let segment_icp = Icp::new(&pair.reference, segment_params)?;
+    // The same reference scan as `icp`: its search structures are reused.
+    let segment_icp = icp.with_params(segment_params)?;
     let tau = params.inlier_distance;
     // Which current segment explains each reference return under the ego-motion (its
     // nearest current return within `tau`, moved back): a segment's own motion may
@@ -776,17 +778,20 @@ fn segment_motions_with(
         }
     }
     let mut motion_of = vec![ego; points.len()];
-    for range in segment_ranges(&segments) {
+    // Each segment's motion, if it moved (the segments are independent: side by side
+    // on rayon's pool when it has more than one thread, as the segments cost unequal
+    // amounts; the same answers either way).
+    let segment_motion = |range: std::ops::Range<usize>| -> Option<Pose2> {
         let members = &points[range.clone()];
         if members.len() < params.min_points {
-            continue;
+            return None;
         }
         let segment = segments[range.start];
         let fit =
             |motion: &Pose2| fit_unexplained(icp, members, motion, tau, segment, &explained_by);
         let (ego_cost, ego_inliers) = fit(&ego);
         if ego_inliers as f64 >= params.static_fraction * members.len() as f64 {
-            continue;
+            return None;
         }
         // Only a segment that the reference scan saw through (free space where the
         // ego-motion puts it) can have moved; a newly revealed static surface lies
@@ -903,8 +908,20 @@ fn segment_motions_with(
                 vacated as f64 >= params.free_space_fraction * members.len() as f64
             };
             if left && cost < params.improvement * ego_cost && fraction >= params.aligned_fraction {
-                motion_of[range].fill(motion);
+                return Some(motion);
             }
+        }
+        None
+    };
+    let ranges = segment_ranges(&segments);
+    let found: Vec<Option<Pose2>> = if rayon::current_num_threads() > 1 {
+        ranges.par_iter().cloned().map(segment_motion).collect()
+    } else {
+        ranges.iter().cloned().map(segment_motion).collect()
+    };
+    for (range, motion) in ranges.into_iter().zip(found) {
+        if let Some(motion) = motion {
+            motion_of[range].fill(motion);
         }
     }
     let count = segments.last().map_or(0, |&x| x + 1);

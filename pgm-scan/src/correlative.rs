@@ -580,8 +580,13 @@ impl Search<'_> {
             };
             let x = cos * q[0] - sin * q[1] + tx;
             let y = sin * q[0] + cos * q[1] + ty;
-            let (x0, y0) = (floor(x - slack), floor(y - slack));
-            let narrow = floor(x + slack) == x0 && floor(y + slack) == y0;
+            let (x0, y0, narrow) = if level == 0 {
+                // No slack: the window is the cell itself.
+                (floor(x), floor(y), true)
+            } else {
+                let (x0, y0) = (floor(x - slack), floor(y - slack));
+                (x0, y0, floor(x + slack) == x0 && floor(y + slack) == y0)
+            };
             let index = if x0 >= x_lo && x0 <= x_hi && y0 >= y_lo && y0 <= y_hi {
                 ((y0 - k) * width + (x0 - k)) as u32
             } else {
@@ -608,18 +613,25 @@ impl Search<'_> {
         let grid = self.grid;
         let k = grid.window_cells as i32;
         let shift = (node.dy + k) as usize * grid.width + (node.dx + k) as usize;
-        // Sums of bytes in u32 (exact below 2^24 returns), widened per block of them.
+        // Sums of bytes in u32 (exact below 2^24 returns), widened per block of them;
+        // four running sums, so that the loads do not wait on one another (integers:
+        // the same sum in any order).
         let sum = |indices: &[u32], depth: usize| -> u64 {
             let values = &grid.cells[depth * grid.width * grid.height + shift..];
+            let at = |i: u32| u32::from(values[i as usize]);
             indices
                 .chunks(1 << 24)
                 .map(|chunk| {
-                    u64::from(
-                        chunk
-                            .iter()
-                            .map(|&i| u32::from(values[i as usize]))
-                            .sum::<u32>(),
-                    )
+                    let mut quads = chunk.chunks_exact(4);
+                    let mut sums = [0u32; 4];
+                    for q in &mut quads {
+                        sums[0] += at(q[0]);
+                        sums[1] += at(q[1]);
+                        sums[2] += at(q[2]);
+                        sums[3] += at(q[3]);
+                    }
+                    let rest: u32 = quads.remainder().iter().map(|&i| at(i)).sum();
+                    u64::from(sums.iter().sum::<u32>() + rest)
                 })
                 .sum()
         };

@@ -261,6 +261,9 @@ pub struct Icp {
     /// Beam index of each tree item.
     reference_beams: Vec<usize>,
     reference_points: Vec<[f64; 2]>,
+    /// Per reference return, the squared distance to the nearest other one (see
+    /// [`Icp::isolation`]); computed on the first alignment.
+    isolation: std::sync::OnceLock<Vec<f64>>,
 }
 
 impl std::fmt::Debug for Icp {
@@ -293,6 +296,50 @@ impl Icp {
             grid,
             reference_beams,
             reference_points,
+            isolation: std::sync::OnceLock::new(),
+        })
+    }
+
+    /// Per reference return (tree item), the squared distance to the nearest other
+    /// reference return (0 for a duplicate, infinite for a lone return). A query
+    /// closer to a return than half that distance has that return as its strict
+    /// nearest neighbour (triangle inequality), which lets ICP confirm a previous
+    /// partner without a search (see [`Icp::align_from`]).
+    fn isolation(&self) -> &[f64] {
+        self.isolation.get_or_init(|| {
+            let mut found = Vec::with_capacity(2);
+            self.reference_points
+                .iter()
+                .map(|&p| {
+                    self.tree.k_nearest_within(p, 2, f64::INFINITY, &mut found);
+                    found.get(1).map_or(f64::INFINITY, |x| x.1)
+                })
+                .collect()
+        })
+    }
+
+    /// ICP against the same reference scan with other `params`, without building the
+    /// search structures again where they do not depend on the parameters: the k-d
+    /// tree is shared as is, and the grid too when the final correspondence distance
+    /// (which sets its cells) is the same. The same as `Icp::new(reference, params)`
+    /// on the scan this one was built on.
+    ///
+    /// # Errors
+    /// As [`IcpParams::check`].
+    pub fn with_params(&self, params: IcpParams) -> Result<Self> {
+        let params = *params.check()?.params();
+        let grid = if params.final_max_distance == self.params.final_max_distance {
+            self.grid.clone()
+        } else {
+            CellGrid::new(&self.reference_points, 2.0 * params.final_max_distance)
+        };
+        Ok(Self {
+            params,
+            tree: self.tree.clone(),
+            grid,
+            reference_beams: self.reference_beams.clone(),
+            reference_points: self.reference_points.clone(),
+            isolation: self.isolation.clone(),
         })
     }
 
@@ -435,6 +482,7 @@ impl Icp {
         // bounds the search (the nearest is at most that far), which prunes most of
         // the tree once the estimate settles. The result is still the exact nearest.
         let mut previous = vec![NO_PARTNER; points.len()];
+        let isolation = self.isolation();
         while iterations < p.max_iterations {
             iterations += 1;
             let limit = max_distance * max_distance;
@@ -452,6 +500,14 @@ impl Icp {
                 if *partner != NO_PARTNER {
                     let g = self.reference_points[*partner];
                     let d2 = (g[0] - q[0]) * (g[0] - q[0]) + (g[1] - q[1]) * (g[1] - q[1]);
+                    // Closer to the previous partner than half its distance to any
+                    // other reference return (with a relative margin far above
+                    // rounding): the partner is the strict nearest, which the search
+                    // below would return.
+                    if d2 < limit && 4.0 * d2 * (1.0 + ISOLATION_MARGIN) < isolation[*partner] {
+                        stats.add(s, &Point2::new(g[0], g[1]), 1.0);
+                        continue;
+                    }
                     // Slightly above d2 so that the previous partner itself qualifies.
                     bound = bound.min(d2 * (1.0 + 1e-12) + f64::MIN_POSITIVE);
                 }
@@ -735,7 +791,7 @@ impl CellGrid {
         let mut occupied;
         let mut halvings = 0;
         loop {
-            let key_of = |p: &[f64; 2]| cell_key((p[0] / cell).floor(), (p[1] / cell).floor());
+            let key_of = |p: &[f64; 2]| cell_key(floor(p[0] / cell), floor(p[1] / cell));
             order = source
                 .iter()
                 .enumerate()
@@ -806,16 +862,36 @@ impl CellGrid {
         debug_assert!(bound <= self.max_bound);
         let fx = q[0] / self.cell;
         let fy = q[1] / self.cell;
-        let (ix, iy) = (fx.floor(), fy.floor());
-        let nx = if fx - ix < 0.5 { ix - 1.0 } else { ix + 1.0 };
-        let ny = if fy - iy < 0.5 { iy - 1.0 } else { iy + 1.0 };
+        let (ix, iy) = (floor(fx), floor(fy));
+        let (nx, gx) = if fx - ix < 0.5 {
+            (ix - 1.0, fx - ix)
+        } else {
+            (ix + 1.0, ix + 1.0 - fx)
+        };
+        let (ny, gy) = if fy - iy < 0.5 {
+            (iy - 1.0, fy - iy)
+        } else {
+            (iy + 1.0, iy + 1.0 - fy)
+        };
+        // The gaps (m) from `q` to the neighbouring column and row of cells, less a
+        // slack far above rounding: every point of a neighbouring cell lies at least
+        // that far from `q` along the gap's axis, so a cell whose gap (squared, both
+        // gaps for the diagonal cell) is not below the best squared distance so far
+        // holds no point that could win (wins are strictly closer), and is not read.
+        // The cells read are read in the same order, so the answer is the same as
+        // reading all four.
+        let gap = |g: f64| (g * self.cell - GAP_SLACK).max(0.0);
+        let (gx, gy) = (gap(gx), gap(gy));
         let mut best = (usize::MAX, bound);
-        for key in [
-            cell_key(ix, iy),
-            cell_key(nx, iy),
-            cell_key(ix, ny),
-            cell_key(nx, ny),
+        for (key, reach) in [
+            (cell_key(ix, iy), 0.0),
+            (cell_key(nx, iy), gx * gx),
+            (cell_key(ix, ny), gy * gy),
+            (cell_key(nx, ny), gx * gx + gy * gy),
         ] {
+            if reach >= best.1 {
+                continue;
+            }
             let (a, b) = self.range(key);
             for k in a..b {
                 let p = self.points[k];
@@ -826,6 +902,28 @@ impl CellGrid {
             }
         }
         (best.0 != usize::MAX).then(|| (self.items[best.0] as usize, best.1))
+    }
+}
+
+/// Relative margin of the isolation test of [`Icp::align_from`] (a previous partner
+/// confirmed without a search): far above the rounding of squared distances.
+const ISOLATION_MARGIN: f64 = 1e-6;
+
+/// Slack (m) taken off the gaps between a query and the neighbouring cells in
+/// [`CellGrid::nearest_within`]: many orders of magnitude above the rounding of
+/// coordinates of a laser's reach, far below any distance that matters.
+const GAP_SLACK: f64 = 1e-9;
+
+/// `⌊x⌋` without a call into libm (the baseline x86-64 target has no rounding
+/// instruction, and `f64::floor` is a function call there): exact, the same value as
+/// `x.floor()` for every `x` except that `-0.0` gives `0.0` (the same cell).
+#[inline]
+fn floor(x: f64) -> f64 {
+    if x.abs() < 4.5e15 {
+        let t = x as i64;
+        (t - i64::from((t as f64) > x)) as f64
+    } else {
+        x.floor()
     }
 }
 

@@ -106,6 +106,19 @@ pub trait FeatureSink {
     /// Adds `value` of feature `feature` to entry `entry`.
     fn add(&mut self, entry: usize, feature: usize, value: f64);
 
+    /// Adds every `(feature, value)` of `features` to entry `entry`, in order: the
+    /// same as calling [`FeatureSink::add`] for each in turn (to the last bit);
+    /// sinks may do it faster (one read and write of the entry).
+    #[inline]
+    fn add_each<const N: usize>(&mut self, entry: usize, features: [(usize, f64); N])
+    where
+        Self: Sized,
+    {
+        for (feature, value) in features {
+            self.add(entry, feature, value);
+        }
+    }
+
     /// In a pairwise table over one label space (`states × states` entries), adds
     /// `value` of feature `same` to the entries of equal states and of feature
     /// `different` to the others (the shape of Potts-like features such as eqs. 4 and
@@ -163,6 +176,17 @@ impl FeatureSink for WeightedTable<'_> {
     #[inline]
     fn add(&mut self, entry: usize, feature: usize, value: f64) {
         self.table[entry] += self.weights[feature] * value;
+    }
+
+    #[inline]
+    fn add_each<const N: usize>(&mut self, entry: usize, features: [(usize, f64); N]) {
+        // The same additions in the same order as `add` one by one, in a register.
+        let slot = &mut self.table[entry];
+        let mut sum = *slot;
+        for (feature, value) in features {
+            sum += self.weights[feature] * value;
+        }
+        *slot = sum;
     }
 
     #[inline]
@@ -435,6 +459,9 @@ struct ChainBuffers {
     pair: Vec<f64>,
     labels: Vec<usize>,
     next: Vec<usize>,
+    /// Whether the chain's backward messages are older than its tables (the last
+    /// decode was [`FlatChain::viterbi_labels`]).
+    backward_stale: bool,
 }
 
 impl ChainBuffers {
@@ -453,6 +480,7 @@ impl ChainBuffers {
             chain,
             labels: vec![0; n],
             next: vec![0; n],
+            backward_stale: false,
         })
     }
 
@@ -611,7 +639,10 @@ impl HybridChain {
             solves,
             cycled,
         };
-        for b in buffers {
+        for mut b in buffers {
+            if b.backward_stale {
+                b.chain.backward_messages(&b.local, &b.pair);
+            }
             let mut mm = vec![0.0; b.chain.local_len()];
             b.chain.max_marginals(&b.local, &mut mm);
             result.offsets.push(
@@ -644,7 +675,11 @@ fn sweep_exact<M: HybridChainModel>(
     b: &mut ChainBuffers,
 ) -> (f64, usize, usize) {
     b.write_all(model, c);
-    b.chain.viterbi(&b.local, &b.pair, &mut b.next);
+    // The labels alone: the backward messages are only read by the max-marginals
+    // at the end of the run (`HybridChain::run_observed`), which computes them once
+    // on the final tables, as a full Viterbi pass on them would have left them.
+    b.chain.viterbi_labels(&b.local, &b.pair, &mut b.next);
+    b.backward_stale = true;
     let mut changed = 0;
     for (i, (&old, &new)) in b.labels.iter().zip(&b.next).enumerate() {
         if old != new {
@@ -666,6 +701,11 @@ fn sweep_visits<M: HybridChainModel>(
     c: usize,
     b: &mut ChainBuffers,
 ) -> (f64, usize, usize) {
+    if b.backward_stale {
+        // The visits read the backward messages of the previous pass.
+        b.chain.backward_messages(&b.local, &b.pair);
+        b.backward_stale = false;
+    }
     let n = b.labels.len();
     let mut change = 0.0f64;
     let mut changed = 0;

@@ -305,6 +305,20 @@ impl FlatChain {
     /// [`FlatChain::local_len`] entries, `pair` [`FlatChain::pair_len`] and `labels`
     /// `n`.
     pub fn viterbi(&mut self, local: &[f64], pair: &[f64], labels: &mut [usize]) {
+        self.viterbi_labels(local, pair, labels);
+        self.backward_messages(local, pair);
+    }
+
+    /// [`FlatChain::viterbi`] without the backward messages: the same MAP assignment
+    /// into `labels` and the same forward messages, the backward messages left as they
+    /// were (for a solver that decodes many times and reads max-marginals once:
+    /// [`FlatChain::backward_messages`] on the same tables then completes what
+    /// [`FlatChain::viterbi`] would have kept). The backward recursion is half the
+    /// cost of [`FlatChain::viterbi`] and the assignment does not read it.
+    ///
+    /// # Panics
+    /// As [`FlatChain::viterbi`].
+    pub fn viterbi_labels(&mut self, local: &[f64], pair: &[f64], labels: &mut [usize]) {
         let n = self.len();
         self.check(local.len(), pair.len());
         assert_eq!(labels.len(), n, "labels of a {n}-position chain");
@@ -312,7 +326,6 @@ impl FlatChain {
             return;
         }
         self.forward_pass(local, pair, 0);
-        self.backward_pass(local, pair, n - 1);
         let last = self.local_offset[n - 1];
         let mut best = f64::NEG_INFINITY;
         let mut arg = 0;
@@ -327,6 +340,20 @@ impl FlatChain {
         for i in (1..n).rev() {
             labels[i - 1] = self.best_predecessor(local, pair, i, labels[i]);
         }
+    }
+
+    /// The backward max-messages of `local` and `pair` into every position, as
+    /// [`FlatChain::viterbi`] keeps them (see [`FlatChain::viterbi_labels`]).
+    ///
+    /// # Panics
+    /// If a slice's length does not match the chain (as [`FlatChain::viterbi`]).
+    pub fn backward_messages(&mut self, local: &[f64], pair: &[f64]) {
+        let n = self.len();
+        self.check(local.len(), pair.len());
+        if n == 0 || self.states.contains(&0) {
+            return;
+        }
+        self.backward_pass(local, pair, n - 1);
     }
 
     /// The lowest state `a` of position `i − 1` maximising
