@@ -18,6 +18,29 @@ use crate::graph::{EdgeId, FactorId};
 pub struct Residual {
     heap: IndexedMaxHeap,
     initialised: bool,
+    /// For each edge `e`, the edges whose messages read `e`'s (see `affected_by`):
+    /// `readers[reader_start[e]..reader_start[e + 1]]`.
+    reader_start: Vec<u32>,
+    readers: Vec<u32>,
+}
+
+/// The edges whose messages read the message of edge `e` (a factor `a` to its variable
+/// `v`): every other factor `b` of `v`, towards `b`'s other variables.
+fn affected_by(graph: &crate::FactorGraph, e: EdgeId, out: &mut Vec<u32>) {
+    let v = graph.edge_variable(e);
+    let a = graph.edge_factor(e);
+    for &e2 in graph.variable_edges(v) {
+        let b: FactorId = graph.edge_factor(e2);
+        if b == a {
+            continue;
+        }
+        out.extend(
+            graph
+                .factor_edges(b)
+                .filter(|&e3| e3 != e2.0)
+                .map(|e3| e3 as u32),
+        );
+    }
 }
 
 impl Schedule for Residual {
@@ -28,14 +51,16 @@ impl Schedule for Residual {
     fn prepare(&mut self, graph: &crate::FactorGraph) -> crate::Result<()> {
         self.heap = IndexedMaxHeap::new(graph.num_edges());
         self.initialised = false;
+        self.index_readers(graph);
         Ok(())
     }
 
     fn iteration(&mut self, passer: &mut dyn MessagePasser) -> Option<f64> {
         let num_edges = passer.graph().num_edges();
-        if self.heap.positions.len() != num_edges {
+        if self.heap.positions.len() != num_edges || self.reader_start.len() != num_edges + 1 {
             self.heap = IndexedMaxHeap::new(num_edges);
             self.initialised = false;
+            self.index_readers(passer.graph());
         }
         if !self.initialised {
             for e in 0..num_edges {
@@ -45,7 +70,6 @@ impl Schedule for Residual {
             self.initialised = true;
         }
         let tolerance = passer.tolerance();
-        let mut affected: Vec<EdgeId> = Vec::new();
         for step in 0..num_edges {
             let Some((e, r)) = self.heap.top() else { break };
             if r <= tolerance {
@@ -54,51 +78,69 @@ impl Schedule for Residual {
             if step % 1024 == 1023 && passer.out_of_time() {
                 break;
             }
-            let e = EdgeId(e);
-            let pending = passer.commit_candidate_pending(e);
-            self.heap.set(e.0, pending);
-            // Messages that read the changed message: every other factor of the target
-            // variable, towards that factor's other variables.
-            affected.clear();
-            {
-                let graph = passer.graph();
-                let v = graph.edge_variable(e);
-                let a = graph.edge_factor(e);
-                for &e2 in graph.variable_edges(v) {
-                    let b: FactorId = graph.edge_factor(e2);
-                    if b == a {
-                        continue;
-                    }
-                    affected.extend(graph.factor_edges(b).map(EdgeId).filter(|&e3| e3 != e2));
-                }
-            }
-            for &e3 in &affected {
-                let r3 = passer.compute_candidate(e3);
-                self.heap.set(e3.0, r3);
+            let pending = passer.commit_candidate_pending(EdgeId(e));
+            self.heap.set(e, pending);
+            // Messages that read the changed message.
+            let (lo, hi) = (
+                self.reader_start[e] as usize,
+                self.reader_start[e + 1] as usize,
+            );
+            for i in lo..hi {
+                let e3 = self.readers[i] as usize;
+                let r3 = passer.compute_candidate(EdgeId(e3));
+                self.heap.set(e3, r3);
             }
         }
         Some(self.heap.top().map_or(0.0, |(_, r)| r))
     }
 }
 
+impl Residual {
+    /// Indexes, for every edge, the edges that read its message ([`affected_by`]).
+    fn index_readers(&mut self, graph: &crate::FactorGraph) {
+        self.reader_start.clear();
+        self.readers.clear();
+        self.reader_start.push(0);
+        for e in 0..graph.num_edges() {
+            affected_by(graph, EdgeId(e), &mut self.readers);
+            self.reader_start.push(self.readers.len() as u32);
+        }
+    }
+}
+
 /// A 4-ary max-heap over edge ids with updatable priorities: half the depth of a
-/// binary heap, and a node's four children share one cache line. Priorities are
-/// stored as the bits of their absolute value, which order like the numbers for
-/// non-negative values (+∞ above every number, NaN above +∞, so that a NaN surfaces
-/// instead of hiding); sifts move a hole instead of swapping.
+/// binary heap. Priorities are stored as the bits of their absolute value, which
+/// order like the numbers for non-negative values (+∞ above every number, NaN above
+/// +∞, so that a NaN surfaces instead of hiding); sifts move a hole instead of
+/// swapping. An entry is 12 bytes and a position 4, so that the heap of a large graph
+/// stays in as few cache lines as it can.
 #[derive(Clone, Debug, Default)]
 struct IndexedMaxHeap {
-    /// (priority key, edge) pairs in heap order.
-    heap: Vec<(u64, usize)>,
-    /// Heap position of each edge, `usize::MAX` when absent.
-    positions: Vec<usize>,
+    /// Entries in heap order.
+    heap: Vec<Item>,
+    /// Heap position of each edge, `ABSENT` when absent.
+    positions: Vec<u32>,
 }
+
+/// A heap entry: an edge and the order key of its priority.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, packed(4))]
+struct Item {
+    key: u64,
+    edge: u32,
+}
+
+const ABSENT: u32 = u32::MAX;
 
 impl IndexedMaxHeap {
     fn new(n: usize) -> Self {
+        assert!(
+            n < ABSENT as usize,
+            "residual BP indexes edges with 32 bits"
+        );
         Self {
             heap: Vec::with_capacity(n),
-            positions: vec![usize::MAX; n],
+            positions: vec![ABSENT; n],
         }
     }
 
@@ -116,42 +158,50 @@ impl IndexedMaxHeap {
 
     /// Higher priority first; equal priorities: lower edge id first.
     #[inline]
-    fn before(a: (u64, usize), b: (u64, usize)) -> bool {
-        a.0 > b.0 || (a.0 == b.0 && a.1 < b.1)
+    fn before(a: Item, b: Item) -> bool {
+        let (ak, bk, ae, be) = (a.key, b.key, a.edge, b.edge);
+        ak > bk || (ak == bk && ae < be)
     }
 
     fn top(&self) -> Option<(usize, f64)> {
-        self.heap.first().map(|&(k, e)| (e, Self::priority(k)))
+        self.heap.first().map(|&item| {
+            let (key, edge) = (item.key, item.edge);
+            (edge as usize, Self::priority(key))
+        })
     }
 
     /// Sets an edge's priority; a priority of 0 takes the edge out of the heap (such an
     /// edge is never committed, and a smaller heap is cheaper to sift).
     fn set(&mut self, edge: usize, priority: f64) {
-        let item = (Self::key(priority), edge);
-        if item.0 == 0 {
+        let item = Item {
+            key: Self::key(priority),
+            edge: edge as u32,
+        };
+        if item.key == 0 {
             self.remove(edge);
             return;
         }
         let pos = self.positions[edge];
-        if pos == usize::MAX {
+        if pos == ABSENT {
             self.heap.push(item);
             self.sift_up(self.heap.len() - 1, item);
         } else {
-            let old = self.heap[pos];
+            let old = self.heap[pos as usize];
             if Self::before(item, old) {
-                self.sift_up(pos, item);
+                self.sift_up(pos as usize, item);
             } else {
-                self.sift_down(pos, item);
+                self.sift_down(pos as usize, item);
             }
         }
     }
 
     fn remove(&mut self, edge: usize) {
         let pos = self.positions[edge];
-        if pos == usize::MAX {
+        if pos == ABSENT {
             return;
         }
-        self.positions[edge] = usize::MAX;
+        let pos = pos as usize;
+        self.positions[edge] = ABSENT;
         let Some(last) = self.heap.pop() else { return };
         if pos == self.heap.len() {
             return;
@@ -166,14 +216,14 @@ impl IndexedMaxHeap {
 
     /// Puts `item` in slot `i` and records its position.
     #[inline]
-    fn place(&mut self, i: usize, item: (u64, usize)) {
+    fn place(&mut self, i: usize, item: Item) {
         self.heap[i] = item;
-        self.positions[item.1] = i;
+        self.positions[item.edge as usize] = i as u32;
     }
 
     /// Places `item` at the hole `i` or above it.
     #[inline]
-    fn sift_up(&mut self, mut i: usize, item: (u64, usize)) {
+    fn sift_up(&mut self, mut i: usize, item: Item) {
         while i > 0 {
             let parent = (i - 1) / 4;
             let p = self.heap[parent];
@@ -188,7 +238,7 @@ impl IndexedMaxHeap {
 
     /// Places `item` at the hole `i` or below it.
     #[inline]
-    fn sift_down(&mut self, mut i: usize, item: (u64, usize)) {
+    fn sift_down(&mut self, mut i: usize, item: Item) {
         let n = self.heap.len();
         loop {
             let first = 4 * i + 1;
