@@ -988,6 +988,28 @@ fn commit_raw_into(
     commit_raw(dst, raw, damping, how)
 }
 
+/// [`commit_raw_into`] for one message of a flood: the raw message `(k, start)` in
+/// `scratch.out` moves from `old` (the whole previous buffer) into `out`, the part of the
+/// next buffer that starts at offset `base`.
+#[inline(always)]
+fn flood_commit(
+    old: &[f64],
+    out: &mut [f64],
+    base: usize,
+    (k, start): (usize, usize),
+    scratch: &mut Scratch,
+    damping: f64,
+    how: Normalisation,
+) -> (f64, bool) {
+    commit_raw_into(
+        &old[start..start + k],
+        &mut out[start - base..start - base + k],
+        &mut scratch.out[..k],
+        damping,
+        how,
+    )
+}
+
 /// Writes `new` over `old` with damping; returns the undamped change.
 fn commit(old: &mut [f64], new: &[f64], damping: f64, how: Normalisation) -> f64 {
     let residual = logspace::distance(new, old);
@@ -1222,14 +1244,9 @@ impl PassState {
                 let mut contradictions = 0usize;
                 for &v in &order[variables] {
                     for &e in graph.variable_edges(v) {
-                        let (k, start) = raw_message(graph, old, e.0, mode, &mut scratch);
-                        let (r, ok) = commit_raw_into(
-                            &old[start..start + k],
-                            &mut out[start - base..start - base + k],
-                            &mut scratch.out[..k],
-                            damping,
-                            how,
-                        );
+                        let message = raw_message(graph, old, e.0, mode, &mut scratch);
+                        let (r, ok) =
+                            flood_commit(old, out, base, message, &mut scratch, damping, how);
                         contradictions += usize::from(!ok);
                         residual = residual.max(r);
                     }

@@ -790,20 +790,6 @@ fn a_dense_clique_whose_width_is_not_its_templates_is_refused() {
 // ---------------------------------------------------------------------------------
 // The likelihood: exact on forests, the Bethe approximation on loops.
 
-/// `−Σ_i log p(y_i) + ‖w‖²/(2σ²)` by brute-force enumeration.
-fn brute_force_objective(data: &[LabelledInstance], weights: &[f64], prior_variance: f64) -> f64 {
-    let mut value = 0.0;
-    for instance in data {
-        let graph = instance.model.to_factor_graph(weights).unwrap();
-        let solution = brute_force(&graph, BruteForceLimit::default()).unwrap();
-        value += solution.log_partition - graph.log_score(&instance.labels).unwrap();
-    }
-    if prior_variance.is_finite() {
-        value += weights.iter().map(|w| w * w).sum::<f64>() / (2.0 * prior_variance);
-    }
-    value
-}
-
 /// The largest `|g − fd| / max(1, |g|)` over the weights, central differences of step h.
 fn worst_gradient_error(
     objective: &Likelihood<'_>,
@@ -838,7 +824,7 @@ proptest! {
         let (features, data) = spec.build();
         let forest = data.iter().all(|i| i.model.to_factor_graph(&spec.weights).unwrap().is_forest());
         prop_assume!(forest);
-        let expected = brute_force_objective(&data, &spec.weights, spec.prior_variance);
+        let expected = common::brute_force_objective(&data, &spec.weights, spec.prior_variance);
         for kind in [LikelihoodKind::Exact, LikelihoodKind::Bethe] {
             let objective = Likelihood::new(kind, Arc::clone(&features), &data, spec.prior_variance).unwrap();
             let (value, _) = objective.value_and_gradient(&spec.weights).unwrap();
@@ -887,7 +873,7 @@ fn the_exact_likelihood_refuses_a_loop_and_the_bethe_one_approximates_it() {
     let bethe = Likelihood::new(LikelihoodKind::Bethe, features, &data, f64::INFINITY).unwrap();
     for weights in [[0.3, 0.2], [-0.4, 0.5], [0.1, -0.3]] {
         let (value, _) = bethe.value_and_gradient(&weights).unwrap();
-        let exact = brute_force_objective(&data, &weights, f64::INFINITY);
+        let exact = common::brute_force_objective(&data, &weights, f64::INFINITY);
         // Weak couplings: the Bethe approximation of log Z is close, not equal.
         assert!(
             (value - exact).abs() < 0.01 * exact.abs(),
@@ -1147,7 +1133,7 @@ fn cliques_over_the_same_variables_share_a_factor() {
     let weights = [0.4, -0.2, 0.7, 0.9, 0.3, -0.5];
     let objective =
         Likelihood::new(LikelihoodKind::Exact, Arc::clone(&features), &data, 2.0).unwrap();
-    let expected = brute_force_objective(&data, &weights, 2.0);
+    let expected = common::brute_force_objective(&data, &weights, 2.0);
     let (value, _) = objective.value_and_gradient(&weights).unwrap();
     assert!(
         (value - expected).abs() < 1e-9 * expected.abs(),

@@ -6,7 +6,6 @@
 
 mod common;
 
-use pgm_core::exact::{brute_force, BruteForceLimit};
 use pgm_core::learning::{
     DenseFeatures, FeatureSet, LabelledInstance, LearnerParams, LearningObjective, Likelihood,
     LikelihoodKind, LogLinearModel, TemplateId,
@@ -86,20 +85,6 @@ fn random_instances(
         .collect()
 }
 
-/// `−Σ_i log p(y_i) + ‖w‖²/(2σ²)` by brute-force enumeration.
-fn brute_force_objective(data: &[LabelledInstance], weights: &[f64], prior_variance: f64) -> f64 {
-    let mut value = 0.0;
-    for instance in data {
-        let graph = instance.model.to_factor_graph(weights).unwrap();
-        let solution = brute_force(&graph, BruteForceLimit::default()).unwrap();
-        value += solution.log_partition - graph.log_score(&instance.labels).unwrap();
-    }
-    if prior_variance.is_finite() {
-        value += weights.iter().map(|w| w * w).sum::<f64>() / (2.0 * prior_variance);
-    }
-    value
-}
-
 fn relative(a: f64, b: f64) -> f64 {
     (a - b).abs() / a.abs().max(b.abs()).max(1.0)
 }
@@ -146,7 +131,7 @@ proptest! {
         let exact = Likelihood::new(LikelihoodKind::Exact, Arc::clone(&features), &data, prior).unwrap();
         let general = Likelihood::new(LikelihoodKind::Bethe, Arc::clone(&features), &data, prior).unwrap();
         let (value, gradient) = exact.value_and_gradient(&weights).unwrap();
-        let expected = brute_force_objective(&data, &weights, prior);
+        let expected = common::brute_force_objective(&data, &weights, prior);
         prop_assert!(relative(value, expected) < 1e-10, "{} vs brute force {}", value, expected);
         let (general_value, general_gradient) = general.value_and_gradient(&weights).unwrap();
         prop_assert!(relative(value, general_value) < 1e-10, "{} vs general {}", value, general_value);
@@ -201,7 +186,12 @@ fn an_instance_beyond_the_range_of_exp_is_evaluated_in_log_space() {
     // Every joint state scores −800, so p is uniform and each −log p = log 4.
     let expected = 2.0 * 4f64.ln();
     assert!(relative(value, expected) < 1e-12, "{value} vs {expected}");
-    assert!(relative(value, brute_force_objective(&data, &weights, f64::INFINITY)) < 1e-12);
+    assert!(
+        relative(
+            value,
+            common::brute_force_objective(&data, &weights, f64::INFINITY)
+        ) < 1e-12
+    );
     // Under the uniform p each feature's expectation is −400 per instance; the labels'
     // totals are (0, −800) and (−800, 0): the gradient E[F] − F(y) is zero.
     for g in gradient {
@@ -236,7 +226,7 @@ fn fast_and_general_instances_in_one_training_set() {
     let objective =
         Likelihood::new(LikelihoodKind::Exact, Arc::clone(&features), &data, 3.0).unwrap();
     let (value, _) = objective.value_and_gradient(&weights).unwrap();
-    let expected = brute_force_objective(&data, &weights, 3.0);
+    let expected = common::brute_force_objective(&data, &weights, 3.0);
     assert!(relative(value, expected) < 1e-10, "{value} vs {expected}");
     let (k, error) = worst_gradient_error(&objective, &weights, 1e-5);
     assert!(
@@ -250,7 +240,7 @@ fn fast_and_general_instances_in_one_training_set() {
         .unwrap();
     let result = learner.learn(&features, &data, &mut ()).unwrap();
     assert!(result.converged, "{}", result.termination);
-    let at_optimum = brute_force_objective(&data, result.weights.values(), 3.0);
+    let at_optimum = common::brute_force_objective(&data, result.weights.values(), 3.0);
     assert!(relative(result.objective, at_optimum) < 1e-10);
     assert!(
         result.objective < value,

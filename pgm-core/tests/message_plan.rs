@@ -15,6 +15,8 @@ use pgm_core::{
 };
 use proptest::prelude::*;
 
+mod common;
+
 /// A hook that changes nothing: its presence alone turns the plan off.
 struct Inert;
 impl UpdateHook for Inert {}
@@ -158,17 +160,6 @@ fn build(spec: &Spec) -> FactorGraph {
     g
 }
 
-/// Makes a fresh schedule for a run.
-type MakeSchedule = fn() -> Box<dyn Schedule>;
-
-fn schedules() -> Vec<(&'static str, MakeSchedule)> {
-    vec![
-        ("flooding", || Box::new(Flooding)),
-        ("sequential", || Box::new(Sequential::default())),
-        ("residual", || Box::new(Residual::default())),
-    ]
-}
-
 fn bits(m: &Messages) -> Vec<u64> {
     m.as_slice().iter().map(|x| x.to_bits()).collect()
 }
@@ -181,10 +172,10 @@ proptest! {
         let graph = build(&spec);
         for mode in [Mode::MaxProduct, Mode::SumProduct] {
             let bp = BpParams::new(mode).damping(damping).tolerance(0.0).max_iterations(6).check_unwrap();
-            for (name, make) in schedules() {
-                let planned = bp.on(&graph).propagate(&mut make()).unwrap();
+            for ((name, mut first), (_, mut second)) in common::schedules().into_iter().zip(common::schedules()) {
+                let planned = bp.on(&graph).propagate(&mut first).unwrap();
                 let mut copy = build(&spec);
-                let general = bp.with_hook(&mut copy, &mut Inert).propagate(&mut make()).unwrap();
+                let general = bp.with_hook(&mut copy, &mut Inert).propagate(&mut second).unwrap();
                 prop_assert_eq!(
                     bits(&planned.messages),
                     bits(&general.messages),

@@ -16,7 +16,7 @@
 //! A plan copies potentials, so it is built once per run and only for runs whose
 //! potentials cannot change: runs without an [`UpdateHook`](crate::UpdateHook).
 
-use super::{commit_raw_into, leave_one_out_fixed, raw_message, Scratch};
+use super::{flood_commit, leave_one_out_fixed, raw_message, Scratch};
 use crate::factor::{potts_max_small, table_max_fixed, MessageKernel, Mode};
 use crate::graph::FactorGraph;
 use crate::logspace::Normalisation;
@@ -183,14 +183,8 @@ impl FloodPlan {
         let mut residual = 0.0f64;
         let mut contradictions = 0usize;
         for s in steps {
-            let (k, start) = self.raw(s, graph, old, mode, scratch);
-            let (r, ok) = commit_raw_into(
-                &old[start..start + k],
-                &mut out[start - base..start - base + k],
-                &mut scratch.out[..k],
-                damping,
-                how,
-            );
+            let message = self.raw(s, graph, old, mode, scratch);
+            let (r, ok) = flood_commit(old, out, base, message, scratch, damping, how);
             contradictions += usize::from(!ok);
             residual = residual.max(r);
         }
