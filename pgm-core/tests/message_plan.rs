@@ -11,7 +11,7 @@
 
 use pgm_core::{
     BpParams, Factor, FactorGraph, Flooding, Incoming, Messages, Mode, ParamGuard, PottsFactor,
-    Residual, Schedule, Sequential, TableFactor, UpdateHook, VariableId,
+    TableFactor, UpdateHook, VariableId,
 };
 use proptest::prelude::*;
 
